@@ -1,0 +1,1 @@
+//! Runnable examples of the `skin` crates: see the `examples/` folder of this package.

@@ -1,0 +1,68 @@
+use std::path::{Path, PathBuf};
+
+/// Everything that can go wrong reading or checking skin data.
+///
+/// Each variant names the file and the place in it (line, field, taxel) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The file is not valid JSON (truncated, bad syntax) or does not have the expected shape.
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the error.
+        line: usize,
+        /// 1-based column of the error.
+        column: usize,
+        /// What the JSON parser said.
+        message: String,
+    },
+    /// The file parses but its content is wrong: `place` names the line, field or taxel.
+    #[error("{}: {place}: {message}", path.display())]
+    Invalid {
+        /// The file (or a description of the input when it did not come from a file).
+        path: PathBuf,
+        /// The line, field or taxel at fault, e.g. `line 12` or `taxel 83931 field "x"`.
+        place: String,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+/// `Result` with this crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.to_owned(),
+            source,
+        }
+    }
+
+    pub(crate) fn json(path: &Path, e: &serde_json::Error) -> Self {
+        Error::Json {
+            path: path.to_owned(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        }
+    }
+
+    /// An [`Error::Invalid`] for `path` at `place`.
+    pub fn invalid(path: &Path, place: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Invalid {
+            path: path.to_owned(),
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,114 @@
+//! Readers and writers for skin files.
+//!
+//! | module | format | read | write |
+//! |---|---|---|---|
+//! | [`native`] | the project's JSON layout (`skin-layout/1`), metres | yes | yes |
+//! | [`cyskin`] | Cyskin calibration JSON (`skin`: taxels, faces, parent frame), metres | yes | yes |
+//! | [`icub`] | iCub `positions/*.txt` taxel files, metres | yes | no |
+//! | [`recording`] | Cyskin raw recordings (ids line, then index, time, counts) | yes | yes |
+//!
+//! [`load_link`] picks the reader from the file's extension and content.
+
+pub mod cyskin;
+pub mod icub;
+pub mod native;
+pub mod recording;
+
+use crate::{Error, LinkSkin, Result, Taxel, TaxelId};
+use nalgebra::{Point3, Unit, Vector3};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Reads one link's skin from a project JSON layout (its first link), a Cyskin calibration JSON or
+/// an iCub taxel file (duplicated positions merged, see [`icub::Duplicates`]).
+pub fn load_link(path: &Path) -> Result<LinkSkin> {
+    let text = read_text(path)?;
+    let is_txt = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt") || e.eq_ignore_ascii_case("ini"));
+    if is_txt {
+        return Ok(icub::parse(&text, path, icub::Duplicates::Merge)?.skin);
+    }
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::json(path, &e))?;
+    if value.get("skin").is_some() {
+        cyskin::from_value(value, path)
+    } else if value.get("links").is_some() {
+        let layout = native::from_value(value, path)?;
+        layout
+            .links
+            .into_iter()
+            .next()
+            .ok_or_else(|| Error::invalid(path, "field \"links\"", "the layout has no link"))
+    } else {
+        Err(Error::invalid(
+            path,
+            "top level",
+            "neither a skin layout (\"links\") nor a Cyskin calibration (\"skin\")",
+        ))
+    }
+}
+
+pub(crate) fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+}
+
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(|e| Error::io(path, e))
+}
+
+/// Builds a taxel after checking that its numbers are finite and its normal is not zero.
+pub(crate) fn make_taxel(path: &Path, place: &str, id: TaxelId, x: [f64; 3], n: [f64; 3]) -> Result<Taxel> {
+    if x.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid(
+            path,
+            place,
+            format!("position {x:?} is not finite"),
+        ));
+    }
+    if n.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid(path, place, format!("normal {n:?} is not finite")));
+    }
+    // Some files store normals that are not unit length: normalise them, but a zero normal
+    // carries no direction and cannot be repaired.
+    let normal = Unit::try_new(Vector3::from(n), 1e-12)
+        .ok_or_else(|| Error::invalid(path, place, "normal has zero length"))?;
+    Ok(Taxel {
+        id,
+        position: Point3::from(x),
+        normal,
+    })
+}
+
+/// Checks that ids are unique and faces index existing, distinct taxels.
+pub(crate) fn check_link(path: &Path, link: &LinkSkin) -> Result<()> {
+    let mut seen: HashMap<TaxelId, usize> = HashMap::with_capacity(link.taxels.len());
+    for (i, t) in link.taxels.iter().enumerate() {
+        if let Some(first) = seen.insert(t.id, i) {
+            return Err(Error::invalid(
+                path,
+                format!("link \"{}\" taxel {} (index {i})", link.name, t.id),
+                format!("id already used by the taxel at index {first}"),
+            ));
+        }
+    }
+    if let Some(faces) = &link.faces {
+        let n = link.taxels.len();
+        for (f, face) in faces.iter().enumerate() {
+            if let Some(&bad) = face.iter().find(|&&v| v >= n) {
+                return Err(Error::invalid(
+                    path,
+                    format!("link \"{}\" face {f}", link.name),
+                    format!("index {bad} is out of range (the link has {n} taxels)"),
+                ));
+            }
+            if face[0] == face[1] || face[1] == face[2] || face[0] == face[2] {
+                return Err(Error::invalid(
+                    path,
+                    format!("link \"{}\" face {f}", link.name),
+                    format!("face {face:?} repeats a taxel"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}

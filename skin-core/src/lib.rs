@@ -1,0 +1,47 @@
+//! # skin-core: the data model of a robot skin
+//!
+//! A robot skin is a set of pressure sensors (taxels) glued over the links of a robot. This crate
+//! holds what every other `skin` crate agrees on, with no heavy dependency:
+//!
+//! - [`Taxel`]: one sensor, with its [`TaxelId`], its position and outward normal in the frame of the
+//!   link it is glued to (metres);
+//! - [`LinkSkin`]: the taxels of one link, optionally with triangles between them;
+//! - [`SkinLayout`]: the skins of all links of a robot;
+//! - [`Frame`] and [`Recording`]: synchronous snapshots of one value per taxel, in layout order.
+//!
+//! File formats live in [`format`]: the project's own JSON layout, Cyskin calibration JSON (read and
+//! write), iCub `positions/*.txt` taxel files, and Cyskin raw recordings (read and write).
+//!
+//! ```
+//! use skin_core::format::native;
+//!
+//! let json = r#"{
+//!   "format": "skin-layout/1", "units": "m",
+//!   "links": [{ "name": "patch", "taxels": [
+//!     { "id": 16, "position": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0] },
+//!     { "id": 17, "position": [0.008, 0.0, 0.0], "normal": [0.0, 0.0, 1.0] },
+//!     { "id": 18, "position": [0.0, 0.008, 0.0], "normal": [0.0, 0.0, 1.0] }
+//!   ], "faces": [[0, 1, 2]] }]
+//! }"#;
+//! let layout = native::parse_layout(json, "example.json".as_ref())?;
+//! assert_eq!(layout.links[0].taxels.len(), 3);
+//! assert_eq!(layout.links[0].taxels[1].id.module(), 1);
+//! # Ok::<(), skin_core::Error>(())
+//! ```
+//!
+//! Units: metres for positions, unit vectors for normals, seconds for times. Pressure values are
+//! whatever the sensor reports (raw capacitance counts for Cyskin) unless a crate says otherwise.
+
+mod error;
+pub mod format;
+mod frame;
+mod layout;
+mod taxel;
+
+pub use error::{Error, Result};
+pub use frame::{Frame, Recording};
+pub use layout::{LinkSkin, SkinLayout};
+pub use taxel::{Taxel, TaxelId};
+
+/// Re-exported so users name the same `nalgebra` version as this crate.
+pub use nalgebra;

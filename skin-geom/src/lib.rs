@@ -1,0 +1,61 @@
+//! # skin-geom: tactile maps and tactile images
+//!
+//! Turns the taxels of a curved robot link into a flat **tactile map**, and pressure frames into
+//! **tactile images** (thesis Ch. 3):
+//!
+//! ```text
+//! LinkSkin --SkinMesh::build--> mesh S* --TactileMap::flatten (LSCM)--> map M*
+//!          --Rasterizer::new (once)--> per frame: pressures -> image K (f32) -> grey -> morphology -> resize
+//! ```
+//!
+//! - [`SkinMesh`] ([`mesh`]): triangles over the taxels, given or triangulated in a [`Chart`].
+//! - [`TactileMap`]: one 2D point per taxel from least-squares conformal maps ([`flatten`]), with a
+//!   [`DistortionReport`].
+//! - [`Rasterizer`] ([`raster`]): the grid on the map, with per-pixel taxel triples and
+//!   barycentric weights precomputed; renders a frame with no allocation. [`TactileImager`] adds
+//!   grey conversion (eq. 3.1), erosion / dilation and resizing for classifiers.
+//!
+//! ```
+//! use skin_core::{LinkSkin, Taxel, TaxelId};
+//! use skin_geom::{FlattenOptions, Grid, Rasterizer, TactileMap};
+//! use nalgebra::{Point3, Unit, Vector3};
+//!
+//! // A 10 x 10 grid of taxels, 8 mm apart, on a flat patch.
+//! let taxels = (0..100u32)
+//!     .map(|i| Taxel {
+//!         id: TaxelId(i),
+//!         position: Point3::new((i % 10) as f64 * 0.008, (i / 10) as f64 * 0.008, 0.0),
+//!         normal: Unit::new_normalize(Vector3::z()),
+//!     })
+//!     .collect();
+//! let map = TactileMap::flatten(&LinkSkin::new("patch", taxels), &FlattenOptions::default())?;
+//! assert_eq!(map.report.distortion.flipped_faces, 0);
+//!
+//! let raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
+//! let mut image = vec![0.0f32; raster.len()];
+//! raster.render(&vec![100.0; 100], &mut image)?; // constant pressure...
+//! assert!(image.iter().all(|&k| k == 0.0 || (k - 100.0).abs() < 1e-3)); // ...constant image
+//! # Ok::<(), skin_geom::Error>(())
+//! ```
+
+mod chart;
+mod distortion;
+mod error;
+pub mod flatten;
+pub mod mesh;
+mod mesh_file;
+mod morphology;
+pub mod raster;
+mod resize;
+mod tactile_map;
+mod triangulate;
+
+pub use chart::Chart;
+pub use distortion::DistortionReport;
+pub use error::{Error, Result};
+pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
+pub use mesh_file::{MeshFileLink, load_mesh_file};
+pub use morphology::{dilate_disk, erode_disk};
+pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager};
+pub use resize::Resizer;
+pub use tactile_map::{FlattenOptions, FlattenReport, MAP_FORMAT, TactileMap};
