@@ -37,7 +37,7 @@ pub struct Args {
     #[arg(long)]
     triangulate: bool,
     /// Triangulation: an edge longer than this many local taxel pitches bridges a hole.
-    #[arg(long, default_value_t = 2.0, value_name = "PITCHES")]
+    #[arg(long, default_value_t = 3.0, value_name = "PITCHES")]
     max_edge: f64,
 }
 
@@ -86,7 +86,7 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn load_input(path: &Path) -> Result<LinkSkin> {
+pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

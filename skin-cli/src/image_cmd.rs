@@ -1,5 +1,240 @@
-pub fn run(_a: Args) -> anyhow::Result<()> {
+//! `skin image`: recordings -> tactile images (PNG), one per frame.
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use skin_core::Recording;
+use skin_core::format::recording;
+use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Turn every frame of every recording into a tactile image (8-bit grey PNG).
+///
+/// MAP is a tactile map from `skin flatten` (or a Cyskin `tactile_maps` file); a layout file is
+/// accepted too and flattened first. Each FRAMES file is
+/// a Cyskin raw recording (line 1: taxel ids; then frame number, time in s, one reading per id).
+/// Every taxel of the map must be in the recording; readings of ids the map does not know are
+/// ignored and counted. Pressure is interpolated barycentrically on a grid laid on the map (thesis
+/// Ch. 3.3), then grey = floor(255 K / K_bar) (eq. 3.1).
+///
+/// Images go to OUT_DIR/<recording name>/frame_<number>.png; frames are processed in parallel.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Tactile map (JSON from `skin flatten`).
+    #[arg(long, value_name = "MAP.json")]
+    map: PathBuf,
+    /// Recordings to convert.
+    #[arg(required = true, value_name = "FRAMES")]
+    frames: Vec<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// Pixel side on the map, millimetres.
+    #[arg(long, default_value_t = 1.0, value_name = "MM", conflicts_with = "grid")]
+    step_mm: f64,
+    /// Lay a grid of exactly ROWSxCOLS pixels on the map instead of a fixed step.
+    #[arg(long, value_name = "ROWSxCOLS", value_parser = parse_size)]
+    grid: Option<(usize, usize)>,
+    /// K_bar, the pressure shown as white: the sensor's full scale (needs --full-scale) or the
+    /// largest pressure of each frame.
+    #[arg(long, value_enum, default_value_t = Norm::ContactMax)]
+    norm: Norm,
+    /// Full-scale reading for --norm full-scale, in the recording's units (raw counts).
+    #[arg(long, value_name = "COUNTS")]
+    full_scale: Option<f32>,
+    /// Grey erosion with a disk of radius 2 px, then dilation with a disk of radius 4 px
+    /// (thesis Ch. 4.5, the classifier's pre-processing).
+    #[arg(long)]
+    morph: bool,
+    /// Resize the image to ROWSxCOLS (68x100 for the hand classifier).
+    #[arg(long, value_name = "ROWSxCOLS", value_parser = parse_size)]
+    size: Option<(usize, usize)>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Norm {
+    FullScale,
+    ContactMax,
+}
+
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let (r, c) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("\"{s}\" is not ROWSxCOLS (e.g. 68x100)"))?;
+    let r: usize = r
+        .trim()
+        .parse()
+        .map_err(|_| format!("rows \"{r}\" is not a whole number"))?;
+    let c: usize = c
+        .trim()
+        .parse()
+        .map_err(|_| format!("cols \"{c}\" is not a whole number"))?;
+    if r == 0 || c == 0 {
+        return Err(format!("{s}: an image needs at least one row and one column"));
+    }
+    Ok((r, c))
+}
+
+/// One recording, with its readings reordered to map order.
+struct Input {
+    dir: PathBuf,
+    rec: Recording,
+    columns: Vec<usize>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let map = load_map(&args.map)?;
+    let grid = match args.grid {
+        Some((rows, cols)) => Grid::Size { rows, cols },
+        None => Grid::StepMm(args.step_mm),
+    };
+    let norm = match (args.norm, args.full_scale) {
+        (Norm::FullScale, Some(k)) if k > 0.0 && k.is_finite() => Normalisation::FullScale(k),
+        (Norm::FullScale, Some(k)) => bail!("--full-scale must be a positive number, got {k}"),
+        (Norm::FullScale, None) => {
+            bail!("--norm full-scale needs --full-scale COUNTS (the sensor's full-scale reading)")
+        }
+        (Norm::ContactMax, _) => Normalisation::ContactMax,
+    };
+    let raster = Rasterizer::new(&map, grid).with_context(|| format!("{}", args.map.display()))?;
+    let imager = TactileImager::new(raster, norm, args.morph, args.size)?;
+    let (out_rows, out_cols) = imager.output_size();
+
+    let inputs = load_inputs(&args.frames, &map, &args.output)?;
+    let total: usize = inputs.iter().map(|i| i.rec.frames.len()).sum();
+    for input in &inputs {
+        std::fs::create_dir_all(&input.dir)
+            .with_context(|| format!("cannot create {}", input.dir.display()))?;
+    }
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total as u64).with_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {per_sec}, eta {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        )
+    };
+    let jobs: Vec<(usize, usize)> = inputs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, input)| (0..input.rec.frames.len()).map(move |f| (i, f)))
+        .collect();
+    jobs.par_iter().try_for_each_init(
+        || (imager.clone(), vec![0.0f32; map.ids.len()]),
+        |(imager, pressures), &(i, f)| -> Result<()> {
+            let input = &inputs[i];
+            let values = &input.rec.frames[f].values;
+            for (p, &c) in pressures.iter_mut().zip(&input.columns) {
+                *p = values[c];
+            }
+            let grey = imager.process(pressures)?;
+            let number = input.rec.frame_numbers[f];
+            let path = input.dir.join(format!("frame_{number:05}.png"));
+            let img = image::GrayImage::from_raw(out_cols as u32, out_rows as u32, grey.to_vec())
+                .context("image buffer size")?;
+            let mut png = Vec::new();
+            img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .with_context(|| format!("cannot encode {}", path.display()))?;
+            crate::write_atomic(&path, &png)?;
+            bar.inc(1);
+            Ok(())
+        },
+    )?;
+    bar.finish_and_clear();
+    println!(
+        "{total} frames from {} recording(s) -> {out_rows} x {out_cols} px images in {}",
+        inputs.len(),
+        args.output.display()
+    );
     Ok(())
 }
-#[derive(clap::Args)]
-pub struct Args {}
+
+/// Reads a tactile map, or flattens a layout given instead of one.
+fn load_map(path: &Path) -> Result<TactileMap> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if text.contains(skin_geom::MAP_FORMAT) || text.contains("\"tactile_maps\"") {
+        return Ok(TactileMap::read(path)?);
+    }
+    let link = crate::flatten::load_input(path)?;
+    let map = TactileMap::flatten(&link, &skin_geom::FlattenOptions::default())
+        .with_context(|| format!("{}", path.display()))?;
+    let (w, h) = map.extent();
+    println!(
+        "{}: a layout, flattened to a {:.0} x {:.0} mm tactile map (mean angle error {:.3} deg); save it with `skin flatten` to skip this step",
+        path.display(),
+        w * 1e3,
+        h * 1e3,
+        map.report.distortion.angle_error_mean_deg
+    );
+    Ok(map)
+}
+
+/// Reads the recordings and maps their columns onto the map's taxels; names each output folder
+/// after the recording (with its parent folder when two recordings share a name).
+fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
+    let stem = |p: &Path| {
+        p.file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("recording")
+            .to_string()
+    };
+    let mut count: HashMap<String, usize> = HashMap::new();
+    for p in paths {
+        *count.entry(stem(p)).or_default() += 1;
+    }
+    let mut inputs = Vec::with_capacity(paths.len());
+    let mut used = std::collections::HashSet::new();
+    for p in paths {
+        let rec = recording::read(p)?;
+        let index: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
+        let mut columns = Vec::with_capacity(map.ids.len());
+        let mut missing = Vec::new();
+        for id in &map.ids {
+            match index.get(id) {
+                Some(&c) => columns.push(c),
+                None => missing.push(id.0),
+            }
+        }
+        if !missing.is_empty() {
+            bail!(
+                "{}: {} taxel(s) of the map are not in the recording (first: {:?}); is it a recording of this link?",
+                p.display(),
+                missing.len(),
+                &missing[..missing.len().min(5)]
+            );
+        }
+        let extra = rec.taxel_ids.len() - map.ids.len().min(rec.taxel_ids.len());
+        if extra > 0 {
+            println!(
+                "{}: {extra} reading column(s) are not taxels of the map and are ignored",
+                p.display()
+            );
+        }
+        let mut name = stem(p);
+        if count[&name] > 1 {
+            let parent = p
+                .parent()
+                .and_then(|d| d.file_name())
+                .and_then(|s| s.to_str())
+                .unwrap_or("input");
+            name = format!("{parent}_{name}");
+        }
+        if !used.insert(name.clone()) {
+            bail!(
+                "{}: two recordings would write to the same folder {name}",
+                p.display()
+            );
+        }
+        inputs.push(Input {
+            dir: out.join(name),
+            rec,
+            columns,
+        });
+    }
+    Ok(inputs)
+}

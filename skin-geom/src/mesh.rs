@@ -68,7 +68,7 @@ pub struct MeshReport {
 pub struct MeshOptions {
     /// Use the triangles given with the layout when there are any (default `true`).
     pub use_given_faces: bool,
-    /// A triangulated edge longer than this many local taxel pitches bridges a gap (default 2.0).
+    /// A triangulated edge longer than this many local taxel pitches bridges a gap (default 3.0).
     pub max_edge_pitches: f64,
     /// Triangles on the border with a smaller angle than this are slivers of the outer
     /// concavity and are peeled off, degrees (default 15).
@@ -82,7 +82,7 @@ impl Default for MeshOptions {
     fn default() -> Self {
         MeshOptions {
             use_given_faces: true,
-            max_edge_pitches: 2.0,
+            max_edge_pitches: 3.0,
             min_border_angle_deg: 15.0,
             max_normal_deviation_deg: 45.0,
         }

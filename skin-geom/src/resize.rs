@@ -56,6 +56,8 @@ pub struct Resizer {
     vertical: Taps,
     /// Source rows resized horizontally: src rows x dst cols.
     tmp: Vec<f32>,
+    /// One output row being accumulated.
+    row: Vec<f32>,
 }
 
 impl Resizer {
@@ -72,6 +74,7 @@ impl Resizer {
             horizontal: Taps::new(src_cols, dst_cols),
             vertical: Taps::new(src_rows, dst_rows),
             tmp: vec![0.0; src_rows * dst_cols],
+            row: vec![0.0; dst_cols],
         })
     }
 
@@ -97,14 +100,16 @@ impl Resizer {
         }
         for y in 0..dr {
             let (start, w) = self.vertical.apply(y);
-            let out = &mut dst[y * dc..(y + 1) * dc];
-            for x in 0..dc {
-                let acc: f32 = w
-                    .iter()
-                    .enumerate()
-                    .map(|(k, w)| w * self.tmp[(start + k) * dc + x])
-                    .sum();
-                out[x] = (acc + 0.5).clamp(0.0, 255.0) as u8;
+            let acc = &mut self.row[..];
+            acc.fill(0.0);
+            for (k, &wk) in w.iter().enumerate() {
+                let src_row = &self.tmp[(start + k) * dc..(start + k + 1) * dc];
+                for (a, &v) in acc.iter_mut().zip(src_row) {
+                    *a += wk * v;
+                }
+            }
+            for (o, &a) in dst[y * dc..(y + 1) * dc].iter_mut().zip(acc.iter()) {
+                *o = (a + 0.5).clamp(0.0, 255.0) as u8;
             }
         }
     }
