@@ -44,6 +44,11 @@ pub struct Args {
     /// Full-scale reading for --norm full-scale, in the recording's units (raw counts).
     #[arg(long, value_name = "COUNTS")]
     full_scale: Option<f32>,
+    /// Readings at or below this are noise and count as no pressure (the active-set threshold
+    /// eps, in the recording's units). With --norm contact-max and no threshold, a frame without
+    /// contact shows its noise at full contrast.
+    #[arg(long, default_value_t = 0.0, value_name = "COUNTS")]
+    threshold: f32,
     /// Grey erosion with a disk of radius 2 px, then dilation with a disk of radius 4 px
     /// (thesis Ch. 4.5, the classifier's pre-processing).
     #[arg(long)]
@@ -105,6 +110,10 @@ pub fn run(args: Args) -> Result<()> {
     let imager = TactileImager::new(raster, norm, args.morph, args.size)?;
     let (out_rows, out_cols) = imager.output_size();
 
+    let threshold = args.threshold;
+    if !threshold.is_finite() {
+        bail!("--threshold must be a number, got {threshold}");
+    }
     let inputs = load_inputs(&args.frames, &map, &args.output)?;
     let total: usize = inputs.iter().map(|i| i.rec.frames.len()).sum();
     for input in &inputs {
@@ -130,7 +139,8 @@ pub fn run(args: Args) -> Result<()> {
             let input = &inputs[i];
             let values = &input.rec.frames[f].values;
             for (p, &c) in pressures.iter_mut().zip(&input.columns) {
-                *p = values[c];
+                let v = values[c];
+                *p = if v > threshold { v } else { 0.0 };
             }
             let grey = imager.process(pressures)?;
             let number = input.rec.frame_numbers[f];

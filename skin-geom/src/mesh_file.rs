@@ -72,26 +72,59 @@ fn load_obj(path: &Path) -> Result<MeshFileLink> {
     };
     let (models, _materials) =
         tobj::load_obj(path, &options).map_err(|e| mesh_error(path, format!("OBJ: {e}")))?;
-    let mut mesh = MeshFileLink {
-        vertices: Vec::new(),
-        faces: Vec::new(),
-    };
-    for m in models {
-        let base = mesh.vertices.len();
-        mesh.vertices.extend(
-            m.mesh
-                .positions
-                .chunks_exact(3)
-                .map(|p| Point3::new(p[0], p[1], p[2])),
-        );
-        mesh.faces.extend(
-            m.mesh
-                .indices
-                .chunks_exact(3)
-                .map(|f| [base + f[0] as usize, base + f[1] as usize, base + f[2] as usize]),
-        );
+    // tobj keeps only the vertices that faces use, but every vertex of a skin mesh is a taxel:
+    // read the `v` lines too, and map tobj's vertices back to them by their (identical) values.
+    let text = std::fs::read_to_string(path).map_err(|e| mesh_error(path, e.to_string()))?;
+    let mut vertices = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let mut fields = line.split_whitespace();
+        if fields.next() != Some("v") {
+            continue;
+        }
+        let xyz: Vec<f64> = fields
+            .take(3)
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|_| {
+                mesh_error(
+                    path,
+                    format!("line {}: a vertex coordinate is not a number", i + 1),
+                )
+            })?;
+        if xyz.len() != 3 {
+            return Err(mesh_error(path, format!("line {}: a vertex needs x y z", i + 1)));
+        }
+        vertices.push(Point3::new(xyz[0], xyz[1], xyz[2]));
     }
-    Ok(mesh)
+    let key = |p: &Point3<f64>| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let mut by_value: std::collections::HashMap<[u64; 3], Vec<usize>> = std::collections::HashMap::new();
+    for (i, p) in vertices.iter().enumerate().rev() {
+        by_value.entry(key(p)).or_default().push(i);
+    }
+    let mut faces = Vec::new();
+    for m in models {
+        let mut original = Vec::with_capacity(m.mesh.positions.len() / 3);
+        for p in m.mesh.positions.chunks_exact(3) {
+            let p = Point3::new(p[0], p[1], p[2]);
+            let candidates = by_value.get_mut(&key(&p));
+            // Several `v` lines with one value are one vertex to tobj: reuse the first.
+            let index = match candidates {
+                Some(c) if c.len() > 1 => c.pop(),
+                Some(c) => c.first().copied(),
+                None => None,
+            }
+            .ok_or_else(|| mesh_error(path, "OBJ: a face vertex is not among the v lines"))?;
+            original.push(index);
+        }
+        faces.extend(m.mesh.indices.chunks_exact(3).map(|f| {
+            [
+                original[f[0] as usize],
+                original[f[1] as usize],
+                original[f[2] as usize],
+            ]
+        }));
+    }
+    Ok(MeshFileLink { vertices, faces })
 }
 
 fn load_gltf(path: &Path) -> Result<MeshFileLink> {

@@ -62,6 +62,7 @@ pub struct Rasterizer {
     weights: Vec<[f32; 3]>,
     faces: Vec<u32>,
     map_faces: Vec<[usize; 3]>,
+    points: Vec<Point2<f64>>,
     positions: Vec<Point3<f64>>,
 }
 
@@ -196,6 +197,7 @@ impl Rasterizer {
             weights,
             faces,
             map_faces: map.faces.clone(),
+            points: map.points.clone(),
             positions: map.positions.clone(),
         })
     }
@@ -293,7 +295,13 @@ impl Rasterizer {
         let t = (run.table + (i - run.start)) as usize;
         let face = self.faces[t] as usize;
         let taxels = self.map_faces[face];
-        let w = self.weights[t].map(f64::from);
+        // Recomputed in f64 (the per-frame tables hold f32) so the 3D point is on the triangle.
+        let p = taxels.map(|k| self.points[k]);
+        let x = self.pixel_centre(row, col);
+        let area2 = (p[1] - p[0]).perp(&(p[2] - p[0]));
+        let w0 = ((p[2] - p[1]).perp(&(x - p[1])) / area2).clamp(0.0, 1.0);
+        let w1 = ((p[0] - p[2]).perp(&(x - p[2])) / area2).clamp(0.0, 1.0 - w0);
+        let w = [w0, w1, 1.0 - w0 - w1];
         let point = (!self.positions.is_empty()).then(|| {
             Point3::from(
                 self.positions[taxels[0]].coords * w[0]

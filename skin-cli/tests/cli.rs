@@ -1,0 +1,232 @@
+//! The `skin` command as a user runs it: outputs, reports, and one clear line for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn fixture(name: &str) -> String {
+    root().join("fixtures/forearm").join(name).display().to_string()
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn flatten_writes_a_native_map_an_svg_and_prints_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("map.json");
+    let svg = dir.path().join("map.svg");
+    let o = skin(&[
+        "flatten",
+        &fixture("layout.json"),
+        "-o",
+        map.to_str().unwrap(),
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("715 taxels")
+            && out.contains("unrolled best-fit cylinder")
+            && out.contains("flipped triangles  0"),
+        "{out}"
+    );
+    let m = skin_geom::TactileMap::read(&map).unwrap();
+    assert_eq!(m.ids.len(), 715);
+    let (w, h) = m.extent();
+    // Close to the 247 x 362 mm map of the thesis' forearm.
+    assert!(
+        (0.30..0.40).contains(&w) && (0.19..0.26).contains(&h),
+        "{w} x {h}"
+    );
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<polygon"));
+}
+
+#[test]
+fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("m.json");
+    let o = skin(&[
+        "flatten",
+        &fixture("layout.json"),
+        "-o",
+        map.to_str().unwrap(),
+        "--format",
+        "cyskin",
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let text = std::fs::read_to_string(&map).unwrap();
+    let m = skin_core::format::cyskin::parse_tactile_map(&text, &map).unwrap();
+    assert_eq!(m.kind, "lscm");
+    assert_eq!(m.ids.len(), 715);
+    assert!(m.points.iter().all(|p| p[0] < 0.5 && p[1] < 0.5));
+    assert!(text.contains("\"n_faces\""));
+}
+
+#[test]
+fn flatten_reads_icub_files_and_lists_the_merged_rows() {
+    let p = root().join("../shared/data/icub/left_forearm_V2.txt");
+    if !p.exists() {
+        eprintln!(
+            "skipped: {} not found (the shared third-party data is not beside the project)",
+            p.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let o = skin(&[
+        "flatten",
+        p.to_str().unwrap(),
+        "-o",
+        dir.path().join("m.json").to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("duplicated positions:")
+            && out.contains("lines [8, 9, 10, 12, 13, 14, 16] (taxels [3, 4, 5, 7, 8, 9, 11])"),
+        "{out}"
+    );
+    assert!(out.contains("flipped triangles  0"), "{out}");
+}
+
+#[test]
+fn image_turns_every_frame_into_a_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = skin(&[
+        "image",
+        "--map",
+        &fixture("layout.json"),
+        &fixture("touches.txt"),
+        "-o",
+        dir.path().to_str().unwrap(),
+        "--morph",
+        "--size",
+        "68x100",
+        "--threshold",
+        "10",
+        "-q",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("130 frames") && out.contains("68 x 100 px"), "{out}");
+    let pngs = std::fs::read_dir(dir.path().join("touches")).unwrap().count();
+    assert_eq!(pngs, 130);
+    let img = image::open(dir.path().join("touches/frame_00020.png"))
+        .unwrap()
+        .to_luma8();
+    assert_eq!(img.dimensions(), (100, 68));
+    // Frame 20 (t = 1.0 s) is during the fingertip press: a bright spot.
+    assert!(img.pixels().filter(|p| p.0[0] > 100).count() >= 4);
+    let blank = image::open(dir.path().join("touches/frame_00000.png"))
+        .unwrap()
+        .to_luma8();
+    assert!(
+        blank.pixels().all(|p| p.0[0] == 0),
+        "frame 0 has only noise, under the threshold"
+    );
+}
+
+#[test]
+fn a_missing_file_is_one_clear_line_and_exit_code_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.json");
+    let o = skin(&["flatten", "no/such/layout.json", "-o", out.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.starts_with("error: no/such/layout.json:") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_recording_of_another_link_is_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("other.txt");
+    std::fs::write(&rec, "1 2 3\n0 0.0 1 2 3\n").unwrap();
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "image",
+        "--map",
+        &fixture("layout.json"),
+        rec.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("other.txt") && err.contains("not in the recording"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn malformed_inputs_name_the_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"skin\": {\"taxels\": [{\"id\": 1, \"x\": [0, 0").unwrap();
+    let o = skin(&[
+        "flatten",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.path().join("m.json").to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(err.contains("bad.json:1:"), "{err}");
+    let rec = dir.path().join("r.txt");
+    let mut rows = std::fs::read_to_string(fixture("touches.txt")).unwrap();
+    rows.push_str("999 9.9 1 2\n");
+    std::fs::write(&rec, rows).unwrap();
+    let o = skin(&[
+        "image",
+        "--map",
+        &fixture("layout.json"),
+        rec.to_str().unwrap(),
+        "-o",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(err.contains("r.txt: line 132"), "{err}");
+    let o = skin(&[
+        "image",
+        "--map",
+        &fixture("layout.json"),
+        &fixture("touches.txt"),
+        "-o",
+        "x",
+        "--norm",
+        "full-scale",
+    ]);
+    assert!(text(&o).1.contains("--full-scale"), "{}", text(&o).1);
+}
+
+#[test]
+fn help_explains_units_and_formats() {
+    let (out, _) = text(&skin(&["flatten", "--help"]));
+    assert!(
+        out.contains("metres") && out.contains("iCub") && out.contains("Cyskin"),
+        "{out}"
+    );
+    let (out, _) = text(&skin(&["image", "--help"]));
+    assert!(out.contains("millimetres") && out.contains("68x100"), "{out}");
+}

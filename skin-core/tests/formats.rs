@@ -1,0 +1,231 @@
+//! Readers and writers: round trips, the real third-party files, and malformed input.
+
+use proptest::prelude::*;
+use skin_core::format::{cyskin, icub, native, recording};
+use skin_core::{Error, LinkSkin, Taxel, TaxelId};
+use std::path::{Path, PathBuf};
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "skipped: {} not found (the shared third-party data is not beside the project)",
+            p.display()
+        );
+        None
+    }
+}
+
+fn place_of(e: &Error) -> String {
+    e.to_string()
+}
+
+fn small_link() -> LinkSkin {
+    use nalgebra::{Point3, Unit, Vector3};
+    let t = |id, x: f64, y: f64| Taxel {
+        id: TaxelId(id),
+        position: Point3::new(x, y, 0.01),
+        normal: Unit::new_normalize(Vector3::new(0.0, 0.1, 1.0)),
+    };
+    let mut link = LinkSkin::new(
+        "patch",
+        vec![t(16, 0.0, 0.0), t(17, 0.008, 0.0), t(18, 0.004, 0.007)],
+    );
+    link.faces = Some(vec![[0, 1, 2]]);
+    link
+}
+
+#[test]
+fn the_cyskin_patch_reads_with_its_taxels_faces_and_frame() {
+    let Some(p) = shared("cyskin/ur10e_link1_patch1.json") else {
+        return;
+    };
+    let link = cyskin::read_skin(&p).unwrap();
+    assert_eq!(link.taxels.len(), 642);
+    assert_eq!(link.faces.as_ref().unwrap().len(), 1232);
+    assert_eq!(link.taxels[0].id, TaxelId(83931));
+    assert!((link.taxels[0].position.x + 0.07665742436530114).abs() < 1e-15);
+    let tf = link.frame_to_parent.unwrap();
+    // Column-major: the translation is the last column.
+    assert!((tf[(2, 3)] - 0.024).abs() < 1e-12);
+}
+
+#[test]
+fn cyskin_and_native_files_round_trip() {
+    let link = small_link();
+    let back = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("mem")).unwrap();
+    for (a, b) in back.taxels.iter().zip(&link.taxels) {
+        assert_eq!((a.id, a.position), (b.id, b.position));
+        // Normals are normalised again on reading: equal to the last bit or so.
+        assert!((a.normal.into_inner() - b.normal.into_inner()).norm() < 1e-15);
+    }
+    assert_eq!(back.faces, link.faces);
+    let layout = skin_core::SkinLayout { links: vec![link] };
+    let back = native::parse_layout(&native::to_string(&layout), Path::new("mem")).unwrap();
+    assert_eq!(back.links[0].faces, layout.links[0].faces);
+    assert_eq!(back.links[0].ids(), layout.links[0].ids());
+}
+
+#[test]
+fn truncated_json_names_the_file_and_line() {
+    let text = cyskin::skin_to_string(&small_link());
+    let cut = &text[..text.len() / 2];
+    let e = cyskin::parse_skin(cut, Path::new("cut.json")).unwrap_err();
+    assert!(matches!(e, Error::Json { line, .. } if line > 1), "{e}");
+    assert!(place_of(&e).starts_with("cut.json:"), "{e}");
+}
+
+#[test]
+fn a_non_finite_coordinate_names_the_taxel() {
+    // JSON has no NaN; an overflowing number is the way such files carry one.
+    let text = cyskin::skin_to_string(&small_link()).replacen("0.008", "1e999", 1);
+    let e = cyskin::parse_skin(&text, Path::new("nan.json")).unwrap_err();
+    assert!(e.to_string().contains("nan.json"), "{e}");
+    let icub_text = "name t\n[calibration]\n0.1 0.2 nan 0 0 1\n";
+    let e = icub::parse(icub_text, Path::new("nan.txt"), icub::Duplicates::Merge).unwrap_err();
+    assert!(e.to_string().contains("line 3"), "{e}");
+    assert!(e.to_string().contains("not finite"), "{e}");
+}
+
+#[test]
+fn a_face_index_out_of_range_names_the_face() {
+    let mut link = small_link();
+    link.faces = Some(vec![[0, 1, 2], [0, 2, 7]]);
+    let e = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("f.json")).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("face 1") && msg.contains("index 7"), "{msg}");
+}
+
+#[test]
+fn a_repeated_taxel_id_is_rejected() {
+    let mut link = small_link();
+    link.taxels[2].id = TaxelId(16);
+    let e = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("d.json")).unwrap_err();
+    assert!(e.to_string().contains("taxel 16 (index 2)"), "{e}");
+}
+
+#[test]
+fn a_zero_normal_is_rejected() {
+    let text = r#"{"skin": {"taxels": [
+        {"id": 1, "x": [0, 0, 0], "n": [0, 0, 1]},
+        {"id": 2, "x": [0.01, 0, 0], "n": [0, 0, 0]}]}}"#;
+    let e = cyskin::parse_skin(text, Path::new("n.json")).unwrap_err();
+    assert!(e.to_string().contains("taxel 2 (skin.taxels[1])"), "{e}");
+    assert!(e.to_string().contains("normal has zero length"), "{e}");
+}
+
+#[test]
+fn a_recording_row_with_a_missing_value_names_the_line() {
+    let text = "16 17 18\n0 0.0 1 2 3\n1 0.05 4 5\n";
+    let e = recording::parse(text, Path::new("r.txt")).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("r.txt: line 3") && msg.contains("found 4"), "{msg}");
+    let e = recording::parse("16 17\n0 0.0 1 x\n", Path::new("r.txt")).unwrap_err();
+    assert!(e.to_string().contains("line 2 field 4 (taxel 17)"), "{e}");
+}
+
+#[test]
+fn the_cyskin_recordings_read_frame_by_frame() {
+    let Some(p) = shared("cyskin/recordings/0_finger/sample_01.txt") else {
+        return;
+    };
+    let rec = recording::read(&p).unwrap();
+    assert_eq!(rec.frames.len(), 30);
+    assert_eq!(rec.taxel_ids[0], TaxelId(56560));
+    assert_eq!(rec.taxel_ids[0].module(), 3535);
+    assert!(rec.frames.iter().all(|f| f.values.len() == rec.taxel_ids.len()));
+    assert!((rec.frames[1].time - 0.100650).abs() < 1e-9);
+}
+
+#[test]
+fn icub_zero_rows_are_dropped_and_duplicates_merged_or_rejected() {
+    let text = "name demo\nspatial_sampling taxel\n[calibration]\n\
+        0.01 0.02 0.03 0 0 2\n\
+        0 0 0 0 0 0\n\
+        0.01 0.02 0.03 0 0 1\n\
+        0.02 0.02 0.03 0 0 1\n";
+    let read = icub::parse(text, Path::new("p.txt"), icub::Duplicates::Merge).unwrap();
+    assert_eq!(read.skin.name, "demo");
+    assert_eq!(read.zero_slots, vec![1]);
+    assert_eq!(read.skin.ids(), vec![TaxelId(0), TaxelId(3)]);
+    assert_eq!(read.duplicates.len(), 1);
+    assert_eq!(read.duplicates[0].slots, vec![0, 2]);
+    assert_eq!(read.duplicates[0].lines, vec![4, 6]);
+    // Normals that are not unit length are normalised.
+    assert!((read.skin.taxels[0].normal.z - 1.0).abs() < 1e-15);
+    let e = icub::parse(text, Path::new("p.txt"), icub::Duplicates::Reject).unwrap_err();
+    assert!(e.to_string().contains("lines [4, 6]"), "{e}");
+}
+
+#[test]
+fn the_icub_forearm_reports_its_duplicates() {
+    let Some(p) = shared("icub/left_forearm_V2.txt") else {
+        return;
+    };
+    let read = icub::read(&p, icub::Duplicates::Merge).unwrap();
+    assert_eq!(read.skin.name, "l_forearm");
+    assert!(!read.duplicates.is_empty());
+    // Slots 3..=11 of the first module share one position (lines 8.. in the file).
+    assert!(read.duplicates[0].slots.starts_with(&[3, 4, 5]));
+    let rows = read.skin.taxels.len()
+        + read.zero_slots.len()
+        + read.duplicates.iter().map(|g| g.slots.len() - 1).sum::<usize>();
+    assert_eq!(rows, 384);
+    assert!(icub::read(&p, icub::Duplicates::Reject).is_err());
+}
+
+#[test]
+fn load_link_picks_the_reader_and_rejects_unknown_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("x.json");
+    std::fs::write(&p, "{\"something\": 1}").unwrap();
+    let e = skin_core::format::load_link(&p).unwrap_err();
+    assert!(e.to_string().contains("neither a skin layout"), "{e}");
+    let e = skin_core::format::load_link(&dir.path().join("missing.json")).unwrap_err();
+    assert!(matches!(e, Error::Io { .. }), "{e}");
+}
+
+proptest! {
+    #[test]
+    fn readers_never_panic_on_arbitrary_text(text in ".{0,400}") {
+        let _ = recording::parse(&text, Path::new("x"));
+        let _ = icub::parse(&text, Path::new("x"), icub::Duplicates::Merge);
+        let _ = cyskin::parse_skin(&text, Path::new("x"));
+        let _ = native::parse_layout(&text, Path::new("x"));
+        let _ = cyskin::parse_tactile_map(&text, Path::new("x"));
+    }
+
+    #[test]
+    fn readers_never_panic_on_mangled_files(cut in 0usize..2000, junk in "[0-9a-z\\[\\]{}, .-]{0,8}") {
+        let good = cyskin::skin_to_string(&small_link());
+        let cut = cut.min(good.len());
+        let text = format!("{}{}{}", &good[..cut], junk, &good[cut..]);
+        let _ = cyskin::parse_skin(&text, Path::new("x"));
+        let rec = "16 17 18\n0 0.0 1 2 3\n1 0.05 4 5 6\n";
+        let cut = cut.min(rec.len());
+        let _ = recording::parse(&format!("{}{}{}", &rec[..cut], junk, &rec[cut..]), Path::new("x"));
+    }
+
+    #[test]
+    fn recordings_round_trip(values in proptest::collection::vec(0u16..=u16::MAX, 3..60), ids in proptest::collection::btree_set(0u32..100_000, 3)) {
+        let ids: Vec<TaxelId> = ids.into_iter().map(TaxelId).collect();
+        let frames: Vec<skin_core::Frame> = values
+            .chunks_exact(3)
+            .enumerate()
+            .map(|(k, v)| skin_core::Frame { time: k as f64 * 0.05, values: v.iter().map(|&x| f32::from(x)).collect() })
+            .collect();
+        let rec = skin_core::Recording { taxel_ids: ids, frame_numbers: (0..frames.len() as u64).collect(), frames };
+        let back = recording::parse(&recording::to_string(&rec), Path::new("x")).unwrap();
+        prop_assert_eq!(&back.taxel_ids, &rec.taxel_ids);
+        prop_assert_eq!(&back.frame_numbers, &rec.frame_numbers);
+        for (a, b) in back.frames.iter().zip(&rec.frames) {
+            prop_assert_eq!(&a.values, &b.values);
+            // Times are written to the microsecond.
+            prop_assert!((a.time - b.time).abs() < 1e-6);
+        }
+    }
+}
