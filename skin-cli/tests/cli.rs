@@ -1,5 +1,7 @@
 //! The `skin` command as a user runs it: outputs, reports, and one clear line for bad input.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

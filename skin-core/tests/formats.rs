@@ -1,5 +1,7 @@
 //! Readers and writers: round trips, the real third-party files, and malformed input.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
+
 use proptest::prelude::*;
 use skin_core::format::{cyskin, icub, native, recording};
 use skin_core::{Error, LinkSkin, Taxel, TaxelId};

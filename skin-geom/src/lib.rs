@@ -31,7 +31,7 @@
 //! let map = TactileMap::flatten(&LinkSkin::new("patch", taxels), &FlattenOptions::default())?;
 //! assert_eq!(map.report.distortion.flipped_faces, 0);
 //!
-//! let raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
+//! let mut raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
 //! let mut image = vec![0.0f32; raster.len()];
 //! raster.render(&vec![100.0; 100], &mut image)?; // constant pressure...
 //! assert!(image.iter().all(|&k| k == 0.0 || (k - 100.0).abs() < 1e-3)); // ...constant image

@@ -34,7 +34,8 @@ impl Morphology {
         self.apply(src, radius, out, u8::max);
     }
 
-    fn apply(&mut self, src: &[u8], radius: usize, out: &mut [u8], op: fn(u8, u8) -> u8) {
+    // Generic over the operation (not a `fn` pointer) so each use is inlined and vectorised.
+    fn apply<F: Fn(u8, u8) -> u8 + Copy>(&mut self, src: &[u8], radius: usize, out: &mut [u8], op: F) {
         let (rows, cols) = (self.rows, self.cols);
         if self.spans.len() <= radius {
             self.spans.resize(radius + 1, vec![0; rows * cols]);

@@ -1,5 +1,7 @@
 //! LSCM flattening: analytic cases, an independent dense solve, real patches and bad meshes.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
+
 use nalgebra::{DMatrix, DVector, Isometry3, Point2, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};

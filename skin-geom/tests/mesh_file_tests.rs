@@ -1,5 +1,7 @@
 //! User meshes (OBJ, glTF) as skins or as triangles for a layout's taxels.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
+
 use skin_geom::{FlattenOptions, TactileMap, load_mesh_file};
 use std::io::Write;
 

@@ -1,6 +1,8 @@
 //! Tactile images: barycentric interpolation (thesis Sec. 3.3), grey levels (eq. 3.1),
 //! morphology and resizing against independent implementations, and back-projection.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
+
 use nalgebra::{Point2, Point3, Unit, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
@@ -27,7 +29,7 @@ fn arm() -> TactileMap {
 #[test]
 fn constant_pressure_gives_a_constant_image_inside_and_zero_outside() {
     let map = arm();
-    let raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
+    let mut raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
     let mut k = vec![f32::NAN; raster.len()];
     raster.render(&vec![250.0; map.ids.len()], &mut k).unwrap();
     let inside = k.iter().filter(|&&v| v != 0.0).count();
@@ -57,7 +59,7 @@ fn constant_pressure_gives_a_constant_image_inside_and_zero_outside() {
 #[test]
 fn a_linear_pressure_field_is_reproduced_exactly() {
     let map = arm();
-    let raster = Rasterizer::new(&map, Grid::StepMm(0.7)).unwrap();
+    let mut raster = Rasterizer::new(&map, Grid::StepMm(0.7)).unwrap();
     let field = |p: Point2<f64>| 100.0 + 2000.0 * p.x - 1500.0 * p.y;
     let pressures: Vec<f32> = map.points.iter().map(|&p| field(p) as f32).collect();
     let mut k = vec![0.0; raster.len()];
@@ -133,6 +135,35 @@ fn back_projection_lands_on_the_mesh() {
 }
 
 #[test]
+fn the_fused_grey_path_matches_render_then_to_grey() {
+    let map = arm();
+    let mut raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
+    let pressures: Vec<f32> = map
+        .points
+        .iter()
+        .map(|p| (1000.0 * (p.x * 40.0).sin().abs() * (p.y * 25.0).cos().abs()) as f32)
+        .collect();
+    let mut k = vec![0.0; raster.len()];
+    let mut k2 = vec![0.0; raster.len()];
+    let mut g = vec![0u8; raster.len()];
+    let mut g2 = vec![0u8; raster.len()];
+    raster.render(&pressures, &mut k).unwrap();
+    to_grey(&k, Normalisation::FullScale(1000.0), &mut g);
+    raster
+        .render_grey(&pressures, Normalisation::FullScale(1000.0), &mut k2, &mut g2)
+        .unwrap();
+    assert!(k == k2, "the fused pass computes other pressures");
+    assert!(g == g2, "the fused pass computes other grey levels");
+    // Contact maximum: the largest taxel reading maps to 255.
+    let peak = pressures.iter().copied().fold(0.0f32, f32::max);
+    raster
+        .render_grey(&pressures, Normalisation::ContactMax, &mut k2, &mut g2)
+        .unwrap();
+    to_grey(&k, Normalisation::FullScale(peak), &mut g);
+    assert!(g == g2, "contact maximum is not the largest taxel reading");
+}
+
+#[test]
 fn grey_levels_follow_eq_3_1() {
     let k = [0.0f32, 99.0, 100.0, 50.0, 200.0, -5.0, 0.3921];
     let mut g = [0u8; 7];
@@ -184,7 +215,7 @@ proptest! {
     #[test]
     fn rendering_never_panics_and_rejects_wrong_lengths(n in 0usize..400, len in 0usize..100) {
         let map = arm();
-        let raster = Rasterizer::new(&map, Grid::Size { rows: 10, cols: 12 }).unwrap();
+        let mut raster = Rasterizer::new(&map, Grid::Size { rows: 10, cols: 12 }).unwrap();
         let ok = n == map.ids.len() && len == raster.len();
         let mut img = vec![0.0; len];
         prop_assert_eq!(raster.render(&vec![1.0; n], &mut img).is_ok(), ok);
