@@ -12,17 +12,22 @@
 //! sparse positive definite system H_ff x_f = -H_fp x_p, solved by a sparse Cholesky factorisation
 //! with a fill-reducing ordering (faer).
 //!
-//! [`Lscm::new`] does everything that depends only on the triangles: the sparsity pattern (built
-//! directly in compressed-column form, no triplets), each triangle's slots in it, and the symbolic
-//! factorisation. [`Lscm::solve`] fills the values for given vertex positions and solves, so a mesh
+//! [`Lscm::new`] does everything that depends only on the triangles: a fill-reducing order of the
+//! vertices (approximate minimum degree on the vertex graph, each vertex's u and v kept together),
+//! the sparsity pattern in that order (built directly in compressed-column form, no triplets),
+//! each triangle's slots in it, and the symbolic factorisation. [`Lscm::solve`] fills the values for given vertex positions and solves, so a mesh
 //! flattened again (after re-calibration, or with taxels switched off) skips the symbolic work.
 
 use crate::{Error, Result};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::sparse::linalg::{SupernodalThreshold, amd};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{MatMut, Side};
+use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Point2, Point3};
+use std::sync::Arc;
 
 const PINNED: u32 = u32::MAX;
 
@@ -33,7 +38,7 @@ pub struct Lscm {
     pins: [usize; 2],
     /// Index among free vertices, or `PINNED`.
     free: Vec<u32>,
-    /// Compressed-column pattern of H_ff, both triangles stored (faer reads the lower one).
+    /// Compressed-column pattern of H_ff, both triangles stored (faer reads the upper one).
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// Start of each free vertex's neighbour list in `row_idx` for its u column, and its length.
@@ -41,7 +46,7 @@ pub struct Lscm {
     degree: Vec<u32>,
     /// For each face and corner pair (j, k), the rank of j in k's neighbour list.
     ranks: Vec<[u32; 9]>,
-    symbolic: SymbolicLlt<usize>,
+    symbolic: Arc<SymbolicCholesky<usize>>,
 }
 
 impl Lscm {
@@ -64,40 +69,27 @@ impl Lscm {
             }
         }
         let nf = next as usize;
-        // Neighbour lists (free vertices only, self included), sorted by free index: CSR built by
-        // sorting the directed edge pairs.
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(faces.len() * 6 + nf);
-        for f in faces {
-            for a in 0..3 {
-                for b in 0..3 {
-                    let (fa, fb) = (free[f[a]], free[f[b]]);
-                    if a != b && fa != PINNED && fb != PINNED {
-                        pairs.push((fb, fa)); // column fb holds row fa
-                    }
-                }
-            }
+        // Neighbour lists (free vertices only, self included), sorted by free index. The free
+        // vertices are then renumbered in approximate-minimum-degree order and the lists rebuilt,
+        // so the matrix is assembled already in factorisation order: no permutation of the
+        // matrix on every solve.
+        let (start, rows) = vertex_graph(faces, &free, nf);
+        let order = amd_order(&start, &rows, nf)?;
+        for f in free.iter_mut().filter(|f| **f != PINNED) {
+            *f = order[*f as usize] as u32;
         }
-        pairs.extend((0..nf as u32).map(|i| (i, i)));
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut start = vec![0usize; nf + 1];
-        for &(c, _) in &pairs {
-            start[c as usize + 1] += 1;
-        }
-        for i in 0..nf {
-            start[i + 1] += start[i];
-        }
+        let (start, rows) = vertex_graph(faces, &free, nf);
         let degree: Vec<u32> = (0..nf).map(|i| (start[i + 1] - start[i]) as u32).collect();
         // Each vertex k owns two columns (u_k, v_k), each with two rows per neighbour.
         let mut col_ptr = Vec::with_capacity(2 * nf + 1);
-        let mut row_idx = Vec::with_capacity(4 * pairs.len());
+        let mut row_idx = Vec::with_capacity(4 * rows.len());
         let mut col_start = Vec::with_capacity(nf);
         col_ptr.push(0);
         for k in 0..nf {
-            let neighbours = &pairs[start[k]..start[k + 1]];
+            let neighbours = &rows[start[k]..start[k + 1]];
             col_start.push(row_idx.len());
             for _ in 0..2 {
-                for &(_, j) in neighbours {
+                for &j in neighbours {
                     row_idx.push(2 * j as usize);
                     row_idx.push(2 * j as usize + 1);
                 }
@@ -105,8 +97,8 @@ impl Lscm {
             }
         }
         let rank = |k: u32, j: u32| -> u32 {
-            let list = &pairs[start[k as usize]..start[k as usize + 1]];
-            list.binary_search_by_key(&j, |&(_, r)| r).unwrap_or(0) as u32
+            let list = &rows[start[k as usize]..start[k as usize + 1]];
+            list.binary_search(&j).unwrap_or(0) as u32
         };
         let ranks = faces
             .iter()
@@ -124,8 +116,17 @@ impl Lscm {
             })
             .collect();
         let pattern = SymbolicSparseColMatRef::new_checked(2 * nf, 2 * nf, &col_ptr, None, &row_idx);
-        let symbolic = SymbolicLlt::try_new(pattern, Side::Lower)
+        // Simplicial factorisation: with the vertices already in minimum-degree order, it beat
+        // faer's supernodal variant at every mesh size measured (702 to 100,172 vertices; 7x at
+        // 100k, where supernodes stay small). The matrix is stored in full, and `Side::Upper` lets
+        // faer's symbolic analysis read it without transposing.
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(pattern, Side::Upper, SymmetricOrdering::Identity, params)
             .map_err(|e| Error::Solve(format!("symbolic factorisation: {e:?}")))?;
+        let symbolic = Arc::new(symbolic);
         Ok(Lscm {
             faces: faces.to_vec(),
             pins,
@@ -188,12 +189,33 @@ impl Lscm {
         let pattern =
             SymbolicSparseColMatRef::new_checked(2 * nf, 2 * nf, &self.col_ptr, None, &self.row_idx);
         let matrix = SparseColMatRef::new(pattern, &values);
-        let llt = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix, Side::Lower).map_err(|e| {
-            Error::Solve(format!(
-                "the LSCM system is not positive definite ({e:?}); is the mesh connected?"
-            ))
-        })?;
-        llt.solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, 2 * nf, 1));
+        let symbolic = &*self.symbolic;
+        let mut l_values = vec![0.0f64; symbolic.len_val()];
+        let scratch = symbolic
+            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        let mut mem = MemBuffer::new(scratch);
+        symbolic
+            .factorize_numeric_llt(
+                &mut l_values,
+                matrix,
+                Side::Upper,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| {
+                Error::Solve(format!(
+                    "the LSCM system is not positive definite ({e:?}); is the mesh connected?"
+                ))
+            })?;
+        LltRef::new(symbolic, &l_values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut rhs, 2 * nf, 1),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
         let mut out = Vec::with_capacity(self.free.len());
         for (v, &fv) in self.free.iter().enumerate() {
             out.push(if fv == PINNED {
@@ -207,6 +229,84 @@ impl Lscm {
         }
         Ok(out)
     }
+}
+
+/// The free-vertex adjacency (self included) in compressed-column form: column starts and the
+/// sorted row indices of each column. Built by counting, then sorting each short column, which is
+/// much cheaper than sorting all the edge pairs at once.
+fn vertex_graph(faces: &[[usize; 3]], free: &[u32], nf: usize) -> (Vec<usize>, Vec<u32>) {
+    let mut count = vec![1usize; nf + 1]; // the diagonal
+    count[nf] = 0;
+    for f in faces {
+        for a in 0..3 {
+            let fa = free[f[a]];
+            if fa != PINNED {
+                count[fa as usize] += (0..3).filter(|&b| b != a && free[f[b]] != PINNED).count();
+            }
+        }
+    }
+    let mut slot = vec![0usize; nf + 1];
+    for i in 0..nf {
+        slot[i + 1] = slot[i] + count[i];
+    }
+    let mut rows = vec![0u32; slot[nf]];
+    let mut fill = slot.clone();
+    for i in 0..nf {
+        rows[fill[i]] = i as u32;
+        fill[i] += 1;
+    }
+    for f in faces {
+        for a in 0..3 {
+            let fa = free[f[a]];
+            if fa == PINNED {
+                continue;
+            }
+            for b in 0..3 {
+                let fb = free[f[b]];
+                if b != a && fb != PINNED {
+                    rows[fill[fa as usize]] = fb;
+                    fill[fa as usize] += 1;
+                }
+            }
+        }
+    }
+    // Sort and deduplicate each column in place, compacting as we go.
+    let mut start = vec![0usize; nf + 1];
+    let mut out = 0;
+    for i in 0..nf {
+        let (lo, hi) = (slot[i], slot[i + 1]);
+        rows[lo..hi].sort_unstable();
+        let mut last = u32::MAX;
+        for k in lo..hi {
+            if rows[k] != last {
+                last = rows[k];
+                rows[out] = last;
+                out += 1;
+            }
+        }
+        start[i + 1] = out;
+    }
+    rows.truncate(out);
+    (start, rows)
+}
+
+/// Fill-reducing order of the vertices: approximate minimum degree on the n x n vertex graph (a
+/// quarter of the entries of the 2n x 2n system, whose (u, v) pairs stay together). Returns each
+/// vertex's new index.
+fn amd_order(start: &[usize], rows: &[u32], nf: usize) -> Result<Vec<usize>> {
+    let rows: Vec<usize> = rows.iter().map(|&r| r as usize).collect();
+    let graph = SymbolicSparseColMatRef::new_checked(nf, nf, start, None, &rows);
+    let (mut perm, mut perm_inv) = (vec![0usize; nf], vec![0usize; nf]);
+    let mut mem = MemBuffer::new(amd::order_scratch::<usize>(nf, rows.len()));
+    amd::order(
+        &mut perm,
+        &mut perm_inv,
+        graph,
+        amd::Control::default(),
+        MemStack::new(&mut mem),
+    )
+    .map_err(|e| Error::Solve(format!("ordering: {e:?}")))?;
+    Ok(perm_inv)
 }
 
 /// The edges e_j = z_{j+2} - z_{j+1} of a triangle in its own plane (counter-clockwise about the
