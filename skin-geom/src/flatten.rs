@@ -6,26 +6,30 @@
 //!
 //!   dU/dz̄ = (i / 4A) * sum_j e_j U_j,   e_j = z_{j+2} - z_{j+1}   (edge opposite corner j)
 //!
-//! so LSCM minimises E(U) = sum_T |sum_j e_j U_j|^2 / A_T (Lévy et al. 2002; Desbrun et al. 2002,
-//! the parameterization the thesis cites). E is a quadratic form H (2n x 2n, symmetric positive
-//! semi-definite, zero on similarities); two pinned vertices remove the similarity and leave a
-//! sparse positive definite system H_ff x_f = -H_fp x_p, solved by a sparse Cholesky factorisation
-//! with a fill-reducing ordering (faer).
+//! so LSCM minimises E(U) = sum_T |sum_j e_j U_j|^2 / A_T = U^H H U (Lévy et al. 2002; Desbrun et
+//! al. 2002, the parameterization the thesis cites), with the n x n Hermitian matrix
+//!
+//!   H_jk = sum_T conj(e_j) e_k / A_T.
+//!
+//! H is zero on similarities; two pinned vertices remove them and leave the Hermitian positive
+//! definite system H_ff U_f = -H_fp U_p, solved by a sparse Cholesky factorisation (faer, complex).
+//! Working in complex numbers halves the size of the system compared with the usual real 2n x 2n
+//! form, and quarters the entries the symbolic analysis walks through.
 //!
 //! [`Lscm::new`] does everything that depends only on the triangles: a fill-reducing order of the
-//! vertices (approximate minimum degree on the vertex graph, each vertex's u and v kept together),
-//! the sparsity pattern in that order (built directly in compressed-column form, no triplets),
-//! each triangle's slots in it, and the symbolic factorisation. [`Lscm::solve`] fills the values for given vertex positions and solves, so a mesh
+//! vertices (approximate minimum degree), the sparsity pattern in that order (built directly in
+//! compressed-column form, no triplets), each triangle's slots in it, and the symbolic
+//! factorisation. [`Lscm::solve`] fills the values for given vertex positions and solves, so a mesh
 //! flattened again (after re-calibration, or with taxels switched off) skips the symbolic work.
 
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
-use faer::sparse::linalg::{SupernodalThreshold, amd};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Conj, MatMut, Par, Side, c64};
 use nalgebra::{Point2, Point3};
 use std::sync::Arc;
 
@@ -36,16 +40,14 @@ const PINNED: u32 = u32::MAX;
 pub struct Lscm {
     faces: Vec<[usize; 3]>,
     pins: [usize; 2],
-    /// Index among free vertices, or `PINNED`.
+    /// Index among free vertices (in factorisation order), or `PINNED`.
     free: Vec<u32>,
-    /// Compressed-column pattern of H_ff, both triangles stored (faer reads the upper one).
+    /// Compressed-column pattern of the upper triangle of H_ff: column k holds the neighbours
+    /// j < k, then k itself.
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    /// Start of each free vertex's neighbour list in `row_idx` for its u column, and its length.
-    col_start: Vec<usize>,
-    degree: Vec<u32>,
-    /// For each face and corner pair (j, k), the rank of j in k's neighbour list.
-    ranks: Vec<[u32; 9]>,
+    /// For each face and corner pair (j, k) with free j <= k, the slot of H_jk in `row_idx`.
+    slots: Vec<[u32; 9]>,
     symbolic: Arc<SymbolicCholesky<usize>>,
 }
 
@@ -56,6 +58,11 @@ impl Lscm {
         if pins[0] == pins[1] || pins.iter().any(|&p| p >= n) {
             return Err(Error::Solve(format!(
                 "invalid pinned vertices {pins:?} for {n} vertices"
+            )));
+        }
+        if let Some(f) = faces.iter().position(|f| f.iter().any(|&v| v >= n)) {
+            return Err(Error::Solve(format!(
+                "triangle {f} uses a vertex beyond the {n} given"
             )));
         }
         let mut free = vec![0u32; n];
@@ -69,74 +76,58 @@ impl Lscm {
             }
         }
         let nf = next as usize;
-        // Neighbour lists (free vertices only, self included), sorted by free index. The free
-        // vertices are then renumbered in approximate-minimum-degree order and the lists rebuilt,
-        // so the matrix is assembled already in factorisation order: no permutation of the
-        // matrix on every solve.
+        // Renumber the free vertices in approximate-minimum-degree order, then build the pattern
+        // in that order: the matrix is assembled ready for factorisation, never permuted.
         let (start, rows) = vertex_graph(faces, &free, nf);
         let order = amd_order(&start, &rows, nf)?;
         for f in free.iter_mut().filter(|f| **f != PINNED) {
             *f = order[*f as usize] as u32;
         }
         let (start, rows) = vertex_graph(faces, &free, nf);
-        let degree: Vec<u32> = (0..nf).map(|i| (start[i + 1] - start[i]) as u32).collect();
-        // Each vertex k owns two columns (u_k, v_k), each with two rows per neighbour.
-        let mut col_ptr = Vec::with_capacity(2 * nf + 1);
-        let mut row_idx = Vec::with_capacity(4 * rows.len());
-        let mut col_start = Vec::with_capacity(nf);
+        // Upper triangle only: in each sorted neighbour list, the entries up to and including the
+        // vertex itself.
+        let mut col_ptr = Vec::with_capacity(nf + 1);
+        let mut row_idx = Vec::with_capacity(rows.len() / 2 + nf);
         col_ptr.push(0);
         for k in 0..nf {
-            let neighbours = &rows[start[k]..start[k + 1]];
-            col_start.push(row_idx.len());
-            for _ in 0..2 {
-                for &j in neighbours {
-                    row_idx.push(2 * j as usize);
-                    row_idx.push(2 * j as usize + 1);
-                }
-                col_ptr.push(row_idx.len());
-            }
+            let list = &rows[start[k]..start[k + 1]];
+            let upto = list.partition_point(|&j| j as usize <= k);
+            row_idx.extend(list[..upto].iter().map(|&j| j as usize));
+            col_ptr.push(row_idx.len());
         }
-        let rank = |k: u32, j: u32| -> u32 {
-            let list = &rows[start[k as usize]..start[k as usize + 1]];
-            list.binary_search(&j).unwrap_or(0) as u32
+        let slot = |j: u32, k: u32| -> u32 {
+            let (lo, hi) = (col_ptr[k as usize], col_ptr[k as usize + 1]);
+            (lo + row_idx[lo..hi].partition_point(|&r| r < j as usize)) as u32
         };
-        let ranks = faces
+        let slots = faces
             .iter()
             .map(|f| {
-                let mut r = [0u32; 9];
+                let mut s = [u32::MAX; 9];
                 for j in 0..3 {
                     for k in 0..3 {
                         let (fj, fk) = (free[f[j]], free[f[k]]);
-                        if fj != PINNED && fk != PINNED {
-                            r[3 * j + k] = rank(fk, fj);
+                        if fj != PINNED && fk != PINNED && fj <= fk {
+                            s[3 * j + k] = slot(fj, fk);
                         }
                     }
                 }
-                r
+                s
             })
             .collect();
-        let pattern = SymbolicSparseColMatRef::new_checked(2 * nf, 2 * nf, &col_ptr, None, &row_idx);
-        // Simplicial factorisation: with the vertices already in minimum-degree order, it beat
-        // faer's supernodal variant at every mesh size measured (702 to 100,172 vertices; 7x at
-        // 100k, where supernodes stay small). The matrix is stored in full, and `Side::Upper` lets
-        // faer's symbolic analysis read it without transposing.
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
-            ..Default::default()
-        };
+        let pattern = SymbolicSparseColMatRef::new_checked(nf, nf, &col_ptr, None, &row_idx);
+        // faer picks simplicial or supernodal from the predicted flop count; forcing either was
+        // slower at some of the mesh sizes benchmarked (702 to 100,172 vertices).
+        let params = CholeskySymbolicParams::default();
         let symbolic = factorize_symbolic_cholesky(pattern, Side::Upper, SymmetricOrdering::Identity, params)
             .map_err(|e| Error::Solve(format!("symbolic factorisation: {e:?}")))?;
-        let symbolic = Arc::new(symbolic);
         Ok(Lscm {
             faces: faces.to_vec(),
             pins,
             free,
             col_ptr,
             row_idx,
-            col_start,
-            degree,
-            ranks,
-            symbolic,
+            slots,
+            symbolic: Arc::new(symbolic),
         })
     }
 
@@ -147,53 +138,49 @@ impl Lscm {
 
     /// Flattens: returns one 2D point per vertex, with the pinned vertices at `pin_uv`.
     pub fn solve(&self, vertices: &[Point3<f64>], pin_uv: [Point2<f64>; 2]) -> Result<Vec<Point2<f64>>> {
-        let nf = self.col_start.len();
-        let mut values = vec![0.0f64; self.row_idx.len()];
-        let mut rhs = vec![0.0f64; 2 * nf];
+        if vertices.len() != self.free.len() {
+            return Err(Error::Solve(format!(
+                "{} vertices given for a mesh of {}",
+                vertices.len(),
+                self.free.len()
+            )));
+        }
+        let nf = self.col_ptr.len() - 1;
+        let pinned = |v: usize| {
+            let p = if v == self.pins[0] { pin_uv[0] } else { pin_uv[1] };
+            c64::new(p.x, p.y)
+        };
+        let mut values = vec![c64::new(0.0, 0.0); self.row_idx.len()];
+        let mut rhs = vec![c64::new(0.0, 0.0); nf];
         for (f, face) in self.faces.iter().enumerate() {
             let (e, area) = local_edges(vertices[face[0]], vertices[face[1]], vertices[face[2]]);
             if !(area > 0.0) {
                 return Err(Error::Solve(format!("triangle {f} has zero area")));
             }
-            let inv_area = 1.0 / area;
-            for k in 0..3 {
-                let fk = self.free[face[k]];
-                for j in 0..3 {
-                    let fj = self.free[face[j]];
-                    if fj == PINNED {
-                        continue;
-                    }
-                    let c = (e[j].0 * e[k].0 + e[j].1 * e[k].1) * inv_area;
-                    let s = (e[k].0 * e[j].1 - e[j].0 * e[k].1) * inv_area;
+            for j in 0..3 {
+                let fj = self.free[face[j]];
+                if fj == PINNED {
+                    continue;
+                }
+                for k in 0..3 {
+                    // H_jk = conj(e_j) e_k / A
+                    let h = e[j].conj() * e[k] / area;
+                    let fk = self.free[face[k]];
                     if fk == PINNED {
-                        let p = if face[k] == self.pins[0] {
-                            pin_uv[0]
-                        } else {
-                            pin_uv[1]
-                        };
-                        rhs[2 * fj as usize] -= c * p.x + s * p.y;
-                        rhs[2 * fj as usize + 1] -= -s * p.x + c * p.y;
-                        continue;
+                        rhs[fj as usize] -= h * pinned(face[k]);
+                    } else if fj <= fk {
+                        values[self.slots[f][3 * j + k] as usize] += h;
                     }
-                    let fk = fk as usize;
-                    let r = self.ranks[f][3 * j + k] as usize;
-                    let u_col = self.col_start[fk] + 2 * r;
-                    let v_col = u_col + 2 * self.degree[fk] as usize;
-                    values[u_col] += c; // (u_j, u_k)
-                    values[u_col + 1] -= s; // (v_j, u_k)
-                    values[v_col] += s; // (u_j, v_k)
-                    values[v_col + 1] += c; // (v_j, v_k)
                 }
             }
         }
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(2 * nf, 2 * nf, &self.col_ptr, None, &self.row_idx);
+        let pattern = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
         let matrix = SparseColMatRef::new(pattern, &values);
         let symbolic = &*self.symbolic;
-        let mut l_values = vec![0.0f64; symbolic.len_val()];
+        let mut l_values = vec![c64::new(0.0, 0.0); symbolic.len_val()];
         let scratch = symbolic
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+            .factorize_numeric_llt_scratch::<c64>(Par::Seq, Default::default())
+            .or(symbolic.solve_in_place_scratch::<c64>(1, Par::Seq));
         let mut mem = MemBuffer::new(scratch);
         symbolic
             .factorize_numeric_llt(
@@ -212,16 +199,18 @@ impl Lscm {
             })?;
         LltRef::new(symbolic, &l_values).solve_in_place_with_conj(
             Conj::No,
-            MatMut::from_column_major_slice_mut(&mut rhs, 2 * nf, 1),
+            MatMut::from_column_major_slice_mut(&mut rhs, nf, 1),
             Par::Seq,
             MemStack::new(&mut mem),
         );
         let mut out = Vec::with_capacity(self.free.len());
         for (v, &fv) in self.free.iter().enumerate() {
             out.push(if fv == PINNED {
-                if v == self.pins[0] { pin_uv[0] } else { pin_uv[1] }
+                let p = pinned(v);
+                Point2::new(p.re, p.im)
             } else {
-                Point2::new(rhs[2 * fv as usize], rhs[2 * fv as usize + 1])
+                let u = rhs[fv as usize];
+                Point2::new(u.re, u.im)
             });
         }
         if out.iter().any(|p| !(p.x.is_finite() && p.y.is_finite())) {
@@ -310,22 +299,22 @@ fn amd_order(start: &[usize], rows: &[u32], nf: usize) -> Result<Vec<usize>> {
 }
 
 /// The edges e_j = z_{j+2} - z_{j+1} of a triangle in its own plane (counter-clockwise about the
-/// normal given by its winding), and its area.
-fn local_edges(p0: Point3<f64>, p1: Point3<f64>, p2: Point3<f64>) -> ([(f64, f64); 3], f64) {
+/// normal given by its winding), as complex numbers, and its area.
+fn local_edges(p0: Point3<f64>, p1: Point3<f64>, p2: Point3<f64>) -> ([c64; 3], f64) {
     let d1 = p1 - p0;
     let d2 = p2 - p0;
     let l1 = d1.norm();
-    let n = d1.cross(&d2);
-    let twice_area = n.norm();
+    let twice_area = d1.cross(&d2).norm();
     if l1 == 0.0 || twice_area == 0.0 {
-        return ([(0.0, 0.0); 3], 0.0);
+        return ([c64::new(0.0, 0.0); 3], 0.0);
     }
-    let x2 = d2.dot(&d1) / l1;
-    let y2 = twice_area / l1;
-    let z = [(0.0, 0.0), (l1, 0.0), (x2, y2)];
-    let e = [0, 1, 2].map(|j| {
-        let (a, b) = (z[(j + 2) % 3], z[(j + 1) % 3]);
-        (a.0 - b.0, a.1 - b.1)
-    });
-    (e, 0.5 * twice_area)
+    let z = [
+        c64::new(0.0, 0.0),
+        c64::new(l1, 0.0),
+        c64::new(d2.dot(&d1) / l1, twice_area / l1),
+    ];
+    (
+        [0, 1, 2].map(|j| z[(j + 2) % 3] - z[(j + 1) % 3]),
+        0.5 * twice_area,
+    )
 }
