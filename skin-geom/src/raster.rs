@@ -72,13 +72,14 @@ pub struct Rasterizer {
     corners: Vec<[u32; 3]>,
     /// Taxels used by at least one triangle (their largest reading is the contact maximum).
     used: Vec<u32>,
-    /// Per frame: (alpha, beta, gamma) of each triangle.
+    /// Per frame: (alpha, beta, gamma, unused) of each triangle.
     coefs: Vec<[f32; 4]>,
-    /// Per run, the gathered alpha and beta r + gamma of each pixel (scratch, one row long), and
-    /// the column numbers 0, 1, 2, ... as f32: with them the per-pixel arithmetic is a plain
-    /// element-wise loop that the compiler vectorises.
-    run_alpha: Vec<f32>,
-    run_offset: Vec<f32>,
+    /// When the grid has fewer pixels than about twice the triangles it shows (a coarse grid such
+    /// as 68 x 100 on a 3,500-taxel map), computing every triangle's plane costs more than
+    /// interpolating each pixel directly: then each covered pixel keeps its three taxels and
+    /// barycentric weights instead.
+    weights: Option<(Vec<[u32; 3]>, Vec<[f32; 3]>)>,
+    /// 0, 1, 2, ... as f32, one per column: loading column numbers is cheaper than converting them.
     columns: Vec<f32>,
     /// Taxels of each visible triangle, and its index in the map.
     map_faces: Vec<[usize; 3]>,
@@ -231,6 +232,23 @@ impl Rasterizer {
             .collect();
         let corners: Vec<[u32; 3]> = visible.iter().map(|&f| map.faces[f].map(|t| t as u32)).collect();
         let visible_faces = visible.clone();
+        let weights = (faces.len() < 2 * visible.len()).then(|| {
+            let mut taxels = Vec::with_capacity(faces.len());
+            let mut w = Vec::with_capacity(faces.len());
+            for run in &runs {
+                for i in run.start as usize..(run.start + run.len) as usize {
+                    let f = map.faces[visible[faces[run.table as usize + i - run.start as usize] as usize]];
+                    let p = f.map(|t| map.points[t]);
+                    let x = pixel_centre(corner, step, i / cols, i % cols);
+                    let area2 = (p[1] - p[0]).perp(&(p[2] - p[0]));
+                    let l0 = ((p[2] - p[1]).perp(&(x - p[1])) / area2).clamp(0.0, 1.0);
+                    let l1 = ((p[0] - p[2]).perp(&(x - p[2])) / area2).clamp(0.0, 1.0 - l0);
+                    taxels.push(f.map(|t| t as u32));
+                    w.push([l0 as f32, l1 as f32, (1.0 - l0 - l1) as f32]);
+                }
+            }
+            (taxels, w)
+        });
         let mut used: Vec<u32> = map.faces.iter().flatten().map(|&t| t as u32).collect();
         used.sort_unstable();
         used.dedup();
@@ -246,8 +264,7 @@ impl Rasterizer {
             corners,
             used,
             coefs: vec![[0.0; 4]; visible_faces.len()],
-            run_alpha: vec![0.0; cols],
-            run_offset: vec![0.0; cols],
+            weights,
             columns: (0..cols).map(|c| c as f32).collect(),
             map_faces: visible_faces.iter().map(|&f| map.faces[f]).collect(),
             map_face_ids: visible_faces,
@@ -300,21 +317,32 @@ impl Rasterizer {
     /// per pixel, row-major. Pixels outside the map get 0. Allocates nothing.
     pub fn render(&mut self, pressures: &[f32], image: &mut [f32]) -> Result<()> {
         self.check(pressures, image.len())?;
-        self.planes_for(pressures);
+        if self.weights.is_none() {
+            self.planes_for(pressures);
+        }
         let mut next = 0usize;
-        for k in 0..self.runs.len() {
-            let (start, len) = self.gather_run(k);
+        for run in &self.runs {
+            let (start, len, table) = (run.start as usize, run.len as usize, run.table as usize);
             image[next..start].fill(0.0);
-            let col = start % self.cols;
-            let cols = &self.columns[col..col + len];
-            let (alpha, offset) = (&self.run_alpha[..len], &self.run_offset[..len]);
-            for (((o, &a), &b), &c) in image[start..start + len]
-                .iter_mut()
-                .zip(alpha)
-                .zip(offset)
-                .zip(cols)
-            {
-                *o = a * c + b;
+            let out = &mut image[start..start + len];
+            match &self.weights {
+                Some((taxels, weights)) => {
+                    let cells = taxels[table..table + len]
+                        .iter()
+                        .zip(&weights[table..table + len]);
+                    for (o, (t, w)) in out.iter_mut().zip(cells) {
+                        *o = w[0] * pressures[t[0] as usize]
+                            + w[1] * pressures[t[1] as usize]
+                            + w[2] * pressures[t[2] as usize];
+                    }
+                }
+                None => {
+                    let (row, col) = ((start / self.cols) as f32, start % self.cols);
+                    for ((c, o), &t) in (col..).zip(out.iter_mut()).zip(&self.faces[table..table + len]) {
+                        let [alpha, beta, gamma, _] = self.coefs[t as usize];
+                        *o = alpha * c as f32 + (beta * row + gamma);
+                    }
+                }
             }
             next = start + len;
         }
@@ -322,29 +350,9 @@ impl Rasterizer {
         Ok(())
     }
 
-    /// Gathers the plane coefficients of run `k`'s pixels into the run scratch; returns the run's
-    /// first pixel and length.
-    fn gather_run(&mut self, k: usize) -> (usize, usize) {
-        let run = self.runs[k];
-        let (start, len, table) = (run.start as usize, run.len as usize, run.table as usize);
-        let r = (start / self.cols) as f32;
-        let faces = &self.faces[table..table + len];
-        for ((a, b), &t) in self.run_alpha[..len]
-            .iter_mut()
-            .zip(&mut self.run_offset[..len])
-            .zip(faces)
-        {
-            let [alpha, beta, gamma, _] = self.coefs[t as usize];
-            *a = alpha;
-            *b = beta * r + gamma;
-        }
-        (start, len)
-    }
-
-    /// [`Self::render`] and the grey image (thesis eq. 3.1) in one pass. With
-    /// [`Normalisation::ContactMax`], K_bar is the largest reading among the map's taxels: the
-    /// peak of the contact, which the interpolated image reaches only where a pixel centre falls
-    /// on that taxel.
+    /// [`Self::render`] and the grey image (thesis eq. 3.1). With [`Normalisation::ContactMax`],
+    /// K_bar is the largest reading among the map's taxels: the peak of the contact, which the
+    /// interpolated image reaches only where a pixel centre falls on that taxel.
     pub fn render_grey(
         &mut self,
         pressures: &[f32],
@@ -352,7 +360,6 @@ impl Rasterizer {
         image: &mut [f32],
         grey: &mut [u8],
     ) -> Result<()> {
-        self.check(pressures, image.len())?;
         if grey.len() != image.len() {
             return Err(Error::Mismatch(format!(
                 "grey buffer has {} pixels, the image {}",
@@ -360,6 +367,7 @@ impl Rasterizer {
                 image.len()
             )));
         }
+        self.check(pressures, image.len())?;
         let k_bar = match norm {
             Normalisation::FullScale(k) => k,
             Normalisation::ContactMax => self
@@ -368,24 +376,32 @@ impl Rasterizer {
                 .map(|&t| pressures[t as usize])
                 .fold(0.0f32, f32::max),
         };
-        let gain = if k_bar > 0.0 { 255.0 / k_bar } else { 0.0 };
+        if self.weights.is_some() {
+            self.render(pressures, image)?;
+            let mut next = 0usize;
+            for run in &self.runs {
+                let (start, len) = (run.start as usize, run.len as usize);
+                grey[next..start].fill(0);
+                quantise(&image[start..start + len], k_bar, &mut grey[start..start + len]);
+                next = start + len;
+            }
+            grey[next..].fill(0);
+            return Ok(());
+        }
+        // Plane mode, fused: each run is interpolated and quantised in one pass, eight pixels at a
+        // time, while its values are still in registers.
         self.planes_for(pressures);
+        let gain = if k_bar > 0.0 { 255.0 / k_bar } else { 0.0 };
         let mut next = 0usize;
         for run in &self.runs {
             let (start, len, table) = (run.start as usize, run.len as usize, run.table as usize);
             image[next..start].fill(0.0);
             grey[next..start].fill(0);
-            let col = start % self.cols;
-            let row = (start / self.cols) as f32;
-            fused_plane_grey(
-                &self.coefs,
-                &self.faces[table..table + len],
-                row,
-                &self.columns[col..col + len],
-                gain,
-                &mut image[start..start + len],
-                &mut grey[start..start + len],
-            );
+            let (row, col) = ((start / self.cols) as f32, start % self.cols);
+            let faces = &self.faces[table..table + len];
+            let (out, levels) = (&mut image[start..start + len], &mut grey[start..start + len]);
+            let columns = &self.columns[col..col + len];
+            planes_to_grey(&self.coefs, faces, row, columns, gain, out, levels);
             next = start + len;
         }
         image[next..].fill(0.0);
@@ -468,29 +484,27 @@ impl Rasterizer {
     }
 }
 
-/// K = alpha c + offset and grey = floor(255 K / K_bar) clamped, eight pixels at a time. The
-/// float-to-integer step is what the compiler cannot vectorise on its own (Rust's `as` saturates
-/// and maps NaN to 0, which needs scalar code); `wide` truncates eight lanes with one instruction
-/// after the values are clamped to 0..=255, so the result is the same.
-fn fused_plane_grey(
+/// K = alpha c + beta r + gamma for a run of pixels of row `row` at columns `columns`, and its
+/// grey levels (see [`quantise`]), eight pixels at a time.
+fn planes_to_grey(
     coefs: &[[f32; 4]],
     faces: &[u32],
     row: f32,
-    cols: &[f32],
+    columns: &[f32],
     gain: f32,
     image: &mut [f32],
     grey: &mut [u8],
 ) {
     use wide::f32x8;
-    let n = image.len() / 8 * 8;
     let (zero, top, gain8) = (f32x8::splat(0.0), f32x8::splat(255.0), f32x8::splat(gain));
+    let n = image.len() / 8 * 8;
     for i in (0..n).step_by(8) {
         let (mut a, mut b, mut c) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         for j in 0..8 {
             let [alpha, beta, gamma, _] = coefs[faces[i + j] as usize];
             a[j] = alpha;
             b[j] = beta * row + gamma;
-            c[j] = cols[i + j];
+            c[j] = columns[i + j];
         }
         let v = f32x8::new(a) * f32x8::new(c) + f32x8::new(b);
         image[i..i + 8].copy_from_slice(&v.to_array());
@@ -505,9 +519,41 @@ fn fused_plane_grey(
     }
     for i in n..image.len() {
         let [alpha, beta, gamma, _] = coefs[faces[i] as usize];
-        let v = alpha * cols[i] + (beta * row + gamma);
+        let v = alpha * columns[i] + (beta * row + gamma);
         image[i] = v;
-        grey[i] = (v * gain).clamp(0.0, 255.0) as u8;
+        grey[i] = (v * gain) as u8;
+    }
+}
+
+/// Grey levels floor(255 K / K_bar) clamped to 0..=255 (thesis eq. 3.1), eight pixels at a time;
+/// all black when K_bar is not positive. The float-to-integer step is what the compiler cannot
+/// vectorise on its own (Rust's `as` saturates and maps NaN to 0, which takes scalar code):
+/// `wide` truncates eight lanes in one instruction once the values are clamped (NaN included) to
+/// 0..=255, so the result is the same.
+fn quantise(k: &[f32], k_bar: f32, grey: &mut [u8]) {
+    use wide::f32x8;
+    if !(k_bar > 0.0) {
+        grey.fill(0);
+        return;
+    }
+    let gain = 255.0 / k_bar;
+    let (zero, top, gain8) = (f32x8::splat(0.0), f32x8::splat(255.0), f32x8::splat(gain));
+    let mut chunks = k.chunks_exact(8);
+    let mut out = grey.chunks_exact_mut(8);
+    for (c, o) in (&mut chunks).zip(&mut out) {
+        let mut a = [0.0f32; 8];
+        a.copy_from_slice(c);
+        let g = (f32x8::new(a) * gain8)
+            .fast_max(zero)
+            .fast_min(top)
+            .fast_trunc_int()
+            .to_array();
+        for (o, &x) in o.iter_mut().zip(&g) {
+            *o = x as u8;
+        }
+    }
+    for (o, &v) in out.into_remainder().iter_mut().zip(chunks.remainder()) {
+        *o = (v * gain) as u8;
     }
 }
 
@@ -535,15 +581,8 @@ pub fn to_grey(pressure: &[f32], norm: Normalisation, grey: &mut [u8]) {
         Normalisation::FullScale(k) => k,
         Normalisation::ContactMax => pressure.iter().copied().fold(0.0f32, f32::max),
     };
-    if !(k_bar > 0.0) {
-        grey.fill(0);
-        return;
-    }
-    let gain = 255.0 / k_bar;
-    for (g, &k) in grey.iter_mut().zip(pressure) {
-        // `as u8` saturates (and maps NaN to 0), which is the clamp eq. 3.1 needs.
-        *g = (k * gain).floor() as u8;
-    }
+    let n = pressure.len().min(grey.len());
+    quantise(&pressure[..n], k_bar, &mut grey[..n]);
 }
 
 /// The whole per-frame image path of one link, with its buffers: interpolate, convert to grey,
