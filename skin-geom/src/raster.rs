@@ -78,7 +78,7 @@ pub struct Rasterizer {
     /// as 68 x 100 on a 3,500-taxel map), computing every triangle's plane costs more than
     /// interpolating each pixel directly: then each covered pixel keeps its three taxels and
     /// barycentric weights instead.
-    weights: Option<(Vec<[u32; 3]>, Vec<[f32; 3]>)>,
+    weights: Option<PixelWeights>,
     /// 0, 1, 2, ... as f32, one per column: loading column numbers is cheaper than converting them.
     columns: Vec<f32>,
     /// Taxels of each visible triangle, and its index in the map.
@@ -86,6 +86,13 @@ pub struct Rasterizer {
     map_face_ids: Vec<usize>,
     points: Vec<Point2<f64>>,
     positions: Vec<Point3<f64>>,
+}
+
+/// Per covered pixel (in table order), its three taxels and barycentric weights.
+#[derive(Debug, Clone, PartialEq)]
+struct PixelWeights {
+    taxels: Vec<[u32; 3]>,
+    weights: Vec<[f32; 3]>,
 }
 
 /// Where a pixel comes from on the skin.
@@ -247,7 +254,7 @@ impl Rasterizer {
                     w.push([l0 as f32, l1 as f32, (1.0 - l0 - l1) as f32]);
                 }
             }
-            (taxels, w)
+            PixelWeights { taxels, weights: w }
         });
         let mut used: Vec<u32> = map.faces.iter().flatten().map(|&t| t as u32).collect();
         used.sort_unstable();
