@@ -333,7 +333,7 @@ impl Rasterizer {
             image[next..start].fill(0.0);
             let out = &mut image[start..start + len];
             match &self.weights {
-                Some((taxels, weights)) => {
+                Some(PixelWeights { taxels, weights }) => {
                     let cells = taxels[table..table + len]
                         .iter()
                         .zip(&weights[table..table + len]);
