@@ -10,6 +10,7 @@ For each raster_RxC.bin: interpolation (sparse weights @ pressures) + 8-bit quan
 """
 
 import glob
+import json
 import os
 import statistics
 import sys
@@ -42,6 +43,7 @@ def main() -> None:
     files = sorted(glob.glob(os.path.join(data, "raster_*.bin")))
     if not files:
         sys.exit(f"no raster tables in {data}: run `cargo bench -p skin-geom --bench tactile_image` first")
+    results = {}
     for path in files:
         raw = np.fromfile(path, dtype=np.uint8)
         rows, cols, n = raw[:12].view(np.uint32)
@@ -63,8 +65,13 @@ def main() -> None:
 
         a = median_us(interpolate_quantise)
         b = median_us(with_morphology)
+        results[f"{int(rows)}x{int(cols)}"] = {"interpolate_quantise_us": a, "with_morphology_us": b}
         print(f"numpy/scipy {int(rows)} x {int(cols)} px, {int(n)} taxels: interpolate+quantise {a:8.1f} us, "
               f"+ cv2 erode/dilate {b:8.1f} us")
+
+
+    with open(os.path.join(data, "numpy.json"), "w") as fh:
+        json.dump(results, fh)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ Prints one line per mesh: vertices, median time in ms over repeated runs.
 """
 
 import glob
+import json
 import os
 import statistics
 import sys
@@ -23,6 +24,7 @@ def main() -> None:
     meshes = sorted(glob.glob(os.path.join(data, "lscm_*.obj")), key=lambda p: int(p.split("_")[-1][:-4]))
     if not meshes:
         sys.exit(f"no meshes in {data}: run `cargo bench -p skin-geom --bench lscm` first")
+    results = {}
     for path in meshes:
         v, f = igl.read_triangle_mesh(path)
         with open(path[:-4] + ".pins") as fh:
@@ -37,8 +39,13 @@ def main() -> None:
             uv, _q = igl.lscm(v, f, pins, bc)
             times.append(time.perf_counter() - t0)
         ok = np.isfinite(uv).all()
+        results[str(len(v))] = 1e3 * statistics.median(times)
         print(f"libigl lscm {len(v):>7} vertices: median {1e3 * statistics.median(times):9.2f} ms over {repeats} runs"
               f"{'' if ok else ' (non-finite output!)'}")
+
+
+    with open(os.path.join(data, "libigl.json"), "w") as fh:
+        json.dump(results, fh)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Runs the Rust benchmarks and the reference implementations in the same run, then prints the
+# BENCHMARKS.md rows. Needs: pip install libigl numpy scipy opencv-python-headless
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo bench -p skin-geom --bench lscm --bench tactile_image
+# One thread for the references too, as for the Rust side.
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+python3 bench/lscm_libigl.py
+python3 bench/image_numpy.py
+python3 bench/table.py
