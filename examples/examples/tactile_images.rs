@@ -38,8 +38,11 @@ fn main() -> anyhow::Result<()> {
         }
     }
     let (rows, cols) = imager.output_size();
-    let image = image::GrayImage::from_raw(cols as u32, rows as u32, best.1).ok_or_else(|| anyhow::anyhow!("size"))?;
-    image.save("tactile_image.png")?;
-    println!("{} frames; the strongest touch ({:.0} counts) is in tactile_image.png", rec.frames.len(), best.0);
+    skin_geom::write_png("tactile_image.png".as_ref(), &best.1, rows, cols)?;
+    println!(
+        "{} frames; the strongest touch ({:.0} counts) is in tactile_image.png",
+        rec.frames.len(),
+        best.0
+    );
     Ok(())
 }

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 /// Turn every frame of every recording into a tactile image (8-bit grey PNG).
 ///
 /// MAP is a tactile map from `skin flatten` (or a Cyskin `tactile_maps` file); a layout file is
-/// accepted too and flattened first. Each FRAMES file is
-/// a Cyskin raw recording (line 1: taxel ids; then frame number, time in s, one reading per id).
+/// accepted too and flattened first. Each FRAMES file is a Cyskin raw recording (line 1: taxel
+/// ids; then frame number, time in s, one reading per id).
 /// Every taxel of the map must be in the recording; readings of ids the map does not know are
 /// ignored and counted. Pressure is interpolated barycentrically on a grid laid on the map (thesis
 /// Ch. 3.3), then grey = floor(255 K / K_bar) (eq. 3.1).

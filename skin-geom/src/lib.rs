@@ -56,6 +56,6 @@ pub use error::{Error, Result};
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
 pub use mesh_file::{MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};
-pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager};
+pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager, encode_png, write_png};
 pub use resize::Resizer;
 pub use tactile_map::{FlattenOptions, FlattenReport, MAP_FORMAT, TactileMap};

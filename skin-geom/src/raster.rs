@@ -21,6 +21,7 @@
 use crate::morphology::Morphology;
 use crate::resize::Resizer;
 use crate::{Error, Result, TactileMap};
+use image::ImageEncoder as _;
 use nalgebra::{Point2, Point3};
 
 /// The grid laid on a tactile map.
@@ -674,4 +675,32 @@ impl TactileImager {
     pub fn pressure_image(&self) -> &[f32] {
         &self.pressure
     }
+}
+
+/// Encodes a row-major 8-bit grey image of `rows x cols` pixels as PNG.
+pub fn encode_png(grey: &[u8], rows: usize, cols: usize) -> Result<Vec<u8>> {
+    let bad = || Error::Mismatch(format!("{} grey values for a {rows} x {cols} image", grey.len()));
+    if grey.len() != rows * cols {
+        return Err(bad());
+    }
+    let (w, h) = (
+        u32::try_from(cols).map_err(|_| bad())?,
+        u32::try_from(rows).map_err(|_| bad())?,
+    );
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(grey, w, h, image::ExtendedColorType::L8)
+        .map_err(|e| Error::Output {
+            path: "PNG".into(),
+            message: e.to_string(),
+        })?;
+    Ok(png)
+}
+
+/// Writes a row-major 8-bit grey image of `rows x cols` pixels as a PNG file.
+pub fn write_png(path: &std::path::Path, grey: &[u8], rows: usize, cols: usize) -> Result<()> {
+    std::fs::write(path, encode_png(grey, rows, cols)?).map_err(|e| Error::Output {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
 }
