@@ -145,10 +145,7 @@ pub fn run(args: Args) -> Result<()> {
             let grey = imager.process(pressures)?;
             let number = input.rec.frame_numbers[f];
             let path = input.dir.join(format!("frame_{number:05}.png"));
-            let img = image::GrayImage::from_raw(out_cols as u32, out_rows as u32, grey.to_vec())
-                .context("image buffer size")?;
-            let mut png = Vec::new();
-            img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            let png = skin_geom::encode_png(grey, out_rows, out_cols)
                 .with_context(|| format!("cannot encode {}", path.display()))?;
             crate::write_atomic(&path, &png)?;
             bar.inc(1);
