@@ -78,10 +78,10 @@ pub fn run(args: Args) -> Result<()> {
         MapFormat::Cyskin => cyskin::tactile_map_to_string(&map.to_cyskin()),
     };
     crate::write_atomic(&args.output, text.as_bytes())?;
-    println!("wrote {}", args.output.display());
+    crate::say!("wrote {}", args.output.display());
     if let Some(svg) = &args.svg {
         crate::write_atomic(svg, map.to_svg().as_bytes())?;
-        println!("wrote {}", svg.display());
+        crate::say!("wrote {}", svg.display());
     }
     Ok(())
 }
@@ -99,7 +99,7 @@ pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
         }
         "txt" => {
             let read = icub::read(path, icub::Duplicates::Merge)?;
-            println!(
+            crate::say!(
                 "{}: {} taxel rows, {} unused (all-zero) rows dropped",
                 path.display(),
                 read.skin.taxels.len()
@@ -109,12 +109,12 @@ pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
             );
             if !read.duplicates.is_empty() {
                 let merged: usize = read.duplicates.iter().map(|g| g.slots.len() - 1).sum();
-                println!(
+                crate::say!(
                     "duplicated positions: {} groups, {merged} taxels merged into the first of their group:",
                     read.duplicates.len()
                 );
                 for g in &read.duplicates {
-                    println!("  lines {:?} (taxels {:?})", g.lines, g.slots);
+                    crate::say!("  lines {:?} (taxels {:?})", g.lines, g.slots);
                 }
             }
             Ok(read.skin)
@@ -130,22 +130,22 @@ pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
 fn print_report(input: &Path, link: &LinkSkin, map: &TactileMap) {
     let r = &map.report;
     let (w, h) = map.extent();
-    println!(
+    crate::say!(
         "{}: link \"{}\", {} taxels",
         input.display(),
         link.name,
         link.taxels.len()
     );
     match r.source {
-        Some(MeshSource::Triangulated { chart }) => println!(
+        Some(MeshSource::Triangulated { chart }) => crate::say!(
             "mesh: {} triangles, Delaunay in the {chart}; {} triangles bridging holes or the outer concavity removed",
             map.faces.len(),
             r.mesh.bridging_faces
         ),
-        _ => println!("mesh: {} triangles as given", map.faces.len()),
+        _ => crate::say!("mesh: {} triangles as given", map.faces.len()),
     }
     if !r.mesh.welded.is_empty() {
-        println!(
+        crate::say!(
             "taxels at the same position (sharing one map point): {}",
             r.mesh
                 .welded
@@ -156,27 +156,29 @@ fn print_report(input: &Path, link: &LinkSkin, map: &TactileMap) {
         );
     }
     if r.mesh.degenerate_faces + r.mesh.duplicate_faces + r.pinch_faces > 0 {
-        println!(
+        crate::say!(
             "dropped triangles: {} of zero area, {} repeated, {} pinched to another piece at one vertex",
-            r.mesh.degenerate_faces, r.mesh.duplicate_faces, r.pinch_faces
+            r.mesh.degenerate_faces,
+            r.mesh.duplicate_faces,
+            r.pinch_faces
         );
     }
     if !r.mesh.isolated.is_empty() {
-        println!(
+        crate::say!(
             "taxels in no triangle (map point extrapolated from the nearest triangle): {:?}",
             r.mesh.isolated.iter().map(|t| t.0).collect::<Vec<_>>()
         );
     }
     if r.components > 1 {
-        println!(
+        crate::say!(
             "{} separate pieces, flattened one by one and laid side by side",
             r.components
         );
     }
-    println!(
+    crate::say!(
         "map: {:.1} x {:.1} mm (LSCM, area-preserving scale)",
         w * 1e3,
         h * 1e3
     );
-    println!("{}", r.distortion);
+    crate::say!("{}", r.distortion);
 }

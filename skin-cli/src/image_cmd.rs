@@ -153,7 +153,7 @@ pub fn run(args: Args) -> Result<()> {
         },
     )?;
     bar.finish_and_clear();
-    println!(
+    crate::say!(
         "{total} frames from {} recording(s) -> {out_rows} x {out_cols} px images in {}",
         inputs.len(),
         args.output.display()
@@ -171,7 +171,7 @@ fn load_map(path: &Path) -> Result<TactileMap> {
     let map = TactileMap::flatten(&link, &skin_geom::FlattenOptions::default())
         .with_context(|| format!("{}", path.display()))?;
     let (w, h) = map.extent();
-    println!(
+    crate::say!(
         "{}: a layout, flattened to a {:.0} x {:.0} mm tactile map (mean angle error {:.3} deg); save it with `skin flatten` to skip this step",
         path.display(),
         w * 1e3,
@@ -217,7 +217,7 @@ fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<In
         }
         let extra = rec.taxel_ids.len() - map.ids.len().min(rec.taxel_ids.len());
         if extra > 0 {
-            println!(
+            crate::say!(
                 "{}: {extra} reading column(s) are not taxels of the map and are ignored",
                 p.display()
             );

@@ -6,6 +6,15 @@
 mod flatten;
 mod image_cmd;
 
+/// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+pub(crate) use say;
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 

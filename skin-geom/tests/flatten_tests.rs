@@ -69,6 +69,14 @@ fn flat_grid(cols: usize, rows: usize, pitch: f64) -> LinkSkin {
     LinkSkin::new("flat", taxels)
 }
 
+/// The (x, y) of each taxel: the exact map of a patch lying in the z = 0 plane.
+fn plane_xy(link: &LinkSkin) -> Vec<Point2<f64>> {
+    link.taxels
+        .iter()
+        .map(|t| Point2::new(t.position.x, t.position.y))
+        .collect()
+}
+
 fn flatten(link: &LinkSkin) -> TactileMap {
     TactileMap::flatten(link, &FlattenOptions::default()).unwrap()
 }
@@ -154,11 +162,7 @@ fn a_cylinder_triangulated_along_its_rulings_flattens_exactly() {
 fn a_flat_patch_maps_onto_itself_up_to_a_rigid_motion() {
     let link = flat_grid(9, 7, 0.008);
     let map = flatten(&link);
-    let original: Vec<Point2<f64>> = link
-        .taxels
-        .iter()
-        .map(|t| Point2::new(t.position.x, t.position.y))
-        .collect();
+    let original = plane_xy(&link);
     assert!(rigid_residual(&map.points, &original) < 1e-9);
     // Seen from outside (+z), the map keeps the handedness of the patch: no mirror image.
     assert!(map.faces.iter().all(|f| {
@@ -397,11 +401,7 @@ fn a_taxel_in_no_triangle_gets_an_extrapolated_point_and_is_reported() {
     let isolated: Vec<u32> = map.report.mesh.isolated.iter().map(|t| t.0).collect();
     assert_eq!(isolated, vec![3, 7, 10, 11, 12, 13, 14, 15]);
     // The flat patch's affine map extends exactly: every point sits where the plane puts it.
-    let original: Vec<Point2<f64>> = link
-        .taxels
-        .iter()
-        .map(|t| Point2::new(t.position.x, t.position.y))
-        .collect();
+    let original = plane_xy(&link);
     assert!(rigid_residual(&map.points, &original) < 1e-9);
 }
 
