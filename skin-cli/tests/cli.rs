@@ -2,6 +2,15 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
+/// Says why a test skips, on stderr directly: libtest captures `eprintln!` of passing tests, and a
+/// skip must be visible in the run's output.
+macro_rules! skip_note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -84,7 +93,7 @@ fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
 fn flatten_reads_icub_files_and_lists_the_merged_rows() {
     let p = root().join("../shared/data/icub/left_forearm_V2.txt");
     if !p.exists() {
-        eprintln!(
+        skip_note!(
             "skipped: {} not found (the shared third-party data is not beside the project)",
             p.display()
         );

@@ -2,6 +2,15 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
+/// Says why a test skips, on stderr directly: libtest captures `eprintln!` of passing tests, and a
+/// skip must be visible in the run's output.
+macro_rules! skip_note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 use nalgebra::{DMatrix, DVector, Isometry3, Point2, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
@@ -15,7 +24,7 @@ fn shared(rel: &str) -> Option<PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!(
+        skip_note!(
             "skipped: {} not found (the shared third-party data is not beside the project)",
             p.display()
         );
