@@ -125,7 +125,10 @@ impl TactileMap {
                         .total_cmp(&(verts[b] - verts[v]).norm())
                 })
                 .ok_or_else(|| Error::TooFewTaxels("no flattened vertex".into()))?;
-            let face = out_faces[incident[&nearest]];
+            let face = incident
+                .get(&nearest)
+                .map(|&f| out_faces[f])
+                .ok_or_else(|| Error::TooFewTaxels("a flattened vertex is in no triangle".into()))?;
             uv[v] = Some(extrapolate(
                 verts[v],
                 face.map(|i| verts[i]),
