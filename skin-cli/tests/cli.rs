@@ -90,6 +90,35 @@ fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
 }
 
 #[test]
+fn a_cyskin_map_written_by_flatten_drives_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("cyskin_map.json");
+    let o = skin(&[
+        "flatten",
+        &fixture("layout.json"),
+        "-o",
+        map.to_str().unwrap(),
+        "--format",
+        "cyskin",
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let out = dir.path().join("imgs");
+    let o = skin(&[
+        "image",
+        "--map",
+        map.to_str().unwrap(),
+        &fixture("touches.txt"),
+        "-o",
+        out.to_str().unwrap(),
+        "--grid",
+        "68x100",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert_eq!(std::fs::read_dir(out.join("touches")).unwrap().count(), 130);
+}
+
+#[test]
 fn flatten_reads_icub_files_and_lists_the_merged_rows() {
     let p = root().join("../shared/data/icub/left_forearm_V2.txt");
     if !p.exists() {
