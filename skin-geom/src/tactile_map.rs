@@ -415,15 +415,9 @@ fn normalise(pts: &mut [Point2<f64>], verts: &[Point3<f64>], faces: &[[usize; 3]
     for p in pts.iter_mut() {
         *p = Point2::from(rot * ((p.coords - c) * scale));
     }
-    let (mut lo, mut hi) = (
-        Point2::new(f64::INFINITY, f64::INFINITY),
-        Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
-    );
-    for p in pts.iter() {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    let _ = hi;
+    let lo = pts
+        .iter()
+        .fold(Point2::new(f64::INFINITY, f64::INFINITY), |lo, p| lo.inf(p));
     for p in pts.iter_mut() {
         *p = Point2::new(p.x - lo.x + u_offset, p.y - lo.y);
     }
