@@ -16,10 +16,19 @@
 //! # Ok::<(), skin_can::Error>(())
 //! ```
 //!
-//! Planned (thesis App. A): the `skin16` and iCub wire decoders, bus maps, sync-delimited snapshot
-//! assembly with completeness per module, and live SocketCAN input.
+//! It also decodes the project's `skin16` wire format ([`decode::Skin16`]) and assembles
+//! sync-delimited snapshots of the whole skin from several buses ([`Assembler`]) through a
+//! [`BusMap`], reporting per frame the modules that were missing or sent data twice.
+//!
+//! Planned (thesis App. A): the iCub `icub8` decoder, baselines, `skin replay`/`record`/`live`, and
+//! live SocketCAN input.
 
+mod assembler;
+pub mod busmap;
 pub mod candump;
+pub mod decode;
 mod error;
 
+pub use assembler::{AssembledFrame, Assembler, AssemblyStats, ModuleRef};
+pub use busmap::{BusMap, WireFormat};
 pub use error::{Error, Result};

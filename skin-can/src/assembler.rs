@@ -1,0 +1,295 @@
+//! Sync-delimited snapshot assembly: CAN frames in, one frame of the whole skin per cycle out.
+//!
+//! Every bus's sync opens a cycle; the module data that follows on that bus belongs to it. Buses
+//! are merged by cycle counter (the master sends the same counter on every bus), unwrapped past
+//! 255 so cycles keep increasing. A cycle is delivered once every bus that has spoken has moved on
+//! to a later one (or at [`Assembler::finish`]), with its values in bus-map order and a report of
+//! the modules that did not send all their chunks and of chunks received twice. A partial frame is
+//! delivered flagged, never dropped.
+
+use crate::busmap::{BusMap, SLOTS};
+use crate::candump::CanFrame;
+use crate::decode::{Decoded, Decoder};
+use std::collections::VecDeque;
+
+/// A module named by its bus and address.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ModuleRef {
+    /// Bus index in the bus map.
+    pub bus: u16,
+    /// Address on that bus.
+    pub address: u32,
+}
+
+/// One assembled snapshot of the skin.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AssembledFrame {
+    /// Cycle number (the sync counter, unwrapped past 255).
+    pub cycle: u64,
+    /// Time of the first sync of this cycle, microseconds.
+    pub time_us: u64,
+    /// One reading per taxel in bus-map order ([`BusMap::taxel_ids`]); `None` where the module's
+    /// data did not arrive.
+    pub values: Vec<Option<u16>>,
+    /// Modules with at least one of their data frames missing.
+    pub missing: Vec<ModuleRef>,
+    /// Modules that sent some data frame twice in this cycle (the first copy is kept).
+    pub duplicated: Vec<ModuleRef>,
+}
+
+impl AssembledFrame {
+    /// Every module of the map sent all its data.
+    pub fn is_complete(&self) -> bool {
+        self.missing.is_empty()
+    }
+}
+
+/// Counts over everything pushed so far.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AssemblyStats {
+    /// Frames delivered.
+    pub frames: u64,
+    /// Of which complete.
+    pub complete: u64,
+    /// Data frames from addresses the bus map does not list.
+    pub unknown_module: u64,
+    /// Data frames on a bus before its first sync (no cycle to put them in).
+    pub before_first_sync: u64,
+    /// Data frames for a cycle already delivered (arrived too late).
+    pub late: u64,
+    /// Frames of other protocols, or from interfaces not in the map.
+    pub ignored: u64,
+    /// Malformed frames, by what was wrong.
+    pub malformed: Vec<(&'static str, u64)>,
+}
+
+/// Where one module's slots go.
+#[derive(Debug, Clone, Copy)]
+struct Slots {
+    index: usize,
+    columns: [Option<u32>; SLOTS],
+}
+
+#[derive(Debug, Clone)]
+struct Pending {
+    frame: AssembledFrame,
+    /// Per module, bit k set when slot k arrived.
+    received: Vec<u16>,
+    twice: Vec<bool>,
+}
+
+/// Assembles frames of one bus map from CAN traffic.
+#[derive(Debug, Clone)]
+pub struct Assembler<D: Decoder> {
+    decoder: D,
+    /// For each log interface, its bus in the map (if any).
+    bus_of_interface: Vec<Option<u16>>,
+    /// Per map bus, address -> module slots.
+    modules: Vec<Vec<Option<Slots>>>,
+    module_refs: Vec<ModuleRef>,
+    /// Per module, the slots that carry a taxel (all must arrive for the module to be complete).
+    expected: Vec<u16>,
+    columns: usize,
+    /// Per map bus, the cycle it is in.
+    bus_cycle: Vec<Option<u64>>,
+    latest: Option<u64>,
+    pending: VecDeque<Pending>,
+    spare: Vec<Pending>,
+    delivered_up_to: Option<u64>,
+    stats: AssemblyStats,
+}
+
+impl<D: Decoder> Assembler<D> {
+    /// An assembler for `map`, reading frames whose `bus` indexes `interfaces` (a log's interface
+    /// list). Interfaces not in the map are ignored; map buses absent from the list deliver
+    /// nothing and their modules are reported missing in every frame.
+    pub fn new(map: &BusMap, interfaces: &[String], decoder: D) -> Self {
+        let bus_of_interface = interfaces
+            .iter()
+            .map(|name| {
+                map.buses
+                    .iter()
+                    .position(|b| &b.interface == name)
+                    .map(|b| b as u16)
+            })
+            .collect();
+        let mut modules = Vec::with_capacity(map.buses.len());
+        let mut module_refs = Vec::new();
+        let mut expected = Vec::new();
+        let mut column = 0u32;
+        for (b, bus) in map.buses.iter().enumerate() {
+            let size = bus
+                .modules
+                .iter()
+                .map(|m| m.address as usize + 1)
+                .max()
+                .unwrap_or(0);
+            let mut table = vec![None; size];
+            for m in &bus.modules {
+                let mut columns = [None; SLOTS];
+                let mut mask = 0u16;
+                for (slot, &t) in m.taxels.iter().enumerate().take(SLOTS) {
+                    if t >= 0 {
+                        columns[slot] = Some(column);
+                        column += 1;
+                        mask |= 1 << slot;
+                    }
+                }
+                table[m.address as usize] = Some(Slots {
+                    index: module_refs.len(),
+                    columns,
+                });
+                module_refs.push(ModuleRef {
+                    bus: b as u16,
+                    address: m.address,
+                });
+                expected.push(mask);
+            }
+            modules.push(table);
+        }
+        Assembler {
+            decoder,
+            bus_of_interface,
+            modules,
+            module_refs,
+            expected,
+            columns: column as usize,
+            bus_cycle: vec![None; map.buses.len()],
+            latest: None,
+            pending: VecDeque::new(),
+            spare: Vec::new(),
+            delivered_up_to: None,
+            stats: AssemblyStats::default(),
+        }
+    }
+
+    /// Counts so far.
+    pub fn stats(&self) -> &AssemblyStats {
+        &self.stats
+    }
+
+    /// Feeds one CAN frame; calls `emit` for every frame it completes.
+    pub fn push(&mut self, frame: &CanFrame, emit: &mut dyn FnMut(&AssembledFrame)) {
+        let Some(&Some(bus)) = self.bus_of_interface.get(usize::from(frame.bus)) else {
+            self.stats.ignored += 1;
+            return;
+        };
+        match self.decoder.decode(frame) {
+            Decoded::Ignored => self.stats.ignored += 1,
+            Decoded::Malformed(what) => match self.stats.malformed.iter_mut().find(|(w, _)| *w == what) {
+                Some((_, n)) => *n += 1,
+                None => self.stats.malformed.push((what, 1)),
+            },
+            Decoded::Sync { counter } => self.sync(bus, counter, frame.time_us, emit),
+            Decoded::Values {
+                address,
+                first_slot,
+                count,
+                values,
+            } => self.values(bus, address, first_slot, &values[..usize::from(count.min(8))]),
+        }
+    }
+
+    fn sync(&mut self, bus: u16, counter: u8, time_us: u64, emit: &mut dyn FnMut(&AssembledFrame)) {
+        // The cycle number nearest the latest one with this counter modulo 256.
+        let cycle = match self.latest {
+            None => u64::from(counter),
+            Some(latest) => {
+                let delta = i64::from(counter.wrapping_sub(latest as u8) as i8);
+                latest.saturating_add_signed(delta)
+            }
+        };
+        self.latest = Some(self.latest.map_or(cycle, |l| l.max(cycle)));
+        self.bus_cycle[usize::from(bus)] = Some(cycle);
+        if self.delivered_up_to.is_none_or(|d| cycle > d)
+            && !self.pending.iter().any(|p| p.frame.cycle == cycle)
+        {
+            let mut p = self.spare.pop().unwrap_or_else(|| Pending {
+                frame: AssembledFrame {
+                    cycle: 0,
+                    time_us: 0,
+                    values: vec![None; self.columns],
+                    missing: Vec::new(),
+                    duplicated: Vec::new(),
+                },
+                received: vec![0; self.module_refs.len()],
+                twice: vec![false; self.module_refs.len()],
+            });
+            p.frame.cycle = cycle;
+            p.frame.time_us = time_us;
+            p.frame.values.fill(None);
+            p.received.fill(0);
+            p.twice.fill(false);
+            let at = self.pending.partition_point(|q| q.frame.cycle < cycle);
+            self.pending.insert(at, p);
+        }
+        self.deliver(false, emit);
+    }
+
+    fn values(&mut self, bus: u16, address: u32, first_slot: u8, values: &[u16]) {
+        let Some(cycle) = self.bus_cycle[usize::from(bus)] else {
+            self.stats.before_first_sync += 1;
+            return;
+        };
+        let Some(Some(slots)) = self.modules[usize::from(bus)].get(address as usize).copied() else {
+            self.stats.unknown_module += 1;
+            return;
+        };
+        let Some(p) = self.pending.iter_mut().find(|p| p.frame.cycle == cycle) else {
+            self.stats.late += 1;
+            return;
+        };
+        for (k, &v) in values.iter().enumerate() {
+            let slot = usize::from(first_slot) + k;
+            if slot >= SLOTS {
+                break;
+            }
+            let bit = 1u16 << slot;
+            if p.received[slots.index] & bit != 0 {
+                p.twice[slots.index] = true;
+                continue;
+            }
+            p.received[slots.index] |= bit;
+            if let Some(c) = slots.columns[slot] {
+                p.frame.values[c as usize] = Some(v);
+            }
+        }
+    }
+
+    /// Delivers every pending cycle that all active buses have left (or all, when `all`).
+    fn deliver(&mut self, all: bool, emit: &mut dyn FnMut(&AssembledFrame)) {
+        let oldest_bus_cycle = self.bus_cycle.iter().flatten().copied().min();
+        while let Some(front) = self.pending.front() {
+            let ready =
+                all || oldest_bus_cycle.is_some_and(|c| front.frame.cycle < c) || self.pending.len() > 8;
+            if !ready {
+                break;
+            }
+            let Some(mut p) = self.pending.pop_front() else {
+                break;
+            };
+            p.frame.missing.clear();
+            p.frame.duplicated.clear();
+            for (m, r) in self.module_refs.iter().enumerate() {
+                if p.received[m] & self.expected[m] != self.expected[m] {
+                    p.frame.missing.push(*r);
+                }
+                if p.twice[m] {
+                    p.frame.duplicated.push(*r);
+                }
+            }
+            self.stats.frames += 1;
+            if p.frame.is_complete() {
+                self.stats.complete += 1;
+            }
+            self.delivered_up_to = Some(p.frame.cycle);
+            emit(&p.frame);
+            self.spare.push(p);
+        }
+    }
+
+    /// Delivers the cycles still pending (end of a log or of a live session).
+    pub fn finish(&mut self, emit: &mut dyn FnMut(&AssembledFrame)) {
+        self.deliver(true, emit);
+    }
+}

@@ -1,0 +1,143 @@
+//! Bus maps: which taxel each value on the wire belongs to.
+//!
+//! ```toml
+//! format = "skin16"            # or "icub8"
+//! [[bus]]
+//! interface = "can0"           # the candump interface name, or the live interface
+//! [[bus.module]]
+//! address = 0                  # skin16: module_on_bus; icub8: board << 4 | triangle
+//! taxels = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11]   # taxel id of each of the 12 slots; -1 = unused
+//! ```
+//! Frames list their values in bus-map order: bus by bus, module by module, slot by slot, unused
+//! slots skipped ([`BusMap::taxel_ids`]).
+
+use crate::{Error, Result};
+use serde::Deserialize;
+use skin_core::TaxelId;
+use std::path::Path;
+
+/// Slots per module (12 channels of a Cyskin or iCub triangle).
+pub const SLOTS: usize = 12;
+
+/// The wire format of every bus in a map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WireFormat {
+    /// The project's 16-bit format with a broadcast sync (see [`crate::skin16`]).
+    Skin16,
+    /// The iCub skin periodic message, 8-bit values, no sync.
+    Icub8,
+}
+
+/// One module (triangle) on a bus.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModuleMap {
+    /// skin16: the module's number on its bus (0..128); icub8: board << 4 | triangle.
+    pub address: u32,
+    /// Taxel id of each of the 12 slots; -1 for an unused slot.
+    pub taxels: Vec<i64>,
+}
+
+/// One bus.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusSpec {
+    /// Interface name (`can0`, ...), as in candump logs.
+    pub interface: String,
+    /// Its modules.
+    #[serde(default, rename = "module")]
+    pub modules: Vec<ModuleMap>,
+}
+
+/// A whole bus map.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusMap {
+    /// Wire format.
+    pub format: WireFormat,
+    /// The buses.
+    #[serde(rename = "bus")]
+    pub buses: Vec<BusSpec>,
+}
+
+impl BusMap {
+    /// Reads a bus map file.
+    pub fn read(path: &Path) -> Result<BusMap> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses bus-map TOML and checks it; `path` is used in error messages.
+    pub fn parse(text: &str, path: &Path) -> Result<BusMap> {
+        let map: BusMap = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map_or(0, |s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            Error::Line {
+                path: path.to_owned(),
+                line,
+                message: e.message().to_string(),
+            }
+        })?;
+        map.check().map_err(|message| Error::Line {
+            path: path.to_owned(),
+            line: 0,
+            message,
+        })?;
+        Ok(map)
+    }
+
+    fn check(&self) -> std::result::Result<(), String> {
+        let mut seen = std::collections::HashMap::new();
+        for (b, bus) in self.buses.iter().enumerate() {
+            if self.buses[..b].iter().any(|o| o.interface == bus.interface) {
+                return Err(format!("interface \"{}\" appears on two buses", bus.interface));
+            }
+            for (m, module) in bus.modules.iter().enumerate() {
+                let place = format!(
+                    "bus \"{}\" module {} (address {})",
+                    bus.interface, m, module.address
+                );
+                if module.taxels.len() != SLOTS {
+                    return Err(format!(
+                        "{place}: {} taxel slots, expected {SLOTS}",
+                        module.taxels.len()
+                    ));
+                }
+                if self.format == WireFormat::Skin16 && module.address >= 128 {
+                    return Err(format!("{place}: skin16 addresses are 0..127"));
+                }
+                if bus.modules[..m].iter().any(|o| o.address == module.address) {
+                    return Err(format!("{place}: address used twice on this bus"));
+                }
+                for (slot, &t) in module.taxels.iter().enumerate() {
+                    if t == -1 {
+                        continue;
+                    }
+                    let id = u32::try_from(t)
+                        .map_err(|_| format!("{place} slot {slot}: taxel id {t} is not -1 or a u32"))?;
+                    if let Some(first) = seen.insert(id, place.clone()) {
+                        return Err(format!("{place} slot {slot}: taxel {id} is also in {first}"));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Taxel ids in bus-map order (bus, module, slot; unused slots skipped): the column order of
+    /// assembled frames.
+    pub fn taxel_ids(&self) -> Vec<TaxelId> {
+        self.buses
+            .iter()
+            .flat_map(|b| b.modules.iter())
+            .flat_map(|m| m.taxels.iter())
+            .filter(|&&t| t >= 0)
+            .map(|&t| TaxelId(t as u32))
+            .collect()
+    }
+}
