@@ -1,10 +1,12 @@
 //! `skin`: robot skin from the command line.
 //!
 //! `skin flatten` turns a link's taxel layout into a flat tactile map; `skin image` turns
-//! recordings into tactile images through such a map. Run `skin help <command>` for details.
+//! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
+//! candump log of CAN traffic. Run `skin help <command>` for details.
 
 mod flatten;
 mod image_cmd;
+mod replay;
 
 /// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
 macro_rules! say {
@@ -29,6 +31,7 @@ struct Cli {
 enum Command {
     Flatten(flatten::Args),
     Image(image_cmd::Args),
+    Replay(replay::Args),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +39,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Flatten(args) => flatten::run(args),
         Command::Image(args) => image_cmd::run(args),
+        Command::Replay(args) => replay::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -270,3 +270,76 @@ fn help_explains_units_and_formats() {
     let (out, _) = text(&skin(&["image", "--help"]));
     assert!(out.contains("millimetres") && out.contains("68x100"), "{out}");
 }
+
+#[test]
+fn replay_assembles_the_fixture_log_into_the_recorded_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frames.csv");
+    let o = skin(&[
+        "replay",
+        &fixture("touches.candump.log"),
+        "--busmap",
+        &fixture("busmap.toml"),
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("130 skin frames of 715 taxels: 130 complete, 0 partial"),
+        "{out}"
+    );
+    // The log's ground truth is the recording: same taxels, same readings, frame by frame.
+    let rec = skin_core::format::recording::read(std::path::Path::new(&fixture("touches.txt"))).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let ids: Vec<String> = rec.taxel_ids.iter().map(|t| t.0.to_string()).collect();
+    assert_eq!(
+        &header[3..],
+        &ids.iter().map(String::as_str).collect::<Vec<_>>()[..]
+    );
+    for (line, frame) in lines.zip(&rec.frames) {
+        let cells: Vec<&str> = line.split(',').collect();
+        assert_eq!(cells[2], "1");
+        let values: Vec<f32> = cells[3..].iter().map(|c| c.parse().unwrap()).collect();
+        assert_eq!(values, frame.values);
+    }
+}
+
+#[test]
+fn replay_reports_a_lost_can_frame_and_leaves_its_cells_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("lossy.log");
+    let original = std::fs::read_to_string(fixture("touches.candump.log")).unwrap();
+    // Lose one data frame of module 7 (address 6) in the 11th cycle.
+    let lost = original
+        .lines()
+        .filter(|l| l.contains(" can0 219#"))
+        .nth(10)
+        .unwrap()
+        .to_string();
+    std::fs::write(&log, original.replacen(&format!("{lost}\n"), "", 1)).unwrap();
+    let csv = dir.path().join("f.csv");
+    let o = skin(&[
+        "replay",
+        log.to_str().unwrap(),
+        "--busmap",
+        &fixture("busmap.toml"),
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("129 complete, 1 partial") && out.contains("module 6 on can0 missing in 1 frame(s)"),
+        "{out}"
+    );
+    let row = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .nth(11)
+        .unwrap()
+        .to_string();
+    assert!(row.split(',').nth(2) == Some("0") && row.contains(",,"), "{row}");
+}
