@@ -206,3 +206,52 @@ proptest! {
         prop_assert!(cycles.windows(2).all(|w| w[0] < w[1]));
     }
 }
+
+#[test]
+fn icub8_triangles_decode_to_their_readings_and_status() {
+    use skin_can::decode::icub8::{encode_triangle, status};
+    use skin_can::decode::{Decoded, Decoder, Icub8};
+    let readings: [u8; 12] = std::array::from_fn(|k| 255 - 10 * k as u8);
+    let [a, b] = encode_triangle(0x3A, &readings, 0b1000_0000_0101, 0b10, 7, 0);
+    assert_eq!(a.id, 0x43A);
+    let mut dec = Icub8;
+    let Decoded::Values {
+        address,
+        first_slot,
+        count,
+        values,
+    } = dec.decode(&a)
+    else {
+        panic!()
+    };
+    assert_eq!((address, first_slot, count), (0x3A, 0, 7));
+    assert_eq!(
+        values[..7].iter().map(|&v| v as u8).collect::<Vec<_>>(),
+        readings[..7]
+    );
+    let Decoded::Values {
+        first_slot,
+        count,
+        values,
+        ..
+    } = dec.decode(&b)
+    else {
+        panic!()
+    };
+    assert_eq!((first_slot, count), (7, 5));
+    assert_eq!(
+        values[..5].iter().map(|&v| v as u8).collect::<Vec<_>>(),
+        readings[7..]
+    );
+    assert_eq!(status(&b), Some((0b1000_0000_0101, 0b10)));
+    // Legacy class 3 is accepted; other classes and a bad first byte are not skin data.
+    let mut legacy = a;
+    legacy.id = 0x33A;
+    assert!(matches!(dec.decode(&legacy), Decoded::Values { .. }));
+    let mut other = a;
+    other.id = 0x53A;
+    assert_eq!(dec.decode(&other), Decoded::Ignored);
+    let mut bad = a;
+    bad.bytes[0] = 0x41;
+    assert!(matches!(dec.decode(&bad), Decoded::Malformed(_)));
+}

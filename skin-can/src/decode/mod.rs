@@ -3,8 +3,10 @@
 //! A [`Decoder`] knows a wire format and nothing else (no bus map, no time): adding a hardware
 //! format is implementing this trait.
 
+pub mod icub8;
 pub mod skin16;
 
+pub use icub8::Icub8;
 pub use skin16::Skin16;
 
 use crate::candump::CanFrame;
