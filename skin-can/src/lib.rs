@@ -16,12 +16,16 @@
 //! # Ok::<(), skin_can::Error>(())
 //! ```
 //!
-//! It also decodes the project's `skin16` wire format ([`decode::Skin16`]) and assembles
-//! sync-delimited snapshots of the whole skin from several buses ([`Assembler`]) through a
-//! [`BusMap`], reporting per frame the modules that were missing or sent data twice.
+//! It decodes two wire formats behind one [`decode::Decoder`] trait: the project's `skin16`
+//! ([`decode::skin16`], 16-bit readings, broadcast sync) and the iCub skin message
+//! ([`decode::icub8`], 8-bit readings, no sync). The [`Assembler`] turns `skin16` traffic from
+//! several buses into one frame of the whole skin per sync cycle through a [`BusMap`], and reports
+//! per frame the modules that were missing or sent data twice: a partial frame is delivered
+//! flagged, never dropped.
 //!
-//! Planned (thesis App. A): the iCub `icub8` decoder, baselines, `skin replay`/`record`/`live`, and
-//! live SocketCAN input.
+//! Not yet here (thesis App. A): time-window assembly of `icub8` traffic, live SocketCAN input and
+//! recording (this workplace's kernel has no SocketCAN; the live path will be tested against a mock
+//! socket and recorded logs).
 
 mod assembler;
 pub mod busmap;
