@@ -7,7 +7,9 @@
 //!   link it is glued to (metres);
 //! - [`LinkSkin`]: the taxels of one link, optionally with triangles between them;
 //! - [`SkinLayout`]: the skins of all links of a robot;
-//! - [`Frame`] and [`Recording`]: synchronous snapshots of one value per taxel, in layout order.
+//! - [`Frame`] and [`Recording`]: synchronous snapshots of one value per taxel, in layout order;
+//! - [`Baseline`]: raw readings to pressures, per-taxel noise thresholds, drift tracking, and the
+//!   dead or stuck taxels found while learning it.
 //!
 //! File formats live in [`format`]: the project's own JSON layout, Cyskin calibration JSON (read and
 //! write), iCub `positions/*.txt` taxel files, and Cyskin raw recordings (read and write).
@@ -32,12 +34,14 @@
 //! Units: metres for positions, unit vectors for normals, seconds for times. Pressure values are
 //! whatever the sensor reports (raw capacitance counts for Cyskin) unless a crate says otherwise.
 
+mod baseline;
 mod error;
 pub mod format;
 mod frame;
 mod layout;
 mod taxel;
 
+pub use baseline::{Baseline, BaselineOptions, Polarity, TaxelHealth};
 pub use error::{Error, Result};
 pub use frame::{Frame, Recording};
 pub use layout::{LinkSkin, SkinLayout};

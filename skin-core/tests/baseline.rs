@@ -1,0 +1,128 @@
+//! Baselines: offsets, noise thresholds, drift tracking, dead and stuck taxels.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use skin_core::{Baseline, BaselineOptions, Polarity};
+use std::path::Path;
+
+/// Idle frames: taxel i sits at 1000 + 10 i with a +-2 count wobble; taxel 3 never moves, taxel 4
+/// is pinned at 65535.
+fn idle(frames: usize) -> Vec<Vec<f32>> {
+    (0..frames)
+        .map(|k| {
+            (0..6)
+                .map(|i| match i {
+                    3 => 500.0,
+                    4 => 65535.0,
+                    _ => 1000.0 + 10.0 * i as f32 + [-2.0, 0.0, 2.0, 0.0][(k + i) % 4],
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn learn(frames: &[Vec<f32>], options: &BaselineOptions) -> (Baseline, skin_core::TaxelHealth) {
+    Baseline::from_idle(frames.iter().map(Vec::as_slice), options, Path::new("idle")).unwrap()
+}
+
+#[test]
+fn offsets_are_the_idle_means_and_noise_is_three_sigma() {
+    let (b, health) = learn(&idle(40), &BaselineOptions::default());
+    assert_eq!(b.len(), 6);
+    assert!((b.offsets()[2] - 1020.0).abs() < 1e-3);
+    // Readings -2, 0, 2, 0 repeating: sample sd = sqrt(2 * 40 / 39).
+    let sd = (2.0f32 * 40.0 / 39.0).sqrt();
+    assert!((b.noise()[0] - 3.0 * sd).abs() < 1e-3, "{}", b.noise()[0]);
+    assert_eq!(b.noise()[3], 1.0, "a quiet taxel gets the minimum threshold");
+    assert_eq!(health.dead, vec![3]);
+    assert_eq!(health.stuck, vec![4]);
+}
+
+#[test]
+fn pressures_are_readings_above_the_offset_beyond_the_noise() {
+    let (mut b, _) = learn(&idle(40), &BaselineOptions::default());
+    let raw = [
+        1000.0 + 3.0,
+        1010.0 + 300.0,
+        1020.0 + 5.0,
+        500.0,
+        65535.0,
+        1050.0 - 40.0,
+    ];
+    let mut p = [9.0f32; 6];
+    b.apply(&raw, &mut p).unwrap();
+    assert_eq!(p[0], 0.0, "3 counts is within the noise");
+    assert!((p[1] - 300.0).abs() < 1e-3);
+    assert!((p[2] - 5.0).abs() < 1e-3, "5 counts is beyond 3 sigma (4.3)");
+    assert_eq!(
+        p[5], 0.0,
+        "pressure does not lower a Cyskin reading: no negative pressures"
+    );
+    assert!(b.apply(&raw[..5], &mut p).is_err());
+}
+
+#[test]
+fn drift_is_followed_only_while_there_is_no_contact() {
+    let options = BaselineOptions {
+        drift_per_frame: 0.05,
+        ..BaselineOptions::default()
+    };
+    let (mut b, _) = learn(&idle(40), &options);
+    let mut p = [0.0f32; 6];
+    // The no-contact reading of taxel 0 creeps up by 20 counts over 400 frames...
+    for k in 0..400 {
+        let mut raw: Vec<f32> = idle(1)[0].clone();
+        raw[0] = 1000.0 + 20.0 * k as f32 / 400.0;
+        // ...while taxel 1 is pressed hard throughout.
+        raw[1] = 1010.0 + 500.0;
+        b.apply(&raw, &mut p).unwrap();
+        assert_eq!(p[0], 0.0, "frame {k}: drift must not look like a touch");
+    }
+    // An exponential follower lags a ramp by slope / rate = (20 / 400) / 0.05 = 1 count.
+    let last = 1000.0 + 20.0 * 399.0 / 400.0;
+    assert!((b.offsets()[0] - (last - 1.0)).abs() < 0.05, "{}", b.offsets()[0]);
+    assert!(
+        (b.offsets()[1] - 1010.0).abs() < 1e-3,
+        "a pressed taxel keeps its offset"
+    );
+    assert!((p[1] - 500.0).abs() < 1e-3);
+}
+
+#[test]
+fn falling_readings_give_positive_pressures_for_icub_skin() {
+    let frames: Vec<Vec<f32>> = (0..10).map(|k| vec![255.0 - (k % 2) as f32, 250.0]).collect();
+    let options = BaselineOptions {
+        polarity: Polarity::Falling,
+        rails: (0.0, 255.0),
+        ..BaselineOptions::default()
+    };
+    let (mut b, health) = learn(&frames, &options);
+    assert!(
+        health.stuck.is_empty(),
+        "a taxel that only touches the rail is not stuck"
+    );
+    let mut p = [0.0f32; 2];
+    b.apply(&[200.0, 250.0], &mut p).unwrap();
+    assert!((p[0] - 54.5).abs() < 1e-3 && p[1] == 0.0, "{p:?}");
+}
+
+#[test]
+fn too_few_or_ragged_idle_frames_are_errors() {
+    let one = idle(1);
+    let e = Baseline::from_idle(
+        one.iter().map(Vec::as_slice),
+        &BaselineOptions::default(),
+        Path::new("idle.txt"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("at least 2"), "{e}");
+    let mut ragged = idle(3);
+    ragged[2].pop();
+    let e = Baseline::from_idle(
+        ragged.iter().map(Vec::as_slice),
+        &BaselineOptions::default(),
+        Path::new("idle.txt"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("idle frame 2"), "{e}");
+}
