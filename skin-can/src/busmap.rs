@@ -141,3 +141,85 @@ impl BusMap {
             .collect()
     }
 }
+
+impl BusMap {
+    /// A bus map for taxels with Cyskin ids (module << 4 | channel, channel 0..=11): modules in
+    /// increasing order, split into `buses` nearly equal consecutive blocks on `can0`, `can1`, ...,
+    /// addressed from 0 on each bus; a channel no taxel uses is an unused slot.
+    pub fn for_taxels(
+        ids: &[TaxelId],
+        format: WireFormat,
+        buses: usize,
+    ) -> std::result::Result<BusMap, String> {
+        if buses == 0 {
+            return Err("at least one bus is needed".into());
+        }
+        let mut modules: std::collections::BTreeMap<u32, Vec<i64>> = std::collections::BTreeMap::new();
+        for id in ids {
+            let channel = id.channel() as usize;
+            if channel >= SLOTS {
+                return Err(format!(
+                    "taxel {id} has channel {channel}; Cyskin modules have channels 0..11"
+                ));
+            }
+            let slots = modules.entry(id.module()).or_insert_with(|| vec![-1; SLOTS]);
+            if slots[channel] != -1 {
+                return Err(format!("taxel {id} appears twice"));
+            }
+            slots[channel] = i64::from(id.0);
+        }
+        let per_bus = modules.len().div_ceil(buses).max(1);
+        if format == WireFormat::Skin16 && per_bus > 128 {
+            return Err(format!(
+                "{} modules on {buses} bus(es) is {per_bus} per bus; skin16 allows 128: use more buses",
+                modules.len()
+            ));
+        }
+        let modules: Vec<Vec<i64>> = modules.into_values().collect();
+        let map = BusMap {
+            format,
+            buses: (0..buses)
+                .map(|b| BusSpec {
+                    interface: format!("can{b}"),
+                    modules: modules
+                        .iter()
+                        .skip(b * per_bus)
+                        .take(per_bus)
+                        .enumerate()
+                        .map(|(a, taxels)| ModuleMap {
+                            address: a as u32,
+                            taxels: taxels.clone(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        };
+        map.check()?;
+        Ok(map)
+    }
+
+    /// The map in its TOML form.
+    pub fn to_toml(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = format!(
+            "format = \"{}\"\n",
+            match self.format {
+                WireFormat::Skin16 => "skin16",
+                WireFormat::Icub8 => "icub8",
+            }
+        );
+        for bus in &self.buses {
+            let _ = write!(s, "\n[[bus]]\ninterface = \"{}\"\n", bus.interface);
+            for m in &bus.modules {
+                let taxels: Vec<String> = m.taxels.iter().map(i64::to_string).collect();
+                let _ = write!(
+                    s,
+                    "\n[[bus.module]]\naddress = {}\ntaxels = [{}]\n",
+                    m.address,
+                    taxels.join(", ")
+                );
+            }
+        }
+        s
+    }
+}

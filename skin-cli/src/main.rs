@@ -4,6 +4,7 @@
 //! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
 //! candump log of CAN traffic. Run `skin help <command>` for details.
 
+mod busmap_cmd;
 mod flatten;
 mod image_cmd;
 mod replay;
@@ -32,6 +33,7 @@ enum Command {
     Flatten(flatten::Args),
     Image(image_cmd::Args),
     Replay(replay::Args),
+    Busmap(busmap_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         Command::Flatten(args) => flatten::run(args),
         Command::Image(args) => image_cmd::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Busmap(args) => busmap_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

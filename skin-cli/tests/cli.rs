@@ -343,3 +343,26 @@ fn replay_reports_a_lost_can_frame_and_leaves_its_cells_empty() {
         .to_string();
     assert!(row.split(',').nth(2) == Some("0") && row.contains(",,"), "{row}");
 }
+
+#[test]
+fn busmap_for_the_fixture_layout_matches_the_fixture_bus_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("map.toml");
+    let o = skin(&[
+        "busmap",
+        "--layout",
+        &fixture("layout.json"),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let ours = skin_can::BusMap::read(&out).unwrap();
+    let fixture_map = skin_can::BusMap::read(std::path::Path::new(&fixture("busmap.toml"))).unwrap();
+    assert_eq!(ours, fixture_map);
+    // Four buses share the 65 modules 17, 17, 17, 14.
+    let o = skin(&["busmap", "--layout", &fixture("layout.json"), "--buses", "4"]);
+    let four = skin_can::BusMap::parse(&text(&o).0, std::path::Path::new("stdout")).unwrap();
+    let sizes: Vec<usize> = four.buses.iter().map(|b| b.modules.len()).collect();
+    assert_eq!(sizes, vec![17, 17, 17, 14]);
+    assert_eq!(four.taxel_ids(), ours.taxel_ids());
+}

@@ -1,0 +1,51 @@
+//! `skin busmap`: a bus map for a layout's taxels.
+
+use anyhow::{Result, bail};
+use skin_can::{BusMap, WireFormat};
+use std::path::PathBuf;
+
+/// Write a bus map (TOML) for a layout whose taxel ids follow the Cyskin convention
+/// (module << 4 | channel): modules in increasing order, split into consecutive blocks over the
+/// buses can0, can1, ..., addressed from 0 on each bus. Prints it, or writes it with -o.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Layout (any file `skin flatten` reads).
+    #[arg(long, value_name = "L.json")]
+    layout: PathBuf,
+    /// Wire format.
+    #[arg(long, value_enum, default_value_t = Format::Skin16)]
+    format: Format,
+    /// Number of buses.
+    #[arg(long, default_value_t = 1)]
+    buses: usize,
+    /// Where to write the map (default: standard output).
+    #[arg(short, long, value_name = "MAP.toml")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Format {
+    Skin16,
+    Icub8,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let link = crate::flatten::load_input(&args.layout)?;
+    let format = match args.format {
+        Format::Skin16 => WireFormat::Skin16,
+        Format::Icub8 => WireFormat::Icub8,
+    };
+    let map = match BusMap::for_taxels(&link.ids(), format, args.buses) {
+        Ok(m) => m,
+        Err(e) => bail!("{}: {e}", args.layout.display()),
+    };
+    match &args.output {
+        Some(out) => {
+            crate::write_atomic(out, map.to_toml().as_bytes())?;
+            crate::say!("wrote {}", out.display());
+        }
+        None => crate::say!("{}", map.to_toml()),
+    }
+    Ok(())
+}
