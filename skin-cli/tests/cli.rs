@@ -2,17 +2,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
-/// Says why a test skips, on stderr directly: libtest captures `eprintln!` of passing tests, and a
-/// skip must be visible in the run's output.
-macro_rules! skip_note {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+use shared_data::shared;
 
 fn skin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_skin"))
@@ -68,10 +63,8 @@ fn flatten_writes_a_native_map_an_svg_and_prints_the_report() {
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<polygon"));
 }
 
-#[test]
-fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
-    let dir = tempfile::tempdir().unwrap();
-    let map = dir.path().join("m.json");
+/// `skin flatten` of the fixture forearm to a Cyskin `tactile_maps` file.
+fn flatten_fixture_to_cyskin(map: &Path) {
     let o = skin(&[
         "flatten",
         &fixture("layout.json"),
@@ -81,6 +74,13 @@ fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
         "cyskin",
     ]);
     assert!(o.status.success(), "{}", text(&o).1);
+}
+
+#[test]
+fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("m.json");
+    flatten_fixture_to_cyskin(&map);
     let text = std::fs::read_to_string(&map).unwrap();
     let m = skin_core::format::cyskin::parse_tactile_map(&text, &map).unwrap();
     assert_eq!(m.kind, "lscm");
@@ -93,15 +93,7 @@ fn flatten_writes_cyskin_maps_in_metres_with_faces_indexing_the_taxel_list() {
 fn a_cyskin_map_written_by_flatten_drives_image() {
     let dir = tempfile::tempdir().unwrap();
     let map = dir.path().join("cyskin_map.json");
-    let o = skin(&[
-        "flatten",
-        &fixture("layout.json"),
-        "-o",
-        map.to_str().unwrap(),
-        "--format",
-        "cyskin",
-    ]);
-    assert!(o.status.success(), "{}", text(&o).1);
+    flatten_fixture_to_cyskin(&map);
     let out = dir.path().join("imgs");
     let o = skin(&[
         "image",
@@ -120,14 +112,9 @@ fn a_cyskin_map_written_by_flatten_drives_image() {
 
 #[test]
 fn flatten_reads_icub_files_and_lists_the_merged_rows() {
-    let p = root().join("../shared/data/icub/left_forearm_V2.txt");
-    if !p.exists() {
-        skip_note!(
-            "skipped: {} not found (the shared third-party data is not beside the project)",
-            p.display()
-        );
+    let Some(p) = shared("icub/left_forearm_V2.txt") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let o = skin(&[
         "flatten",

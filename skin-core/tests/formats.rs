@@ -2,34 +2,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
-/// Says why a test skips, on stderr directly: libtest captures `eprintln!` of passing tests, and a
-/// skip must be visible in the run's output.
-macro_rules! skip_note {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
-
 use proptest::prelude::*;
 use skin_core::format::{cyskin, icub, native, recording};
 use skin_core::{Error, LinkSkin, Taxel, TaxelId};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        skip_note!(
-            "skipped: {} not found (the shared third-party data is not beside the project)",
-            p.display()
-        );
-        None
-    }
-}
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+use shared_data::shared;
 
 fn place_of(e: &Error) -> String {
     e.to_string()

@@ -2,35 +2,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
-/// Says why a test skips, on stderr directly: libtest captures `eprintln!` of passing tests, and a
-/// skip must be visible in the run's output.
-macro_rules! skip_note {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
-
 use nalgebra::{DMatrix, DVector, Isometry3, Point2, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
 use skin_geom::{DistortionReport, Error, FlattenOptions, MeshOptions, SkinMesh, TactileMap};
-use std::path::{Path, PathBuf};
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        skip_note!(
-            "skipped: {} not found (the shared third-party data is not beside the project)",
-            p.display()
-        );
-        None
-    }
-}
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+use shared_data::shared;
 
 fn taxel(id: u32, p: Point3<f64>, n: Vector3<f64>) -> Taxel {
     Taxel {
