@@ -1,11 +1,24 @@
-//! Sync-delimited snapshot assembly: CAN frames in, one frame of the whole skin per cycle out.
+//! Snapshot assembly: CAN frames in, one frame of the whole skin per cycle out.
 //!
-//! Every bus's sync opens a cycle; the module data that follows on that bus belongs to it. Buses
-//! are merged by cycle counter (the master sends the same counter on every bus), unwrapped past
-//! 255 so cycles keep increasing. A cycle is delivered once every bus that has spoken has moved on
-//! to a later one (or at [`Assembler::finish`]), with its values in bus-map order and a report of
-//! the modules that did not send all their chunks and of chunks received twice. A partial frame is
-//! delivered flagged, never dropped.
+//! Two ways to cut the traffic into cycles:
+//!
+//! - **By sync** ([`Assembler::new`], `skin16`): every bus's sync opens a cycle; the module data
+//!   that follows on that bus belongs to it. Buses are merged by cycle counter (the master sends the
+//!   same counter on every bus), unwrapped past 255 so cycles keep increasing. A cycle is delivered
+//!   once every bus that has spoken has moved on to a later one (or at [`Assembler::finish`]). A
+//!   lost sync cannot be told apart from a late one: the data of that bus then lands in the
+//!   previous cycle, which reports the module as duplicated and the next cycle as missing it.
+//! - **By time window** ([`Assembler::windowed`], `icub8`, whose boards free-run without a sync):
+//!   window k holds the frames stamped in `[t0 + k P, t0 + (k + 1) P)`, t0 the first frame's time
+//!   and P the period. A window is delivered once traffic half a period past its end has been seen,
+//!   so frames of several buses interleaved a little out of time order still land in their window.
+//!   Boards whose period differs from P drift across window edges: the drift shows up as
+//!   duplicated and missing modules, reported, never hidden.
+//!
+//! Each frame carries its values in bus-map order and a report of the modules that did not send
+//! all their data and of data received twice (the first copy is kept). A partial frame is
+//! delivered flagged, never dropped; cycles or windows in which nothing at all arrived are counted
+//! in [`AssemblyStats::skipped`].
 
 use crate::busmap::{BusMap, SLOTS};
 use crate::candump::CanFrame;
@@ -59,6 +72,8 @@ pub struct AssemblyStats {
     pub late: u64,
     /// Frames of other protocols, or from interfaces not in the map.
     pub ignored: u64,
+    /// Cycles (or windows) between two delivered ones in which nothing arrived at all.
+    pub skipped: u64,
     /// Malformed frames, by what was wrong.
     pub malformed: Vec<(&'static str, u64)>,
 }
@@ -78,10 +93,21 @@ struct Pending {
     twice: Vec<bool>,
 }
 
+/// Time windows of the sync-less mode.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    period_us: u64,
+    /// Start of window 0 (the first frame's time).
+    origin: Option<u64>,
+    /// Latest timestamp seen.
+    latest_us: u64,
+}
+
 /// Assembles frames of one bus map from CAN traffic.
 #[derive(Debug, Clone)]
 pub struct Assembler<D: Decoder> {
     decoder: D,
+    window: Option<Window>,
     /// For each log interface, its bus in the map (if any).
     bus_of_interface: Vec<Option<u16>>,
     /// Per map bus, address -> module slots.
@@ -99,11 +125,42 @@ pub struct Assembler<D: Decoder> {
     stats: AssemblyStats,
 }
 
+/// Default window of sync-less formats: the 50 ms period of iCub skin boards and Cyskin hubs.
+pub const DEFAULT_WINDOW_US: u64 = 50_000;
+
+impl Assembler<Box<dyn Decoder + Send>> {
+    /// The assembler a bus map's wire format calls for: by sync for `skin16`, by windows of
+    /// `window_us` microseconds for `icub8`.
+    pub fn for_map(map: &BusMap, interfaces: &[String], window_us: u64) -> Self {
+        let decoder = crate::decode::for_format(map.format);
+        match map.format {
+            crate::WireFormat::Skin16 => Self::new(map, interfaces, decoder),
+            crate::WireFormat::Icub8 => Self::windowed(map, interfaces, decoder, window_us),
+        }
+    }
+}
+
 impl<D: Decoder> Assembler<D> {
-    /// An assembler for `map`, reading frames whose `bus` indexes `interfaces` (a log's interface
-    /// list). Interfaces not in the map are ignored; map buses absent from the list deliver
-    /// nothing and their modules are reported missing in every frame.
+    /// An assembler for `map` cutting cycles at the sync frames, reading frames whose `bus`
+    /// indexes `interfaces` (a log's interface list). Interfaces not in the map are ignored; map
+    /// buses absent from the list deliver nothing and their modules are reported missing in every
+    /// frame.
     pub fn new(map: &BusMap, interfaces: &[String], decoder: D) -> Self {
+        Self::build(map, interfaces, decoder, None)
+    }
+
+    /// An assembler for `map` cutting cycles into time windows of `period_us` microseconds (at
+    /// least 1), for formats without a sync such as `icub8`; sync frames, if any, are ignored.
+    pub fn windowed(map: &BusMap, interfaces: &[String], decoder: D, period_us: u64) -> Self {
+        let window = Window {
+            period_us: period_us.max(1),
+            origin: None,
+            latest_us: 0,
+        };
+        Self::build(map, interfaces, decoder, Some(window))
+    }
+
+    fn build(map: &BusMap, interfaces: &[String], decoder: D, window: Option<Window>) -> Self {
         let bus_of_interface = interfaces
             .iter()
             .map(|name| {
@@ -149,6 +206,7 @@ impl<D: Decoder> Assembler<D> {
         }
         Assembler {
             decoder,
+            window,
             bus_of_interface,
             modules,
             module_refs,
@@ -180,14 +238,75 @@ impl<D: Decoder> Assembler<D> {
                 Some((_, n)) => *n += 1,
                 None => self.stats.malformed.push((what, 1)),
             },
+            Decoded::Sync { .. } if self.window.is_some() => self.stats.ignored += 1,
             Decoded::Sync { counter } => self.sync(bus, counter, frame.time_us, emit),
             Decoded::Values {
                 address,
                 first_slot,
                 count,
                 values,
-            } => self.values(bus, address, first_slot, &values[..usize::from(count.min(8))]),
+            } => {
+                let values = &values[..usize::from(count.min(8))];
+                if self.window.is_some() {
+                    self.windowed_values(bus, address, first_slot, values, frame.time_us, emit);
+                } else {
+                    self.values(bus, address, first_slot, values);
+                }
+            }
         }
+    }
+
+    fn windowed_values(
+        &mut self,
+        bus: u16,
+        address: u32,
+        first_slot: u8,
+        values: &[u16],
+        time_us: u64,
+        emit: &mut dyn FnMut(&AssembledFrame),
+    ) {
+        let Some(w) = self.window.as_mut() else {
+            return;
+        };
+        let origin = *w.origin.get_or_insert(time_us);
+        w.latest_us = w.latest_us.max(time_us);
+        let Some(since) = time_us.checked_sub(origin) else {
+            self.stats.late += 1;
+            return;
+        };
+        let cycle = since / w.period_us;
+        let start = origin + cycle * w.period_us;
+        self.bus_cycle[usize::from(bus)] = Some(cycle);
+        self.open(cycle, start);
+        self.values(bus, address, first_slot, values);
+        self.deliver(false, emit);
+    }
+
+    /// Starts collecting `cycle` unless it is pending or already delivered.
+    fn open(&mut self, cycle: u64, time_us: u64) {
+        if self.delivered_up_to.is_some_and(|d| cycle <= d)
+            || self.pending.iter().any(|p| p.frame.cycle == cycle)
+        {
+            return;
+        }
+        let mut p = self.spare.pop().unwrap_or_else(|| Pending {
+            frame: AssembledFrame {
+                cycle: 0,
+                time_us: 0,
+                values: vec![None; self.columns],
+                missing: Vec::new(),
+                duplicated: Vec::new(),
+            },
+            received: vec![0; self.module_refs.len()],
+            twice: vec![false; self.module_refs.len()],
+        });
+        p.frame.cycle = cycle;
+        p.frame.time_us = time_us;
+        p.frame.values.fill(None);
+        p.received.fill(0);
+        p.twice.fill(false);
+        let at = self.pending.partition_point(|q| q.frame.cycle < cycle);
+        self.pending.insert(at, p);
     }
 
     fn sync(&mut self, bus: u16, counter: u8, time_us: u64, emit: &mut dyn FnMut(&AssembledFrame)) {
@@ -201,28 +320,7 @@ impl<D: Decoder> Assembler<D> {
         };
         self.latest = Some(self.latest.map_or(cycle, |l| l.max(cycle)));
         self.bus_cycle[usize::from(bus)] = Some(cycle);
-        if self.delivered_up_to.is_none_or(|d| cycle > d)
-            && !self.pending.iter().any(|p| p.frame.cycle == cycle)
-        {
-            let mut p = self.spare.pop().unwrap_or_else(|| Pending {
-                frame: AssembledFrame {
-                    cycle: 0,
-                    time_us: 0,
-                    values: vec![None; self.columns],
-                    missing: Vec::new(),
-                    duplicated: Vec::new(),
-                },
-                received: vec![0; self.module_refs.len()],
-                twice: vec![false; self.module_refs.len()],
-            });
-            p.frame.cycle = cycle;
-            p.frame.time_us = time_us;
-            p.frame.values.fill(None);
-            p.received.fill(0);
-            p.twice.fill(false);
-            let at = self.pending.partition_point(|q| q.frame.cycle < cycle);
-            self.pending.insert(at, p);
-        }
+        self.open(cycle, time_us);
         self.deliver(false, emit);
     }
 
@@ -256,12 +354,19 @@ impl<D: Decoder> Assembler<D> {
         }
     }
 
-    /// Delivers every pending cycle that all active buses have left (or all, when `all`).
+    /// Delivers every pending cycle that all active buses have left, or whose window closed half
+    /// a period ago (or all, when `all`).
     fn deliver(&mut self, all: bool, emit: &mut dyn FnMut(&AssembledFrame)) {
         let oldest_bus_cycle = self.bus_cycle.iter().flatten().copied().min();
         while let Some(front) = self.pending.front() {
-            let ready =
-                all || oldest_bus_cycle.is_some_and(|c| front.frame.cycle < c) || self.pending.len() > 8;
+            let closed = match self.window {
+                Some(w) => {
+                    let end = front.frame.time_us.saturating_add(w.period_us + w.period_us / 2);
+                    w.latest_us >= end
+                }
+                None => oldest_bus_cycle.is_some_and(|c| front.frame.cycle < c),
+            };
+            let ready = all || closed || self.pending.len() > 8;
             if !ready {
                 break;
             }
@@ -277,6 +382,9 @@ impl<D: Decoder> Assembler<D> {
                 if p.twice[m] {
                     p.frame.duplicated.push(*r);
                 }
+            }
+            if let Some(d) = self.delivered_up_to {
+                self.stats.skipped += p.frame.cycle.saturating_sub(d + 1);
             }
             self.stats.frames += 1;
             if p.frame.is_complete() {

@@ -29,6 +29,16 @@ pub enum WireFormat {
     Icub8,
 }
 
+impl WireFormat {
+    /// The name used in bus maps and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            WireFormat::Skin16 => "skin16",
+            WireFormat::Icub8 => "icub8",
+        }
+    }
+}
+
 /// One module (triangle) on a bus.
 #[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -111,6 +121,11 @@ impl BusMap {
                 if self.format == WireFormat::Skin16 && module.address >= 128 {
                     return Err(format!("{place}: skin16 addresses are 0..127"));
                 }
+                if self.format == WireFormat::Icub8 && module.address >= 256 {
+                    return Err(format!(
+                        "{place}: icub8 addresses are board << 4 | triangle, 0..255"
+                    ));
+                }
                 if bus.modules[..m].iter().any(|o| o.address == module.address) {
                     return Err(format!("{place}: address used twice on this bus"));
                 }
@@ -169,10 +184,15 @@ impl BusMap {
             slots[channel] = i64::from(id.0);
         }
         let per_bus = modules.len().div_ceil(buses).max(1);
-        if format == WireFormat::Skin16 && per_bus > 128 {
+        let limit = match format {
+            WireFormat::Skin16 => 128,
+            WireFormat::Icub8 => 256,
+        };
+        if per_bus > limit {
             return Err(format!(
-                "{} modules on {buses} bus(es) is {per_bus} per bus; skin16 allows 128: use more buses",
-                modules.len()
+                "{} modules on {buses} bus(es) is {per_bus} per bus; {} allows {limit}: use more buses",
+                modules.len(),
+                format.name()
             ));
         }
         let modules: Vec<Vec<i64>> = modules.into_values().collect();
@@ -201,13 +221,7 @@ impl BusMap {
     /// The map in its TOML form.
     pub fn to_toml(&self) -> String {
         use std::fmt::Write as _;
-        let mut s = format!(
-            "format = \"{}\"\n",
-            match self.format {
-                WireFormat::Skin16 => "skin16",
-                WireFormat::Icub8 => "icub8",
-            }
-        );
+        let mut s = format!("format = \"{}\"\n", self.format.name());
         for bus in &self.buses {
             let _ = write!(s, "\n[[bus]]\ninterface = \"{}\"\n", bus.interface);
             for m in &bus.modules {

@@ -18,14 +18,10 @@
 //!
 //! It decodes two wire formats behind one [`decode::Decoder`] trait: the project's `skin16`
 //! ([`decode::skin16`], 16-bit readings, broadcast sync) and the iCub skin message
-//! ([`decode::icub8`], 8-bit readings, no sync). The [`Assembler`] turns `skin16` traffic from
-//! several buses into one frame of the whole skin per sync cycle through a [`BusMap`], and reports
-//! per frame the modules that were missing or sent data twice: a partial frame is delivered
-//! flagged, never dropped.
-//!
-//! Not yet here (thesis App. A): time-window assembly of `icub8` traffic, live SocketCAN input and
-//! recording (this workplace's kernel has no SocketCAN; the live path will be tested against a mock
-//! socket and recorded logs).
+//! ([`decode::icub8`], 8-bit readings, no sync). The [`Assembler`] turns the traffic of several
+//! buses into one frame of the whole skin per cycle through a [`BusMap`]: per sync for `skin16`,
+//! per time window for `icub8` ([`Assembler::for_map`] picks). It reports per frame the modules
+//! that were missing or sent data twice: a partial frame is delivered flagged, never dropped.
 
 mod assembler;
 pub mod busmap;
@@ -33,6 +29,6 @@ pub mod candump;
 pub mod decode;
 mod error;
 
-pub use assembler::{AssembledFrame, Assembler, AssemblyStats, ModuleRef};
+pub use assembler::{AssembledFrame, Assembler, AssemblyStats, DEFAULT_WINDOW_US, ModuleRef};
 pub use busmap::{BusMap, WireFormat};
 pub use error::{Error, Result};

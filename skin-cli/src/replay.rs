@@ -2,19 +2,24 @@
 
 use anyhow::{Context, Result, bail};
 use skin_can::candump::CandumpLog;
-use skin_can::decode::Skin16;
-use skin_can::{Assembler, BusMap, WireFormat};
+use skin_can::{AssembledFrame, Assembler, AssemblyStats, BusMap, WireFormat};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Replay a candump log through a bus map: assemble one frame of the whole skin per cycle and say
 /// what was missing.
 ///
 /// LOG is a candump log (can-utils `candump -l` or python-can). MAP is the bus map (TOML: wire
-/// format, buses, modules, taxel ids per slot). Prints frames, complete and partial counts, the
-/// modules missing most often, and frames that could not be used, by kind. With -o, writes every
-/// frame as CSV: `t_us,cycle,complete,` then one column per taxel id in bus-map order, values as
-/// on the wire (no baseline), empty cells where a partial frame lacks a value.
+/// format, buses, modules, taxel ids per slot). skin16 traffic is cut into cycles at its sync
+/// frames; icub8 traffic, which has no sync, into time windows of --window-ms.
+///
+/// Prints frames, complete and partial counts, the modules missing or duplicated most often, and
+/// frames that could not be used, by kind. With -o, writes every frame as CSV: `t_us,cycle,complete,`
+/// then one column per taxel id in bus-map order (bus, module, slot; unused slots skipped), values
+/// as on the wire (no baseline, no inversion), empty cells where a partial frame lacks a value.
+/// With --layout, checks that every taxel of the bus map is in the layout and says which taxels of
+/// the layout no bus carries.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -23,18 +28,122 @@ pub struct Args {
     /// Bus map (TOML).
     #[arg(long, value_name = "MAP.toml")]
     busmap: PathBuf,
+    /// Layout the bus map should cover (any file `skin flatten` reads).
+    #[arg(long, value_name = "L.json")]
+    layout: Option<PathBuf>,
+    /// Time window of sync-less formats (icub8), milliseconds: the boards' period.
+    #[arg(long, default_value_t = 50.0, value_name = "MS")]
+    window_ms: f64,
     /// Write the frames as CSV.
     #[arg(short, long, value_name = "frames.csv")]
     output: Option<PathBuf>,
 }
 
-pub fn run(args: Args) -> Result<()> {
-    let map = BusMap::read(&args.busmap)?;
-    if map.format != WireFormat::Skin16 {
+/// Per-run counts of a replay, for the summary.
+#[derive(Default)]
+pub(crate) struct Tally {
+    missing: BTreeMap<(u16, u32), u64>,
+    duplicated: BTreeMap<(u16, u32), u64>,
+}
+
+impl Tally {
+    pub(crate) fn add(&mut self, f: &AssembledFrame) {
+        for m in &f.missing {
+            *self.missing.entry((m.bus, m.address)).or_default() += 1;
+        }
+        for m in &f.duplicated {
+            *self.duplicated.entry((m.bus, m.address)).or_default() += 1;
+        }
+    }
+
+    /// The summary lines after the first.
+    pub(crate) fn report(&self, map: &BusMap, s: &AssemblyStats) {
+        for (what, counts) in [("missing", &self.missing), ("duplicated", &self.duplicated)] {
+            let mut worst: Vec<_> = counts.iter().collect();
+            worst.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
+            if !worst.is_empty() {
+                crate::say!("modules {what}: {} (most often first)", worst.len());
+            }
+            for ((bus, address), n) in worst.iter().take(10) {
+                crate::say!(
+                    "  module {address} on {} {what} in {n} frame(s)",
+                    map.buses[usize::from(*bus)].interface
+                );
+            }
+        }
+        let unusable = [
+            ("data from modules not in the bus map", s.unknown_module),
+            ("data before the first sync of its bus", s.before_first_sync),
+            ("data for a cycle already delivered (late)", s.late),
+        ];
+        for (what, n) in unusable.iter().filter(|(_, n)| *n > 0) {
+            crate::say!("unused CAN frames: {n} {what}");
+        }
+        for (what, n) in &s.malformed {
+            crate::say!("malformed CAN frames: {n} {what}");
+        }
+        if s.ignored > 0 {
+            crate::say!(
+                "other CAN frames (other protocols or interfaces, not skin data): {}",
+                s.ignored
+            );
+        }
+        if s.skipped > 0 {
+            crate::say!("cycles in which nothing arrived: {}", s.skipped);
+        }
+    }
+}
+
+/// Checks the bus map against a layout: every taxel on the wire must be in the layout.
+fn check_layout(map: &BusMap, map_path: &Path, layout: &Path) -> Result<()> {
+    let link = crate::flatten::load_input(layout)?;
+    let in_layout: std::collections::HashSet<_> = link.ids().into_iter().collect();
+    let on_bus = map.taxel_ids();
+    if let Some(id) = on_bus.iter().find(|id| !in_layout.contains(id)) {
         bail!(
-            "{}: only the skin16 format can be replayed so far",
-            args.busmap.display()
+            "{}: taxel {id} is not in the layout {} ({} taxels); is the bus map for this skin?",
+            map_path.display(),
+            layout.display(),
+            in_layout.len()
         );
+    }
+    let carried: std::collections::HashSet<_> = on_bus.into_iter().collect();
+    let mut unmapped: Vec<_> = link
+        .ids()
+        .into_iter()
+        .filter(|id| !carried.contains(id))
+        .collect();
+    unmapped.sort();
+    if unmapped.is_empty() {
+        crate::say!(
+            "{}: all {} taxels are on a bus",
+            layout.display(),
+            in_layout.len()
+        );
+    } else {
+        let shown: Vec<String> = unmapped.iter().take(8).map(ToString::to_string).collect();
+        crate::say!(
+            "{}: {} of {} taxels are on no bus of the map: {}{}",
+            layout.display(),
+            unmapped.len(),
+            in_layout.len(),
+            shown.join(", "),
+            if unmapped.len() > 8 { ", ..." } else { "" }
+        );
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !(args.window_ms.is_finite() && args.window_ms >= 0.001) {
+        bail!(
+            "--window-ms must be a time of at least 1 microsecond, not {}",
+            args.window_ms
+        );
+    }
+    let map = BusMap::read(&args.busmap)?;
+    if let Some(layout) = &args.layout {
+        check_layout(&map, &args.busmap, layout)?;
     }
     let log = CandumpLog::read(&args.log)?;
     let unknown: Vec<&str> = map
@@ -64,12 +173,11 @@ pub fn run(args: Args) -> Result<()> {
         }
         csv.push('\n');
     }
-    let mut missing_count: std::collections::BTreeMap<(u16, u32), u64> = Default::default();
-    let mut assembler = Assembler::new(&map, &log.interfaces, Skin16);
-    let mut emit = |f: &skin_can::AssembledFrame| {
-        for m in &f.missing {
-            *missing_count.entry((m.bus, m.address)).or_default() += 1;
-        }
+    let mut tally = Tally::default();
+    let window_us = (args.window_ms * 1000.0).round() as u64;
+    let mut assembler = Assembler::for_map(&map, &log.interfaces, window_us);
+    let mut emit = |f: &AssembledFrame| {
+        tally.add(f);
         if args.output.is_some() {
             let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
             for v in &f.values {
@@ -92,11 +200,16 @@ pub fn run(args: Args) -> Result<()> {
         (Some(a), Some(b)) => (b.time_us.saturating_sub(a.time_us)) as f64 * 1e-6,
         _ => 0.0,
     };
+    let cut = match map.format {
+        WireFormat::Skin16 => "one per sync cycle".to_string(),
+        WireFormat::Icub8 => format!("one per {} ms window", args.window_ms),
+    };
     crate::say!(
-        "{}: {} CAN frames over {span:.2} s on {} bus(es) -> {} skin frames of {} taxels: {} complete, {} partial",
+        "{}: {} CAN frames over {span:.2} s on {} bus(es), {} -> {} skin frames ({cut}) of {} taxels: {} complete, {} partial",
         args.log.display(),
         log.frames.len(),
         map.buses.len(),
+        map.format.name(),
         s.frames,
         ids.len(),
         s.complete,
@@ -105,25 +218,7 @@ pub fn run(args: Args) -> Result<()> {
     for name in &unknown {
         crate::say!("bus \"{name}\" of the map is not in the log: its modules are missing in every frame");
     }
-    let mut worst: Vec<_> = missing_count.into_iter().collect();
-    worst.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-    for ((bus, address), n) in worst.iter().take(10) {
-        crate::say!(
-            "  module {address} on {} missing in {n} frame(s)",
-            map.buses[usize::from(*bus)].interface
-        );
-    }
-    let unusable = [
-        ("data from modules not in the bus map", s.unknown_module),
-        ("data before the first sync of its bus", s.before_first_sync),
-        ("data for a cycle already delivered (late)", s.late),
-    ];
-    for (what, n) in unusable.iter().filter(|(_, n)| *n > 0) {
-        crate::say!("unused CAN frames: {n} {what}");
-    }
-    for (what, n) in &s.malformed {
-        crate::say!("malformed CAN frames: {n} {what}");
-    }
+    tally.report(&map, s);
     if let Some(out) = &args.output {
         crate::write_atomic(out, csv.as_bytes()).with_context(|| format!("{}", out.display()))?;
         crate::say!("wrote {}", out.display());

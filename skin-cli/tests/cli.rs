@@ -273,7 +273,7 @@ fn replay_assembles_the_fixture_log_into_the_recorded_values() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(
-        out.contains("130 skin frames of 715 taxels: 130 complete, 0 partial"),
+        out.contains("130 skin frames (one per sync cycle) of 715 taxels: 130 complete, 0 partial"),
         "{out}"
     );
     // The log's ground truth is the recording: same taxels, same readings, frame by frame.
@@ -329,6 +329,68 @@ fn replay_reports_a_lost_can_frame_and_leaves_its_cells_empty() {
         .unwrap()
         .to_string();
     assert!(row.split(',').nth(2) == Some("0") && row.contains(",,"), "{row}");
+}
+
+#[test]
+fn replay_cuts_icub8_traffic_into_windows_and_writes_exactly_the_ground_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frames.csv");
+    let o = skin(&[
+        "replay",
+        &fixture("touches.icub8.log"),
+        "--busmap",
+        &fixture("busmap.icub8.toml"),
+        "--layout",
+        &fixture("layout.json"),
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("all 715 taxels are on a bus")
+            && out.contains("icub8 -> 130 skin frames (one per 50 ms window) of 715 taxels: 130 complete"),
+        "{out}"
+    );
+    let ours = std::fs::read_to_string(&csv).unwrap();
+    let truth = std::fs::read_to_string(fixture("touches.icub8.csv")).unwrap();
+    assert!(ours == truth, "replayed frames differ from touches.icub8.csv");
+    // A window much shorter than the boards' period splits every cycle: reported, not hidden.
+    let o = skin(&[
+        "replay",
+        &fixture("touches.icub8.log"),
+        "--busmap",
+        &fixture("busmap.icub8.toml"),
+        "--window-ms",
+        "20",
+    ]);
+    let (out, _) = text(&o);
+    assert!(
+        out.contains("0 complete") && out.contains("modules missing: 65"),
+        "{out}"
+    );
+}
+
+#[test]
+fn replay_refuses_a_bus_map_for_another_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("other.toml");
+    std::fs::write(
+        &map,
+        "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 0\ntaxels = [4000, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1]\n",
+    )
+    .unwrap();
+    let o = skin(&[
+        "replay",
+        &fixture("touches.candump.log"),
+        "--busmap",
+        map.to_str().unwrap(),
+        "--layout",
+        &fixture("layout.json"),
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("taxel 4000 is not in the layout"), "{err}");
 }
 
 #[test]

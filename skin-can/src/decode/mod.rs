@@ -41,3 +41,17 @@ pub trait Decoder {
     /// Decodes one frame.
     fn decode(&mut self, frame: &CanFrame) -> Decoded;
 }
+
+impl<D: Decoder + ?Sized> Decoder for Box<D> {
+    fn decode(&mut self, frame: &CanFrame) -> Decoded {
+        (**self).decode(frame)
+    }
+}
+
+/// The decoder of a bus map's wire format.
+pub fn for_format(format: crate::WireFormat) -> Box<dyn Decoder + Send> {
+    match format {
+        crate::WireFormat::Skin16 => Box::new(Skin16),
+        crate::WireFormat::Icub8 => Box::new(Icub8),
+    }
+}
