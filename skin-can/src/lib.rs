@@ -22,12 +22,18 @@
 //! buses into one frame of the whole skin per cycle through a [`BusMap`]: per sync for `skin16`,
 //! per time window for `icub8` ([`Assembler::for_map`] picks). It reports per frame the modules
 //! that were missing or sent data twice: a partial frame is delivered flagged, never dropped.
+//!
+//! Live input goes through [`live::Acquisition`]: a reader thread per interface, the `skin16` sync
+//! sent when this side is bus master, an interface that goes down reported and reopened. Linux
+//! SocketCAN ports come with the `socketcan` feature; any other transport implements
+//! [`live::CanPort`]. A complete replay: `examples/examples/replay_can_log.rs`.
 
 mod assembler;
 pub mod busmap;
 pub mod candump;
 pub mod decode;
 mod error;
+pub mod live;
 
 pub use assembler::{AssembledFrame, Assembler, AssemblyStats, DEFAULT_WINDOW_US, ModuleRef};
 pub use busmap::{BusMap, WireFormat};

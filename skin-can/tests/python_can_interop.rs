@@ -58,10 +58,15 @@ fn check(dir: &Path, format: &str, name: &str) {
     let path = dir.join(format!("{name}.log"));
     let text = std::fs::read_to_string(&path).unwrap();
     let log = CandumpLog::parse(&text, &path).unwrap();
-    assert_eq!(log.to_text(), text, "{name}: read then write is not byte-identical");
+    assert_eq!(
+        log.to_text(),
+        text,
+        "{name}: read then write is not byte-identical"
+    );
     assert_eq!(log.interfaces, ["can0", "can1", "can2", "can3"]);
     let map = BusMap::read(&dir.join(format!("busmap_{format}.toml"))).unwrap();
-    let truth: Truth = serde_json::from_str(&std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap()).unwrap();
+    let truth: Truth =
+        serde_json::from_str(&std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap()).unwrap();
     let mut asm = Assembler::for_map(&map, &log.interfaces, DEFAULT_WINDOW_US);
     let mut out: Vec<AssembledFrame> = Vec::new();
     for f in &log.frames {
@@ -76,16 +81,27 @@ fn check(dir: &Path, format: &str, name: &str) {
         assert_eq!(ours.time_us, want.t_us, "{at}");
         assert_eq!(ours.values, want.values, "{at}: values");
         assert_eq!(refs(&ours.missing), want.missing, "{at}: missing modules");
-        assert_eq!(refs(&ours.duplicated), want.duplicated, "{at}: duplicated modules");
+        assert_eq!(
+            refs(&ours.duplicated),
+            want.duplicated,
+            "{at}: duplicated modules"
+        );
         assert_eq!(ours.is_complete(), want.complete, "{at}");
     }
     let s = asm.stats();
-    assert_eq!((s.late, s.unknown_module, s.before_first_sync, s.skipped), (0, 0, 0, 0), "{name}");
+    assert_eq!(
+        (s.late, s.unknown_module, s.before_first_sync, s.skipped),
+        (0, 0, 0, 0),
+        "{name}"
+    );
     assert!(s.malformed.is_empty(), "{name}");
     if name.ends_with("damaged") {
         let partial = truth.frames.iter().filter(|f| !f.complete).count();
         let duplicated = truth.frames.iter().filter(|f| !f.duplicated.is_empty()).count();
-        assert!(partial > 20 && duplicated > 20, "{name}: the damage should touch many cycles");
+        assert!(
+            partial > 20 && duplicated > 20,
+            "{name}: the damage should touch many cycles"
+        );
     }
 }
 
@@ -100,7 +116,11 @@ fn python_can_logs_decode_to_exactly_what_was_written() {
     };
     let dir = tempfile::tempdir().unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("interop/python_can_logs.py");
-    let o = Command::new(&python).arg(&script).arg(dir.path()).output().unwrap();
+    let o = Command::new(&python)
+        .arg(&script)
+        .arg(dir.path())
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for format in ["skin16", "icub8"] {
         check(dir.path(), format, format);

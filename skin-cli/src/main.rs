@@ -2,11 +2,13 @@
 //!
 //! `skin flatten` turns a link's taxel layout into a flat tactile map; `skin image` turns
 //! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
-//! candump log of CAN traffic. Run `skin help <command>` for details.
+//! candump log of CAN traffic, `skin live` and `skin record` from SocketCAN interfaces;
+//! `skin busmap` writes a bus map for a layout. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod flatten;
 mod image_cmd;
+mod live_cmd;
 mod replay;
 
 /// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
@@ -33,6 +35,8 @@ enum Command {
     Flatten(flatten::Args),
     Image(image_cmd::Args),
     Replay(replay::Args),
+    Live(live_cmd::LiveArgs),
+    Record(live_cmd::RecordArgs),
     Busmap(busmap_cmd::Args),
 }
 
@@ -42,6 +46,8 @@ fn main() -> ExitCode {
         Command::Flatten(args) => flatten::run(args),
         Command::Image(args) => image_cmd::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Live(args) => live_cmd::live(args),
+        Command::Record(args) => live_cmd::record(args),
         Command::Busmap(args) => busmap_cmd::run(args),
     };
     match result {
@@ -57,13 +63,18 @@ fn main() -> ExitCode {
 /// never leaves a half-written output behind.
 pub(crate) fn write_atomic(path: &std::path::Path, contents: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context as _;
+    let tmp = partial_path(path);
+    std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// The temporary file an output is written to before it is renamed into place.
+pub(crate) fn partial_path(path: &std::path::Path) -> std::path::PathBuf {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(std::path::Path::new("."));
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("output");
-    let tmp = dir.join(format!(".{name}.partial"));
-    std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    dir.join(format!(".{name}.partial"))
 }

@@ -24,19 +24,19 @@ use std::path::{Path, PathBuf};
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// candump log.
-    log: PathBuf,
+    pub(crate) log: PathBuf,
     /// Bus map (TOML).
     #[arg(long, value_name = "MAP.toml")]
-    busmap: PathBuf,
+    pub(crate) busmap: PathBuf,
     /// Layout the bus map should cover (any file `skin flatten` reads).
     #[arg(long, value_name = "L.json")]
-    layout: Option<PathBuf>,
+    pub(crate) layout: Option<PathBuf>,
     /// Time window of sync-less formats (icub8), milliseconds: the boards' period.
     #[arg(long, default_value_t = 50.0, value_name = "MS")]
-    window_ms: f64,
+    pub(crate) window_ms: f64,
     /// Write the frames as CSV.
     #[arg(short, long, value_name = "frames.csv")]
-    output: Option<PathBuf>,
+    pub(crate) output: Option<PathBuf>,
 }
 
 /// Per-run counts of a replay, for the summary.

@@ -372,6 +372,41 @@ fn replay_cuts_icub8_traffic_into_windows_and_writes_exactly_the_ground_truth() 
 }
 
 #[test]
+fn record_and_live_name_the_interface_that_cannot_be_opened_and_write_nothing() {
+    // This workplace has no CAN interfaces: both commands must say so in one line and leave no file.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("session.log");
+    let o = skin(&[
+        "record",
+        "--busmap",
+        &fixture("busmap.toml"),
+        "--can",
+        "skintest7",
+        "-o",
+        log.to_str().unwrap(),
+        "--duration",
+        "1",
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success());
+    assert!(err.starts_with("error: skintest7: cannot open"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "nothing written"
+    );
+    let o = skin(&["live", "--busmap", &fixture("busmap.toml"), "--duration", "0"]);
+    let (_, err) = text(&o);
+    assert!(
+        !o.status.success() && err.contains("--duration must be a positive"),
+        "{err}"
+    );
+    let (help, _) = text(&skin(&["live", "--help"]));
+    assert!(help.contains("SocketCAN") && help.contains("--master"), "{help}");
+}
+
+#[test]
 fn replay_refuses_a_bus_map_for_another_layout() {
     let dir = tempfile::tempdir().unwrap();
     let map = dir.path().join("other.toml");

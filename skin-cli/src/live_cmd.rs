@@ -1,0 +1,418 @@
+//! `skin live` and `skin record`: CAN interfaces -> assembled frames, a candump recording, or both.
+
+use anyhow::{Context, Result, bail};
+use skin_can::candump::{CanFrame, write_line};
+use skin_can::live::{Acquisition, CanPort, LiveEvent, LiveOptions};
+use skin_can::{AssembledFrame, Assembler, BusMap};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Options shared by `skin live` and `skin record`.
+#[derive(clap::Args)]
+pub struct Common {
+    /// Bus map (TOML): wire format, buses, modules, taxel ids per slot.
+    #[arg(long, value_name = "MAP.toml")]
+    busmap: PathBuf,
+    /// SocketCAN interfaces to read, comma-separated (default: the bus map's interfaces).
+    #[arg(long, value_delimiter = ',', value_name = "can0,can1")]
+    can: Vec<String>,
+    /// Act as skin16 bus master: send the sync frame on every interface every --period-ms.
+    #[arg(long)]
+    master: bool,
+    /// Acquisition period, milliseconds: the master's sync period, and the icub8 time window.
+    #[arg(long, default_value_t = 50.0, value_name = "MS")]
+    period_ms: f64,
+    /// Stop after this many seconds (default: at Ctrl-C).
+    #[arg(long, value_name = "S")]
+    duration: Option<f64>,
+}
+
+/// Read skin traffic live from SocketCAN interfaces, assemble frames and print a status line
+/// every second (frames, complete and partial, modules missing).
+///
+/// Linux only (SocketCAN). skin16 skins need a master sending the sync: pass --master unless
+/// another node does. An interface that goes down (unplugged adapter, bus-off) is reported and
+/// reopened every half second. Stop with Ctrl-C or --duration; the summary is printed then.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct LiveArgs {
+    #[command(flatten)]
+    common: Common,
+    /// Also record every CAN frame to this candump log.
+    #[arg(long, value_name = "LOG")]
+    record: Option<PathBuf>,
+    /// Write the assembled frames as CSV (the form `skin replay -o` writes).
+    #[arg(short, long, value_name = "frames.csv")]
+    output: Option<PathBuf>,
+}
+
+/// Record skin traffic from SocketCAN interfaces to a candump log (the form can-utils'
+/// `candump -l` and python-can write; replay it with `skin replay`).
+///
+/// Linux only (SocketCAN), kernel receive timestamps. With --master, the skin16 sync is sent on
+/// every interface every --period-ms and recorded too (marked T). Frames are written as they
+/// arrive; a summary of the assembled frames is printed at the end (Ctrl-C or --duration).
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct RecordArgs {
+    #[command(flatten)]
+    common: Common,
+    /// The candump log to write.
+    #[arg(short, long, value_name = "LOG")]
+    output: PathBuf,
+}
+
+/// Where a session's frames go.
+struct Sinks {
+    /// Candump log being written: final path, temporary file.
+    log: Option<(PathBuf, PathBuf, std::io::BufWriter<std::fs::File>)>,
+    csv: Option<(PathBuf, String)>,
+    status: bool,
+}
+
+/// What a session saw.
+#[derive(Default)]
+struct Summary {
+    can_frames: u64,
+    outages: Vec<String>,
+    tally: crate::replay::Tally,
+}
+
+pub fn live(args: LiveArgs) -> Result<()> {
+    session(&args.common, args.record.as_deref(), args.output.as_deref(), true)
+}
+
+pub fn record(args: RecordArgs) -> Result<()> {
+    session(&args.common, Some(&args.output), None, false)
+}
+
+fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: bool) -> Result<()> {
+    let map = BusMap::read(&common.busmap)?;
+    if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
+        bail!("--period-ms must be at least 0.1, not {}", common.period_ms);
+    }
+    if let Some(d) = common.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration must be a positive number of seconds, not {d}");
+    }
+    let names: Vec<String> = if common.can.is_empty() {
+        map.buses.iter().map(|b| b.interface.clone()).collect()
+    } else {
+        common.can.clone()
+    };
+    let period = Duration::from_secs_f64(common.period_ms / 1000.0);
+    let options = LiveOptions {
+        sync_period: common.master.then_some(period),
+        ..LiveOptions::default()
+    };
+    let ports = open_ports(&names)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed)).context("cannot catch Ctrl-C")?;
+    }
+    let deadline = common
+        .duration
+        .map(|d| Instant::now() + Duration::from_secs_f64(d));
+    let mut sinks = Sinks::new(record, csv, &map, status)?;
+    crate::say!(
+        "reading {} ({}){}; Ctrl-C stops",
+        names.join(", "),
+        map.format.name(),
+        if common.master {
+            format!(", sending the sync every {} ms", common.period_ms)
+        } else {
+            String::new()
+        }
+    );
+    let summary = run(ports, options, &map, period, &mut sinks, || {
+        stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d)
+    })?;
+    sinks.finish(&summary)?;
+    Ok(())
+}
+
+#[cfg(all(target_os = "linux", feature = "socketcan"))]
+fn open_ports(names: &[String]) -> Result<Vec<skin_can::live::socketcan::SocketCanPort>> {
+    let mut ports = Vec::new();
+    for name in names {
+        let mut port = skin_can::live::socketcan::SocketCanPort::new(name);
+        // A first open that fails is a typo or a missing driver, not an outage to wait out.
+        if let Err(e) = port.open() {
+            let hint = match e.raw_os_error() {
+                Some(97) => " (this kernel has no SocketCAN: load the can and can_raw modules)",
+                Some(19) => {
+                    " (no such interface: `ip link` lists them; a CAN adapter needs its driver loaded)"
+                }
+                _ => " (is the interface up? `ip link set NAME up type can bitrate 1000000`)",
+            };
+            bail!("{name}: cannot open: {e}{hint}");
+        }
+        port.close();
+        ports.push(port);
+    }
+    Ok(ports)
+}
+
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+fn open_ports(_names: &[String]) -> Result<Vec<NoPort>> {
+    bail!("live CAN input needs Linux SocketCAN; this build has none (build skin-cli on Linux)")
+}
+
+/// Stands in for a port type on builds without SocketCAN.
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+struct NoPort;
+
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+impl CanPort for NoPort {
+    fn name(&self) -> &str {
+        ""
+    }
+    fn open(&mut self) -> std::io::Result<()> {
+        Err(std::io::Error::other("no SocketCAN"))
+    }
+    fn close(&mut self) {}
+    fn recv(&mut self, _: Duration) -> std::io::Result<Option<CanFrame>> {
+        Ok(None)
+    }
+    fn send(&mut self, _: &CanFrame) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The session loop: events -> sinks and the assembler, until `done`.
+fn run<P: CanPort>(
+    ports: Vec<P>,
+    options: LiveOptions,
+    map: &BusMap,
+    period: Duration,
+    sinks: &mut Sinks,
+    mut done: impl FnMut() -> bool,
+) -> Result<Summary> {
+    let acq = Acquisition::start(ports, options);
+    let interfaces = acq.interfaces().to_vec();
+    let mut assembler = Assembler::for_map(map, &interfaces, period.as_micros() as u64);
+    let mut summary = Summary::default();
+    let started = Instant::now();
+    let mut next_status = Duration::from_secs(1);
+    let mut result = Ok(());
+    while !done() {
+        match acq.recv(Duration::from_millis(50)) {
+            Some(LiveEvent::Frame(f)) => {
+                summary.can_frames += 1;
+                if let Err(e) = sinks.frame(&f, &interfaces) {
+                    result = Err(e);
+                    break;
+                }
+                assembler.push(&f, &mut |a| {
+                    summary.tally.add(a);
+                    sinks.assembled(a);
+                });
+            }
+            Some(LiveEvent::Down { bus, error }) => {
+                let line = format!("{}: {error}; reopening", interfaces[usize::from(bus)]);
+                crate::say!("{line}");
+                summary.outages.push(line);
+            }
+            Some(LiveEvent::Reopened { bus }) => crate::say!("{}: open again", interfaces[usize::from(bus)]),
+            None => {}
+        }
+        if sinks.status && started.elapsed() >= next_status {
+            next_status += Duration::from_secs(1);
+            let s = assembler.stats();
+            crate::say!(
+                "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
+                started.elapsed().as_secs_f64(),
+                summary.can_frames,
+                s.frames,
+                s.complete,
+                s.frames - s.complete
+            );
+        }
+    }
+    acq.stop();
+    assembler.finish(&mut |a| {
+        summary.tally.add(a);
+        sinks.assembled(a);
+    });
+    result?;
+    let s = assembler.stats();
+    crate::say!(
+        "{} CAN frames -> {} skin frames of {} taxels: {} complete, {} partial; {} interface outage(s)",
+        summary.can_frames,
+        s.frames,
+        map.taxel_ids().len(),
+        s.complete,
+        s.frames - s.complete,
+        summary.outages.len()
+    );
+    summary.tally.report(map, s);
+    Ok(summary)
+}
+
+impl Sinks {
+    fn new(record: Option<&Path>, csv: Option<&Path>, map: &BusMap, status: bool) -> Result<Sinks> {
+        let log = match record {
+            Some(path) => {
+                let tmp = crate::partial_path(path);
+                let file =
+                    std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+                Some((path.to_owned(), tmp, std::io::BufWriter::new(file)))
+            }
+            None => None,
+        };
+        let csv = csv.map(|p| {
+            let mut s = String::from("t_us,cycle,complete");
+            for id in map.taxel_ids() {
+                let _ = write!(s, ",{id}");
+            }
+            s.push('\n');
+            (p.to_owned(), s)
+        });
+        Ok(Sinks { log, csv, status })
+    }
+
+    fn frame(&mut self, f: &CanFrame, interfaces: &[String]) -> Result<()> {
+        if let Some((_, tmp, out)) = &mut self.log {
+            let mut line = String::with_capacity(48);
+            write_line(&mut line, f, &interfaces[usize::from(f.bus)]);
+            out.write_all(line.as_bytes())
+                .with_context(|| format!("cannot write {}", tmp.display()))?;
+        }
+        Ok(())
+    }
+
+    fn assembled(&mut self, f: &AssembledFrame) {
+        if let Some((_, csv)) = &mut self.csv {
+            let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
+            for v in &f.values {
+                match v {
+                    Some(v) => {
+                        let _ = write!(csv, ",{v}");
+                    }
+                    None => csv.push(','),
+                }
+            }
+            csv.push('\n');
+        }
+    }
+
+    /// Closes the recording (renamed into place only now, so an interrupted write never leaves a
+    /// truncated log under the final name) and writes the CSV.
+    fn finish(self, summary: &Summary) -> Result<()> {
+        if let Some((path, tmp, out)) = self.log {
+            out.into_inner()
+                .map_err(|e| e.into_error())
+                .and_then(|f| f.sync_all())
+                .with_context(|| format!("cannot write {}", tmp.display()))?;
+            std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
+            crate::say!("wrote {} ({} CAN frames)", path.display(), summary.can_frames);
+        }
+        if let Some((path, csv)) = self.csv {
+            crate::write_atomic(&path, csv.as_bytes())?;
+            crate::say!("wrote {}", path.display());
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+    use super::*;
+    use skin_can::candump::Direction;
+    use skin_can::decode::skin16::encode_module;
+    use std::collections::VecDeque;
+
+    /// A bus whose modules answer every sync sent on it.
+    struct Bus {
+        name: String,
+        modules: Vec<u32>,
+        queue: VecDeque<CanFrame>,
+    }
+
+    impl CanPort for Bus {
+        fn name(&self) -> &str {
+            &self.name
+        }
+        fn open(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn close(&mut self) {}
+        fn recv(&mut self, timeout: Duration) -> std::io::Result<Option<CanFrame>> {
+            if self.queue.is_empty() {
+                std::thread::sleep(timeout.min(Duration::from_millis(1)));
+            }
+            Ok(self.queue.pop_front())
+        }
+        fn send(&mut self, sync: &CanFrame) -> std::io::Result<()> {
+            for &a in &self.modules {
+                let readings = std::array::from_fn(|s| u16::from(sync.bytes[0]) + s as u16);
+                for mut f in encode_module(a, &readings, sync.time_us + 100, 0) {
+                    f.direction = Some(Direction::Received);
+                    self.queue.push_back(f);
+                }
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_recorded_session_replays_to_the_frames_it_assembled_live() {
+        let map = BusMap::parse(
+            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
+            Path::new("m.toml"),
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let (log, csv) = (dir.path().join("s.log"), dir.path().join("live.csv"));
+        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false).unwrap();
+        let period = Duration::from_millis(2);
+        let options = LiveOptions {
+            sync_period: Some(period),
+            ..LiveOptions::default()
+        };
+        let bus = Bus {
+            name: "can0".into(),
+            modules: vec![2],
+            queue: VecDeque::new(),
+        };
+        let mut calls = 0;
+        // Stop after a number of loop turns, not a time: the test must not depend on speed.
+        let summary = run(vec![bus], options, &map, period, &mut sinks, || {
+            calls += 1;
+            calls > 400
+        })
+        .unwrap();
+        assert!(!log.exists(), "the log appears only when complete");
+        sinks.finish(&summary).unwrap();
+        let live_csv = std::fs::read_to_string(&csv).unwrap();
+        assert!(live_csv.lines().count() > 2, "{live_csv}");
+        // The recording replays, offline, to the same frames.
+        let replayed = dir.path().join("replayed.csv");
+        crate::replay::run(crate::replay::Args {
+            log: log.clone(),
+            busmap: dir.path().join("m.toml"),
+            layout: None,
+            window_ms: 50.0,
+            output: Some(replayed.clone()),
+        })
+        .expect_err("the bus map file does not exist yet");
+        std::fs::write(dir.path().join("m.toml"), map.to_toml()).unwrap();
+        crate::replay::run(crate::replay::Args {
+            log,
+            busmap: dir.path().join("m.toml"),
+            layout: None,
+            window_ms: 50.0,
+            output: Some(replayed.clone()),
+        })
+        .unwrap();
+        assert_eq!(std::fs::read_to_string(replayed).unwrap(), live_csv);
+    }
+}
