@@ -16,6 +16,11 @@ a module is missing when some data frame of it was lost, duplicated when a data 
 
     python3 -m pip install python-can==4.6.1
     python3 skin-can/interop/python_can_logs.py OUT_DIR
+    python3 skin-can/interop/python_can_logs.py --fixture fixtures/forearm OUT_DIR
+
+With --fixture, it instead writes OUT_DIR/touches.python-can.log: the fixture forearm's recording
+(touches.txt, bus map busmap.toml) as the same skin16 traffic as the project's own
+touches.candump.log, frame for frame (python-can adds the " R" direction marker).
 
 skin-can's test `python_can_interop` runs it when python-can is installed (.ci/run installs it).
 """
@@ -196,7 +201,32 @@ def write_log(path, frames):
             )
 
 
+def fixture(folder, out):
+    """The fixture recording as skin16 traffic, timed as fixtures/src/main.rs times it."""
+    lines = (folder / "touches.txt").read_text().splitlines()
+    ids = [int(t) for t in lines[0].split()]
+    modules = sorted({t >> 4 for t in ids})
+    frames = []
+    for k, line in enumerate(lines[1:]):
+        fields = line.split()
+        t0 = T0_US + round(float(fields[1]) * 1e6)
+        values = dict(zip(ids, (int(float(v)) for v in fields[2:])))
+        frames.append(Frame(t0, 0, 0x080, [k % 256]))
+        for j, m in enumerate(modules):
+            readings = [values.get((m << 4) | c, 0) for c in range(12)]
+            for chunk in range(3):
+                data = b"".join(v.to_bytes(2, "little") for v in readings[4 * chunk : 4 * chunk + 4])
+                frames.append(Frame(t0 + 150 * (j + 1), 0, 0x200 | ((m - 1) << 2) | chunk, data))
+    write_log(out / "touches.python-can.log", frames)
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == "--fixture":
+        out = Path(sys.argv[3])
+        out.mkdir(parents=True, exist_ok=True)
+        fixture(Path(sys.argv[2]), out)
+        print(f"wrote {out}")
+        return
     if len(sys.argv) != 2:
         sys.exit(__doc__)
     out = Path(sys.argv[1])

@@ -115,3 +115,63 @@ proptest! {
         let _ = CandumpLog::parse(&format!("({text}) can0 123#{text}"), Path::new("x"));
     }
 }
+
+proptest! {
+    #[test]
+    fn a_bad_line_anywhere_is_named_by_its_number(
+        good in 0usize..40,
+        garbage in "[^\n]{1,40}",
+    ) {
+        let mut text = String::new();
+        for k in 0..good {
+            text.push_str(&format!("({}.000100) can0 201#0102\n", 1_700_000_000 + k));
+        }
+        let bad = format!("(1.0) can0 123#{garbage}");
+        prop_assume!(CandumpLog::parse(&bad, Path::new("x")).is_err());
+        text.push_str(&bad);
+        text.push_str("\n(2.000000) can1 080#01\n");
+        let err = CandumpLog::parse(&text, Path::new("session.log")).unwrap_err().to_string();
+        let want = format!("session.log: line {}: ", good + 1);
+        prop_assert!(err.starts_with(&want), "{}", err);
+    }
+
+    /// Arbitrary frames, as a faulty node or a foreign protocol could put on the bus, through both
+    /// decoders and both kinds of assembly: never a panic, and frames stay in cycle order.
+    #[test]
+    fn arbitrary_can_frames_never_panic_a_decoder_or_an_assembler(
+        raw in prop::collection::vec((any::<u64>(), 0u16..3, any::<u32>(), any::<bool>(), any::<bool>(), 0u8..=15, any::<[u8; 8]>()), 0..200),
+    ) {
+        use skin_can::{Assembler, BusMap};
+        use skin_can::decode::{Decoder, Icub8, Skin16};
+        let frames: Vec<CanFrame> = raw
+            .iter()
+            .map(|&(time_us, bus, id, extended, remote, len, bytes)| CanFrame {
+                time_us,
+                bus,
+                id: if extended { id & 0x1FFF_FFFF } else { id & 0x7FF },
+                extended,
+                remote,
+                len,
+                bytes,
+                direction: None,
+            })
+            .collect();
+        let interfaces = vec!["can0".to_string(), "can1".to_string(), "can2".to_string()];
+        for format in ["skin16", "icub8"] {
+            let map = BusMap::parse(
+                &format!("format = \"{format}\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 1\ntaxels = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, -1]\n"),
+                Path::new("m.toml"),
+            )
+            .unwrap();
+            let mut asm = Assembler::for_map(&map, &interfaces, 50_000);
+            let mut cycles = Vec::new();
+            for f in &frames {
+                let _ = Skin16.decode(f);
+                let _ = Icub8.decode(f);
+                asm.push(f, &mut |a| cycles.push(a.cycle));
+            }
+            asm.finish(&mut |a| cycles.push(a.cycle));
+            prop_assert!(cycles.windows(2).all(|w| w[0] < w[1]));
+        }
+    }
+}

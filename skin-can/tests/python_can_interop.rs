@@ -127,3 +127,42 @@ fn python_can_logs_decode_to_exactly_what_was_written() {
         check(dir.path(), format, &format!("{format}_damaged"));
     }
 }
+
+#[test]
+fn python_can_writes_the_fixture_traffic_frame_for_frame_as_the_project_writer_does() {
+    let python = match python() {
+        Ok(p) => p,
+        Err(why) => {
+            eprintln!("skipped: {why}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let fixtures = root.join("../fixtures/forearm");
+    let o = Command::new(&python)
+        .arg(root.join("interop/python_can_logs.py"))
+        .arg("--fixture")
+        .arg(&fixtures)
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let theirs = CandumpLog::read(&dir.path().join("touches.python-can.log")).unwrap();
+    let ours = CandumpLog::read(&fixtures.join("touches.candump.log")).unwrap();
+    assert_eq!(theirs.interfaces, ours.interfaces);
+    assert_eq!(theirs.frames.len(), ours.frames.len());
+    for (k, (a, b)) in theirs.frames.iter().zip(&ours.frames).enumerate() {
+        assert_eq!(
+            a.direction,
+            Some(skin_can::candump::Direction::Received),
+            "line {}",
+            k + 1
+        );
+        let a = skin_can::candump::CanFrame {
+            direction: None,
+            ..*a
+        };
+        assert_eq!(&a, b, "line {}", k + 1);
+    }
+}
