@@ -1,5 +1,10 @@
 //! # skin-learn: touch understanding for robot skin
 //!
-//! Planned: Gaussian spatial calibration of taxels from probe contacts (thesis Ch. 7), tactile image
-//! classification (hand / non-hand, HandsNet, Ch. 4) and hand-part segmentation through ONNX models,
-//! evaluation metrics, and synthetic contact data on a skin layout. Nothing is implemented yet.
+//! - [`calibration`]: where each taxel sits, fitted from a probe pressing the skin (thesis Ch. 7):
+//!   probe datasets and their CSV form, the per-taxel Gaussian fit, a probe simulator, and the
+//!   error metrics and convergence curve of the thesis.
+//!
+//! Planned: tactile image classification (hand / non-hand, HandsNet, Ch. 4) and hand-part
+//! segmentation through ONNX models, their metrics, and synthetic contact data on a skin layout.
+
+pub mod calibration;

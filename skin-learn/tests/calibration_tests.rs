@@ -1,0 +1,334 @@
+//! Spatial calibration (thesis Ch. 7): exact recovery from an exact Gaussian, the thesis' accuracy
+//! on simulated patches, flags for taxels that cannot be calibrated, thread independence, and the
+//! dataset CSV form.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use nalgebra::{Point3, Rotation3, Unit, Vector3};
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_learn::calibration::{
+    CalibrationErrors, CalibrationOptions, GaussianFit, ProbeContact, ProbeDataset, ProbeSimulator, Status,
+    calibrate, convergence_curve,
+};
+use std::path::Path;
+
+/// 61 taxels on a hexagonal lattice of 8 mm (4 rings), tilted and moved to a known pose.
+fn hex_patch() -> LinkSkin {
+    let pose = Rotation3::from_euler_angles(0.35, -0.2, 0.6);
+    let origin = Vector3::new(0.45, -0.1, 0.25);
+    let normal = Unit::new_normalize(pose * Vector3::z());
+    let mut taxels = Vec::new();
+    for q in -4i32..=4 {
+        for r in -4i32..=4 {
+            if (q + r).abs() > 4 {
+                continue;
+            }
+            let (x, y) = (
+                0.008 * (f64::from(q) + 0.5 * f64::from(r)),
+                0.008 * 0.75f64.sqrt() * f64::from(r),
+            );
+            let id = TaxelId(taxels.len() as u32);
+            taxels.push(Taxel {
+                id,
+                position: Point3::from(pose * Vector3::new(x, y, 0.0) + origin),
+                normal,
+            });
+        }
+    }
+    assert_eq!(taxels.len(), 61);
+    LinkSkin::new("hex", taxels)
+}
+
+#[test]
+fn simulated_hex_patch_meets_the_thesis_figures() {
+    let patch = hex_patch();
+    let probes = ProbeSimulator::default().run(&patch, 350, 1);
+    let report = calibrate(&probes, &CalibrationOptions::default());
+    let e = CalibrationErrors::compare(&report, &patch);
+    for t in report.flagged() {
+        println!("flagged {}: {}", t.id, t.status);
+    }
+    println!("{e:?}");
+    assert_eq!(e.compared, 61);
+    assert!(
+        e.mean_mm <= 1.9 && e.max_mm <= 4.0 && e.mean_normal_rad <= 0.06,
+        "{e:?}"
+    );
+}
+
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+
+#[test]
+fn a_642_taxel_cyskin_patch_meets_the_same_bounds() {
+    let Some(path) = shared_data::shared("cyskin/ur10e_link1_patch1.json") else {
+        return;
+    };
+    let patch = skin_core::format::cyskin::read_skin(&path).unwrap();
+    assert_eq!(patch.taxels.len(), 642);
+    // 350 contacts per 61 taxels, as on the hexagonal patch.
+    let contacts = 350 * 642 / 61;
+    let probes = ProbeSimulator::default().run(&patch, contacts, 2);
+    let report = calibrate(&probes, &CalibrationOptions::default());
+    let e = CalibrationErrors::compare(&report, &patch);
+    let flagged: Vec<String> = report
+        .flagged()
+        .map(|t| format!("{}: {}", t.id, t.status))
+        .collect();
+    assert!(flagged.is_empty(), "{flagged:?}");
+    assert_eq!(e.compared, 642);
+    eprintln!("642-taxel Cyskin patch, {contacts} contacts: {e:?}");
+    assert!(
+        e.mean_mm <= 1.9 && e.max_mm <= 4.0 && e.mean_normal_rad <= 0.06,
+        "{e:?}"
+    );
+}
+
+/// Samples of an exact Gaussian around (cx, cy) with widths (w1, w2), on a jittered grid.
+fn exact_samples(c: [f64; 2], w: [f64; 2], height: f64) -> (Vec<[f64; 2]>, Vec<f64>) {
+    let mut xs = Vec::new();
+    let mut ts = Vec::new();
+    for i in 0..9 {
+        for j in 0..9 {
+            let x = [
+                -12.0 + 3.0 * f64::from(i) + 0.3 * f64::from(j % 3),
+                -12.0 + 3.0 * f64::from(j) - 0.2 * f64::from(i % 2),
+            ];
+            let q = (x[0] - c[0]).powi(2) / w[0].powi(2) + (x[1] - c[1]).powi(2) / w[1].powi(2);
+            xs.push(x);
+            ts.push(height * (-q).exp());
+        }
+    }
+    (xs, ts)
+}
+
+#[test]
+fn noise_free_responses_of_an_exact_gaussian_give_back_its_centre() {
+    for (c, w) in [
+        ([1.3, -2.2], [4.0, 5.5]),
+        ([-3.0, 0.7], [6.0, 3.2]),
+        ([0.0, 0.0], [5.0, 5.0]),
+    ] {
+        let (xs, ts) = exact_samples(c, w, 0.9);
+        let fit = GaussianFit::fit(&xs, &ts, GaussianFit::start(&xs, &ts), &Default::default()).unwrap();
+        assert!(fit.converged);
+        let err = ((fit.beta[0] - c[0]).powi(2) + (fit.beta[1] - c[1]).powi(2)).sqrt();
+        assert!(err < 0.01, "centre off by {err} mm: {fit:?}");
+        assert!(
+            (fit.beta[2] - w[0]).abs() < 1e-6 && (fit.beta[3] - w[1]).abs() < 1e-6,
+            "{fit:?}"
+        );
+        assert!((fit.beta[4] - 0.9).abs() < 1e-9);
+    }
+    // In 3D too: a tilted plane, metres, back through calibrate().
+    let centre = Point3::new(0.10, 0.02, 0.30);
+    let tilt = Rotation3::from_euler_angles(0.4, 0.1, -0.3);
+    let (xs, ts) = exact_samples([0.0, 0.0], [4.0, 4.0], 500.0);
+    let dataset = ProbeDataset {
+        contacts: xs
+            .iter()
+            .zip(&ts)
+            .map(|(x, &t)| ProbeContact {
+                centroid: centre + tilt * Vector3::new(x[0] * 1e-3 + 0.0011, x[1] * 1e-3 - 0.0007, 0.0),
+                force_n: None,
+                responses: vec![(TaxelId(5), t)],
+            })
+            .collect(),
+    };
+    let report = calibrate(&dataset, &CalibrationOptions::default());
+    let t = report.taxel(TaxelId(5)).unwrap();
+    assert_eq!(t.status, Status::Fitted);
+    let want = centre + tilt * Vector3::new(0.0011, -0.0007, 0.0);
+    assert!(
+        (t.position.unwrap() - want).norm() < 1e-5,
+        "{:?} vs {want:?}",
+        t.position
+    );
+    assert!(t.normal.unwrap().dot(&(tilt * Vector3::z())) > 1.0 - 1e-12);
+}
+
+#[test]
+fn a_far_start_falls_back_to_gradient_descent_and_still_converges() {
+    let (xs, ts) = exact_samples([2.0, 1.0], [5.0, 4.0], 1.0);
+    // Twice too wide and off centre: the Hessian is indefinite there.
+    let fit = GaussianFit::fit(&xs, &ts, [0.0, 0.0, 10.0, 10.0, 1.0], &Default::default()).unwrap();
+    assert!(fit.gradient_steps > 0, "{fit:?}");
+    assert!(fit.converged);
+    assert!(
+        ((fit.beta[0] - 2.0).powi(2) + (fit.beta[1] - 1.0).powi(2)).sqrt() < 0.01,
+        "{fit:?}"
+    );
+}
+
+#[test]
+fn taxels_that_cannot_be_calibrated_are_flagged_by_id() {
+    let patch = hex_patch();
+    let mut probes = ProbeSimulator::default().run(&patch, 350, 3);
+    // Taxel 900: answers 3 contacts. Taxel 901: 12 contacts on a line. Taxel 902: only zeros.
+    for (k, c) in probes.contacts.iter_mut().enumerate() {
+        if k < 3 {
+            c.responses.push((TaxelId(900), 100.0));
+        }
+        c.responses.push((TaxelId(902), 0.0));
+    }
+    for k in 0..12 {
+        probes.contacts.push(ProbeContact {
+            centroid: Point3::new(0.001 * f64::from(k), 0.002 * f64::from(k), 0.0),
+            force_n: None,
+            responses: vec![(TaxelId(901), 50.0 + f64::from(k))],
+        });
+    }
+    let report = calibrate(&probes, &CalibrationOptions::default());
+    assert_eq!(
+        report.taxel(TaxelId(900)).unwrap().status,
+        Status::TooFewResponses { have: 3, need: 8 }
+    );
+    let status = &report.taxel(TaxelId(901)).unwrap().status;
+    assert!(
+        matches!(status, Status::Degenerate(why) if why.contains("line")),
+        "{status:?}"
+    );
+    assert_eq!(report.taxel(TaxelId(902)).unwrap().status, Status::NoResponse);
+    let flagged: Vec<u32> = report.flagged().map(|t| t.id.0).collect();
+    assert_eq!(flagged, [900, 901, 902]);
+    // Flagged taxels are not guessed: the layout leaves them out.
+    let link = report.to_link("patch");
+    assert_eq!(link.taxels.len(), 61);
+}
+
+#[test]
+fn results_do_not_depend_on_the_number_of_threads() {
+    let patch = hex_patch();
+    let probes = ProbeSimulator::default().run(&patch, 350, 4);
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| calibrate(&probes, &CalibrationOptions::default()))
+    };
+    assert_eq!(run(1), run(2));
+    assert_eq!(run(1), run(5));
+}
+
+#[test]
+fn the_error_curve_flattens_by_16_samples_per_taxel() {
+    let patch = hex_patch();
+    // Enough contacts that every taxel has 32 samples to draw from: each point of the curve then
+    // averages over the same 61 taxels.
+    let probes = ProbeSimulator::default().run(&patch, 1200, 5);
+    let curve = convergence_curve(
+        &probes,
+        &patch,
+        &[6, 8, 12, 16, 24, 32],
+        10,
+        9,
+        &CalibrationOptions::default(),
+    );
+    let at = |n| curve.iter().find(|p| p.samples == n).unwrap();
+    // With 6 or 8 samples some taxels are still flagged (a centre outside their contacts).
+    assert!(
+        curve.iter().filter(|p| p.samples >= 12).all(|p| p.fitted >= 60.0),
+        "{curve:?}"
+    );
+    // Most of the gain is made by 16 samples: doubling them to 32 gains under a quarter of what
+    // going from 6 to 16 gained, and under 0.2 mm.
+    let early = at(6).mean_mm - at(16).mean_mm;
+    let late = at(16).mean_mm - at(32).mean_mm;
+    assert!(early > 0.0 && late < 0.25 * early && late < 0.2, "{curve:?}");
+}
+
+#[test]
+fn datasets_round_trip_through_csv_and_bad_rows_name_line_and_field() {
+    let patch = hex_patch();
+    let probes = ProbeSimulator::default().run(&patch, 50, 6);
+    let csv = probes.to_csv();
+    assert!(csv.starts_with("contact,x_m,y_m,z_m,taxel,response\n"));
+    let back = ProbeDataset::parse(&csv, Path::new("p.csv")).unwrap();
+    assert_eq!(back.to_csv(), csv);
+    let answered = probes.contacts.iter().filter(|c| !c.responses.is_empty()).count();
+    assert_eq!(back.contacts.len(), answered);
+    let bad = |text: &str, want: &str| {
+        let err = ProbeDataset::parse(text, Path::new("p.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(want), "{err} (wanted {want})");
+    };
+    let h = "contact,x_m,y_m,z_m,taxel,response\n";
+    bad("contact,x,y,z,taxel,response\n", "line 1");
+    bad(
+        &format!("{h}0,0.1,0.2,0.3,16,5\n0,0.1,nan,0.3,17,5\n"),
+        "line 3, field y_m",
+    );
+    bad(&format!("{h}0,0.1,0.2,0.3,sixteen,5\n"), "line 2, field taxel");
+    bad(
+        &format!("{h}0,0.1,0.2,0.3,16,5\n0,0.1,0.2,0.4,17,5\n"),
+        "line 3, field x_m",
+    );
+    bad(
+        &format!("{h}0,0.1,0.2,0.3,16,5\n0,0.1,0.2,0.3,16,6\n"),
+        "taxel 16 answers contact 0 twice",
+    );
+    bad(&format!("{h}0,0.1,0.2,0.3,16\n"), "5 fields");
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Moving the patch and the probe rigidly moves the fitted taxels with them.
+        #[test]
+        fn calibration_is_invariant_under_rigid_motion(
+            angles in prop::array::uniform3(-3.0f64..3.0),
+            shift in prop::array::uniform3(-1.0f64..1.0),
+            seed in 0u64..1000,
+        ) {
+            let patch = hex_patch();
+            let probes = ProbeSimulator::default().run(&patch, 200, seed);
+            let motion = nalgebra::Isometry3::from_parts(
+                nalgebra::Translation3::new(shift[0], shift[1], shift[2]),
+                nalgebra::UnitQuaternion::from_euler_angles(angles[0], angles[1], angles[2]),
+            );
+            let moved = ProbeDataset {
+                contacts: probes.contacts.iter().map(|c| ProbeContact { centroid: motion * c.centroid, ..c.clone() }).collect(),
+            };
+            // The side of the normal is given, as it must be on a flat patch seen from anywhere.
+            let up = patch.taxels[0].normal.into_inner();
+            let opts = |d| CalibrationOptions { outward: Some(d), ..CalibrationOptions::default() };
+            let a = calibrate(&probes, &opts(up));
+            let b = calibrate(&moved, &opts(motion * up));
+            for (x, y) in a.taxels.iter().zip(&b.taxels) {
+                prop_assert_eq!(&x.status, &y.status);
+                if let (Some(p), Some(q)) = (x.position, y.position) {
+                    prop_assert!((motion * p - q).norm() < 1e-7, "{} moved by {} m", x.id, (motion * p - q).norm());
+                    prop_assert!((motion * x.normal.unwrap().into_inner() - y.normal.unwrap().into_inner()).norm() < 1e-7);
+                }
+            }
+        }
+
+        /// Arbitrary datasets (few, repeated, huge or tiny values) never panic.
+        #[test]
+        fn arbitrary_datasets_never_panic(
+            rows in prop::collection::vec((0u32..4, prop::array::uniform3(-1e3f64..1e3), -1e6f64..1e6), 0..80),
+        ) {
+            let mut d = ProbeDataset::default();
+            for (k, (taxel, xyz, r)) in rows.iter().enumerate() {
+                d.contacts.push(ProbeContact {
+                    centroid: Point3::from(*xyz) * if k % 3 == 0 { 1e-9 } else { 1.0 },
+                    force_n: None,
+                    responses: vec![(TaxelId(*taxel), *r)],
+                });
+            }
+            let report = calibrate(&d, &CalibrationOptions { min_responses: 5, ..CalibrationOptions::default() });
+            for t in &report.taxels {
+                if let Some(p) = t.position {
+                    prop_assert!(p.coords.iter().all(|v| v.is_finite()));
+                }
+            }
+            let _ = ProbeDataset::parse(&d.to_csv(), Path::new("x.csv"));
+        }
+    }
+}
