@@ -3,9 +3,11 @@
 //! `skin flatten` turns a link's taxel layout into a flat tactile map; `skin image` turns
 //! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
 //! candump log of CAN traffic, `skin live` and `skin record` from SocketCAN interfaces;
-//! `skin busmap` writes a bus map for a layout. Run `skin help <command>` for details.
+//! `skin busmap` writes a bus map for a layout; `skin calibrate` fits taxel positions from probe
+//! contacts, `skin probe-sim` simulates such contacts. Run `skin help <command>` for details.
 
 mod busmap_cmd;
+mod calibrate_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
@@ -38,6 +40,8 @@ enum Command {
     Live(live_cmd::LiveArgs),
     Record(live_cmd::RecordArgs),
     Busmap(busmap_cmd::Args),
+    Calibrate(calibrate_cmd::CalibrateArgs),
+    ProbeSim(calibrate_cmd::ProbeSimArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +53,8 @@ fn main() -> ExitCode {
         Command::Live(args) => live_cmd::live(args),
         Command::Record(args) => live_cmd::record(args),
         Command::Busmap(args) => busmap_cmd::run(args),
+        Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
+        Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

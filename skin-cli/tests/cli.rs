@@ -450,3 +450,113 @@ fn busmap_for_the_fixture_layout_matches_the_fixture_bus_map() {
     assert_eq!(sizes, vec![17, 17, 17, 14]);
     assert_eq!(four.taxel_ids(), ours.taxel_ids());
 }
+
+fn hex(name: &str) -> String {
+    root().join("fixtures/hex_patch").join(name).display().to_string()
+}
+
+#[test]
+fn calibrate_recovers_the_hex_patch_and_prints_the_thesis_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, plot) = (dir.path().join("cal.json"), dir.path().join("curve.svg"));
+    let o = skin(&[
+        "calibrate",
+        &hex("probes.csv"),
+        "-o",
+        out.to_str().unwrap(),
+        "--truth",
+        &hex("layout.json"),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        stdout.contains("61 fitted, 0 flagged") && stdout.contains("thesis ABS"),
+        "{stdout}"
+    );
+    // The table's row: mean error, sigma, normal error, max; all within the thesis' figures.
+    let row: Vec<f64> = stdout
+        .lines()
+        .find(|l| l.starts_with("this dataset"))
+        .unwrap()
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert!(row[0] <= 1.9 && row[2] <= 0.06 && row[4] <= 4.0, "{row:?}");
+    let layout = skin_core::format::load_link(&out).unwrap();
+    assert_eq!(layout.taxels.len(), 61);
+    assert!(
+        std::fs::read_to_string(&plot)
+            .unwrap()
+            .contains("samples per taxel")
+    );
+}
+
+#[test]
+fn probe_sim_then_calibrate_writes_a_cyskin_layout_and_flags_what_it_cannot_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let probes = dir.path().join("p.csv");
+    // Few contacts: some border taxels answer too rarely and must be flagged, not guessed.
+    let o = skin(&[
+        "probe-sim",
+        "--layout",
+        &hex("layout.json"),
+        "--contacts",
+        "60",
+        "--seed",
+        "3",
+        "-o",
+        probes.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let out = dir.path().join("cal.json");
+    let o = skin(&[
+        "calibrate",
+        probes.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--format",
+        "cyskin",
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(stdout.contains("too few responses"), "{stdout}");
+    let flagged: usize = stdout
+        .split(" fitted, ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap();
+    let link = skin_core::format::cyskin::read_skin(&out).unwrap();
+    assert!(flagged > 0 && link.taxels.len() + flagged <= 61, "{stdout}");
+}
+
+#[test]
+fn calibrate_names_the_line_and_field_of_a_bad_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad,
+        "contact,x_m,y_m,z_m,taxel,response\n0,0.1,0.2,0.3,16,5\n1,0.1,0.2,abc,16,5\n",
+    )
+    .unwrap();
+    let out = dir.path().join("o.json");
+    let o = skin(&["calibrate", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("line 3, field z_m"), "{err}");
+    assert!(!out.exists());
+    let o = skin(&[
+        "calibrate",
+        &hex("probes.csv"),
+        "-o",
+        out.to_str().unwrap(),
+        "--plot",
+        "c.svg",
+    ]);
+    assert!(
+        !o.status.success() && text(&o).1.contains("give --truth"),
+        "{}",
+        text(&o).1
+    );
+}

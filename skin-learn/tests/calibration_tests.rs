@@ -4,51 +4,35 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-use nalgebra::{Point3, Rotation3, Unit, Vector3};
-use skin_core::{LinkSkin, Taxel, TaxelId};
+use nalgebra::{Point3, Rotation3, Vector3};
+use skin_core::{LinkSkin, TaxelId};
 use skin_learn::calibration::{
     CalibrationErrors, CalibrationOptions, GaussianFit, ProbeContact, ProbeDataset, ProbeSimulator, Status,
     calibrate, convergence_curve,
 };
 use std::path::Path;
 
-/// 61 taxels on a hexagonal lattice of 8 mm (4 rings), tilted and moved to a known pose.
+/// The fixture's known-pose patch: 61 taxels on a hexagonal lattice of 8 mm, tilted and moved.
 fn hex_patch() -> LinkSkin {
-    let pose = Rotation3::from_euler_angles(0.35, -0.2, 0.6);
-    let origin = Vector3::new(0.45, -0.1, 0.25);
-    let normal = Unit::new_normalize(pose * Vector3::z());
-    let mut taxels = Vec::new();
-    for q in -4i32..=4 {
-        for r in -4i32..=4 {
-            if (q + r).abs() > 4 {
-                continue;
-            }
-            let (x, y) = (
-                0.008 * (f64::from(q) + 0.5 * f64::from(r)),
-                0.008 * 0.75f64.sqrt() * f64::from(r),
-            );
-            let id = TaxelId(taxels.len() as u32);
-            taxels.push(Taxel {
-                id,
-                position: Point3::from(pose * Vector3::new(x, y, 0.0) + origin),
-                normal,
-            });
-        }
-    }
-    assert_eq!(taxels.len(), 61);
-    LinkSkin::new("hex", taxels)
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch/layout.json");
+    let patch = skin_core::format::load_link(&path).unwrap();
+    assert_eq!(patch.taxels.len(), 61);
+    patch
 }
 
 #[test]
 fn simulated_hex_patch_meets_the_thesis_figures() {
+    // The fixture's 350 contacts, made by the simulator with its default (documented) noise.
     let patch = hex_patch();
-    let probes = ProbeSimulator::default().run(&patch, 350, 1);
+    let csv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch/probes.csv");
+    let probes = ProbeDataset::read(&csv).unwrap();
     let report = calibrate(&probes, &CalibrationOptions::default());
     let e = CalibrationErrors::compare(&report, &patch);
-    for t in report.flagged() {
-        println!("flagged {}: {}", t.id, t.status);
-    }
-    println!("{e:?}");
+    let flagged: Vec<String> = report
+        .flagged()
+        .map(|t| format!("{}: {}", t.id, t.status))
+        .collect();
+    assert!(flagged.is_empty(), "{flagged:?}");
     assert_eq!(e.compared, 61);
     assert!(
         e.mean_mm <= 1.9 && e.max_mm <= 4.0 && e.mean_normal_rad <= 0.06,

@@ -1,0 +1,250 @@
+//! `skin calibrate` and `skin probe-sim`: taxel positions from probe contacts, and simulated
+//! probe datasets.
+
+use anyhow::{Context, Result, bail};
+use skin_core::format::{cyskin, native};
+use skin_core::{LinkSkin, SkinLayout};
+use skin_learn::calibration::{
+    CalibrationErrors, CalibrationOptions, ProbeDataset, ProbeSimulator, Status, calibrate,
+    convergence_curve, curve_svg,
+};
+use std::path::PathBuf;
+
+/// Fit every taxel's position and normal from probe contacts (thesis Ch. 7): per taxel a plane
+/// through the contacts that made it answer, then the 2D Gaussian of its responses fitted by
+/// Newton-Raphson; the centre is the taxel's position, the plane's normal its normal.
+///
+/// PROBES.csv has the header `contact,x_m,y_m,z_m,taxel,response`: one row per (contact, taxel
+/// that answered), contact centroids in metres, raw responses. Writes the fitted taxels as a
+/// layout (metres); taxels that cannot be calibrated are listed with the reason and left out,
+/// never guessed. With --truth (a layout: project JSON or Cyskin JSON, taxels matched by id),
+/// prints the errors of Eq. 7.5-7.8 as in the thesis' Table 7.1, and with --plot draws the error
+/// against samples per taxel (10 random subsets per point, as Fig. 7.9).
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct CalibrateArgs {
+    /// Probe dataset (CSV).
+    probes: PathBuf,
+    /// Where to write the calibrated layout.
+    #[arg(short, long, value_name = "LAYOUT.json")]
+    output: PathBuf,
+    /// `native`: the project's layout JSON; `cyskin`: Cyskin calibration JSON.
+    #[arg(long, value_enum, default_value_t = LayoutFormat::Native)]
+    format: LayoutFormat,
+    /// The true layout, to measure the errors.
+    #[arg(long, value_name = "LAYOUT.json")]
+    truth: Option<PathBuf>,
+    /// Draw the error against samples per taxel to this SVG (needs --truth).
+    #[arg(long, value_name = "curve.svg")]
+    plot: Option<PathBuf>,
+    /// Taxels with fewer answered contacts are flagged.
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    min_responses: usize,
+    /// Name of the link in the written layout (default: the file name of PROBES).
+    #[arg(long)]
+    name: Option<String>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LayoutFormat {
+    Native,
+    Cyskin,
+}
+
+/// Simulate a probe calibrating a skin: random presses of about 5 N over the layout, each taxel
+/// answering gain * exp(-d^2 / (2 spread^2)) of 80 % of full scale, d its distance to the contact,
+/// plus noise; only answers above 3 noise sigmas are kept. Writes the dataset `skin calibrate`
+/// reads. Deterministic for a given --seed.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct ProbeSimArgs {
+    /// True layout (any file `skin flatten` reads).
+    #[arg(long, value_name = "L.json")]
+    layout: PathBuf,
+    /// Number of probe contacts.
+    #[arg(long, default_value_t = 350)]
+    contacts: usize,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where to write the dataset (CSV).
+    #[arg(short, long, value_name = "PROBES.csv")]
+    output: PathBuf,
+    /// Width (sigma) of a taxel's response around the contact, millimetres.
+    #[arg(long, default_value_t = 4.0, value_name = "MM")]
+    spread_mm: f64,
+    /// Additive noise sigma, as a fraction of full scale.
+    #[arg(long, default_value_t = 0.01)]
+    noise: f64,
+    /// Noise sigma of the contact centroid, per axis, millimetres.
+    #[arg(long, default_value_t = 0.5, value_name = "MM")]
+    centroid_noise_mm: f64,
+    /// Per-taxel gains vary uniformly within 1 +- this.
+    #[arg(long, default_value_t = 0.05)]
+    gain_spread: f64,
+    /// Mean probe force, newtons (it varies by --force-spread from contact to contact).
+    #[arg(long, default_value_t = 5.0, value_name = "N")]
+    force_n: f64,
+    /// Relative standard deviation of the force.
+    #[arg(long, default_value_t = 0.05)]
+    force_spread: f64,
+    /// Contacts land within this distance of some taxel, millimetres.
+    #[arg(long, default_value_t = 8.0, value_name = "MM")]
+    margin_mm: f64,
+}
+
+pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
+    let link = crate::flatten::load_input(&args.layout)?;
+    if link.taxels.is_empty() {
+        bail!("{}: no taxels", args.layout.display());
+    }
+    for (name, v) in [
+        ("--spread-mm", args.spread_mm),
+        ("--noise", args.noise),
+        ("--centroid-noise-mm", args.centroid_noise_mm),
+        ("--gain-spread", args.gain_spread),
+        ("--force-n", args.force_n),
+        ("--force-spread", args.force_spread),
+        ("--margin-mm", args.margin_mm),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            bail!("{name} must be a non-negative number, not {v}");
+        }
+    }
+    if !(args.spread_mm > 0.0 && args.force_n > 0.0) {
+        bail!("--spread-mm and --force-n must be positive");
+    }
+    let sim = ProbeSimulator {
+        spread_mm: args.spread_mm,
+        noise: args.noise,
+        centroid_noise_mm: args.centroid_noise_mm,
+        gain_spread: args.gain_spread,
+        force_n: args.force_n,
+        force_spread: args.force_spread,
+        margin_mm: args.margin_mm,
+        ..ProbeSimulator::default()
+    };
+    let dataset = sim.run(&link, args.contacts, args.seed);
+    let rows: usize = dataset.contacts.iter().map(|c| c.responses.len()).sum();
+    let silent = dataset.contacts.iter().filter(|c| c.responses.is_empty()).count();
+    crate::write_atomic(&args.output, dataset.to_csv().as_bytes())?;
+    crate::say!(
+        "{} contacts on {} taxels: {rows} responses ({:.1} per taxel){}",
+        args.contacts,
+        link.taxels.len(),
+        rows as f64 / link.taxels.len() as f64,
+        if silent > 0 {
+            format!(", {silent} contacts no taxel answered (not in the CSV)")
+        } else {
+            String::new()
+        }
+    );
+    crate::say!("wrote {}", args.output.display());
+    Ok(())
+}
+
+pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
+    let dataset = ProbeDataset::read(&args.probes)?;
+    if args.plot.is_some() && args.truth.is_none() {
+        bail!("--plot draws the error against the truth: give --truth too");
+    }
+    let truth: Option<LinkSkin> = match &args.truth {
+        Some(p) => Some(crate::flatten::load_input(p)?),
+        None => None,
+    };
+    let options = CalibrationOptions {
+        min_responses: args.min_responses,
+        ..CalibrationOptions::default()
+    };
+    let report = calibrate(&dataset, &options);
+    let fitted = report
+        .taxels
+        .iter()
+        .filter(|t| t.status == Status::Fitted)
+        .count();
+    let samples: Vec<usize> = report.taxels.iter().map(|t| t.samples).collect();
+    crate::say!(
+        "{}: {} contacts, {} taxels answered (median {} samples per taxel): {fitted} fitted, {} flagged",
+        args.probes.display(),
+        dataset.contacts.len(),
+        report.taxels.len(),
+        median(&samples),
+        report.taxels.len() - fitted
+    );
+    for t in report.flagged().take(20) {
+        crate::say!("  taxel {}: {}", t.id, t.status);
+    }
+    if report.flagged().count() > 20 {
+        crate::say!("  ... and {} more", report.flagged().count() - 20);
+    }
+    if fitted == 0 {
+        bail!(
+            "{}: no taxel could be calibrated; nothing written",
+            args.probes.display()
+        );
+    }
+    let name = args.name.clone().unwrap_or_else(|| {
+        args.probes
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("calibrated")
+            .to_string()
+    });
+    let mut link = report.to_link(&name);
+    if let Some(t) = &truth {
+        link.frame_to_parent = t.frame_to_parent;
+    }
+    let text = match args.format {
+        LayoutFormat::Native => native::to_string(&SkinLayout { links: vec![link] }),
+        LayoutFormat::Cyskin => cyskin::skin_to_string(&link),
+    };
+    crate::write_atomic(&args.output, text.as_bytes())?;
+    crate::say!("wrote {}", args.output.display());
+
+    if let Some(truth) = &truth {
+        let e = CalibrationErrors::compare(&report, truth);
+        crate::say!("");
+        crate::say!("              mean e    sigma     mean normal error   e max     taxels");
+        crate::say!(
+            "this dataset  {:>5.2} mm  {:>5.2} mm  {:>5.3} rad ({:>4.1} deg)  {:>5.2} mm  {}{}",
+            e.mean_mm,
+            e.std_mm,
+            e.mean_normal_rad,
+            e.mean_normal_rad.to_degrees(),
+            e.max_mm,
+            e.compared,
+            if e.missing > 0 {
+                format!(" ({} of the truth not fitted)", e.missing)
+            } else {
+                String::new()
+            }
+        );
+        crate::say!("thesis ABS     1.90 mm   0.80 mm  0.060 rad ( 3.4 deg)   4.00 mm  61 (Table 7.1)");
+        if let Some(plot) = &args.plot {
+            let counts = [6, 8, 10, 12, 16, 20, 24, 32];
+            let curve = convergence_curve(&dataset, truth, &counts, 10, 1, &options);
+            crate::say!("");
+            crate::say!("samples/taxel  mean e    sigma    taxels (mean of 10 subsets)");
+            for p in &curve {
+                crate::say!(
+                    "{:>13}  {:>5.2} mm  {:>5.2} mm  {:>6.1}",
+                    p.samples,
+                    p.mean_mm,
+                    p.std_mm,
+                    p.fitted
+                );
+            }
+            let title = format!("Position error vs samples per taxel ({})", args.probes.display());
+            crate::write_atomic(plot, curve_svg(&curve, &title).as_bytes())
+                .with_context(|| format!("{}", plot.display()))?;
+            crate::say!("wrote {}", plot.display());
+        }
+    }
+    Ok(())
+}
+
+fn median(v: &[usize]) -> usize {
+    let mut v = v.to_vec();
+    v.sort_unstable();
+    v.get(v.len() / 2).copied().unwrap_or(0)
+}
