@@ -36,3 +36,15 @@ for name, ms in sorted(image.items()):
     key = "with_morphology_us" if "erode" in name else "interpolate_quantise_us"
     theirs = ref[size][key]
     print(f"| {name.split('/', 1)[1]} | {ms * 1e3:.1f} us | {theirs:.1f} us | {theirs / (ms * 1e3):.1f}x |")
+
+calib = criterion("calibrate/*")
+scipy = json.load(open(os.path.join(root, "bench-data", "scipy_calibration.json")))
+print()
+print("| calibration | skin, 1 thread | skin, 2 threads | scipy curve_fit, 1 thread | scipy / skin (1 thread) | taxels fitted (skin / scipy) |")
+print("|---|---|---|---|---|---|")
+for key, name in [("hex", "61 taxels x 350 contacts"), ("arm_2000", "3500 taxels x 2000 contacts"), ("arm_20000", "3500 taxels x 20000 contacts")]:
+    one = calib[f"calibrate/{name}/1 thread"]
+    two = calib[f"calibrate/{name}/2 threads"]
+    ours = open(os.path.join(root, "bench-data", f"calibration_{key}.fitted")).read().split()[0]
+    theirs = scipy[key]
+    print(f"| {name} | {one:.2f} ms | {two:.2f} ms | {theirs['ms']:.1f} ms | {theirs['ms'] / one:.0f}x | {ours} / {theirs['fitted']} |")
