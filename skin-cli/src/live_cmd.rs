@@ -260,6 +260,10 @@ impl Sinks {
         let log = match record {
             Some(path) => {
                 let tmp = crate::partial_path(path);
+                if let Some(dir) = tmp.parent() {
+                    std::fs::create_dir_all(dir)
+                        .with_context(|| format!("cannot create {}", dir.display()))?;
+                }
                 let file =
                     std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
                 Some((path.to_owned(), tmp, std::io::BufWriter::new(file)))

@@ -65,11 +65,14 @@ fn main() -> ExitCode {
     }
 }
 
-/// Writes `contents` to `path` through a temporary file in the same folder, so that a failure
-/// never leaves a half-written output behind.
+/// Writes `contents` to `path` (creating its folder) through a temporary file in the same folder,
+/// so that a failure never leaves a half-written output behind.
 pub(crate) fn write_atomic(path: &std::path::Path, contents: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context as _;
     let tmp = partial_path(path);
+    if let Some(dir) = tmp.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
     std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())

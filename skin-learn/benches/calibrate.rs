@@ -37,8 +37,16 @@ fn bench(c: &mut Criterion) {
     let arm = arm();
     let cases = [
         ("61 taxels x 350 contacts", "hex", hex),
-        ("3500 taxels x 2000 contacts", "arm_2000", ProbeSimulator::default().run(&arm, 2_000, 11)),
-        ("3500 taxels x 20000 contacts", "arm_20000", ProbeSimulator::default().run(&arm, 20_000, 12)),
+        (
+            "3500 taxels x 2000 contacts",
+            "arm_2000",
+            ProbeSimulator::default().run(&arm, 2_000, 11),
+        ),
+        (
+            "3500 taxels x 20000 contacts",
+            "arm_20000",
+            ProbeSimulator::default().run(&arm, 20_000, 12),
+        ),
     ];
     let options = CalibrationOptions::default();
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
@@ -46,9 +54,15 @@ fn bench(c: &mut Criterion) {
     group.sample_size(20);
     for (name, file, dataset) in &cases {
         // The CSV as scipy will read it, and what was fitted here, to compare.
-        dataset.write(&out.join(format!("calibration_{file}.csv"))).unwrap();
+        dataset
+            .write(&out.join(format!("calibration_{file}.csv")))
+            .unwrap();
         let report = calibrate(dataset, &options);
-        let fitted = report.taxels.iter().filter(|t| t.status == Status::Fitted).count();
+        let fitted = report
+            .taxels
+            .iter()
+            .filter(|t| t.status == Status::Fitted)
+            .count();
         std::fs::write(
             out.join(format!("calibration_{file}.fitted")),
             format!("{fitted} of {} taxels fitted\n", report.taxels.len()),
@@ -57,7 +71,9 @@ fn bench(c: &mut Criterion) {
         group.bench_function(format!("{name}/1 thread"), |b| {
             b.iter(|| one.install(|| calibrate(dataset, &options)))
         });
-        group.bench_function(format!("{name}/2 threads"), |b| b.iter(|| calibrate(dataset, &options)));
+        group.bench_function(format!("{name}/2 threads"), |b| {
+            b.iter(|| calibrate(dataset, &options))
+        });
     }
     group.finish();
 }
