@@ -14,6 +14,10 @@
 //! 4. the centre goes back to 3D, `x~ = [v1 v2 v3] [b1, b2, 0]^T + v3 v3^T x*`, x* the mean
 //!    contact; the taxel's normal is v3.
 //!
+//! Around the fit, the self-touch procedure as pieces a robot stack calls: finding the body in an
+//! RGB-D frame and a target with its normal ([`body_detection`], Ch. 7.2.1-7.2.2), and choosing
+//! the next probe point where taxels still lack samples ([`exploration`]).
+//!
 //! A taxel that cannot be calibrated is flagged with the reason ([`Status`]), never guessed.
 //! Taxels are solved in parallel (rayon); the results do not depend on the number of threads.
 //!
@@ -37,7 +41,9 @@
 //! assert!((centre - Point3::new(0.008, 0.008, 0.0)).norm() < 0.002); // within 2 mm
 //! ```
 
+pub mod body_detection;
 mod dataset;
+pub mod exploration;
 mod gaussian_fit;
 mod metrics;
 mod probe_sim;
