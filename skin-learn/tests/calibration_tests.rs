@@ -44,15 +44,24 @@ fn simulated_hex_patch_meets_the_thesis_figures() {
 mod shared_data;
 
 #[test]
-fn a_642_taxel_cyskin_patch_meets_the_same_bounds() {
-    let Some(path) = shared_data::shared("cyskin/ur10e_link1_patch1.json") else {
+fn the_642_taxel_cyskin_patches_meet_the_same_bounds() {
+    for (name, seed) in [
+        ("cyskin/ur10e_link1_patch1.json", 2),
+        ("cyskin/ur10e_link1_patch2.json", 3),
+    ] {
+        cyskin_patch(name, seed);
+    }
+}
+
+fn cyskin_patch(name: &str, seed: u64) {
+    let Some(path) = shared_data::shared(name) else {
         return;
     };
     let patch = skin_core::format::cyskin::read_skin(&path).unwrap();
     assert_eq!(patch.taxels.len(), 642);
     // 350 contacts per 61 taxels, as on the hexagonal patch.
     let contacts = 350 * 642 / 61;
-    let probes = ProbeSimulator::default().run(&patch, contacts, 2);
+    let probes = ProbeSimulator::default().run(&patch, contacts, seed);
     let report = calibrate(&probes, &CalibrationOptions::default());
     let e = CalibrationErrors::compare(&report, &patch);
     let flagged: Vec<String> = report
@@ -61,7 +70,7 @@ fn a_642_taxel_cyskin_patch_meets_the_same_bounds() {
         .collect();
     assert!(flagged.is_empty(), "{flagged:?}");
     assert_eq!(e.compared, 642);
-    eprintln!("642-taxel Cyskin patch, {contacts} contacts: {e:?}");
+    eprintln!("{name}, {contacts} contacts: {e:?}");
     assert!(
         e.mean_mm <= 1.9 && e.max_mm <= 4.0 && e.mean_normal_rad <= 0.06,
         "{e:?}"

@@ -5,7 +5,7 @@
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
 use skin_learn::calibration::body_detection::{
-    PinholeCamera, body_mask, containing_polygon, link_thickness, surface_at,
+    PinholeCamera, body_mask, containing_polygon, link_thickness, pick_target, surface_at,
 };
 use skin_learn::calibration::exploration::next_probe_point;
 
@@ -120,6 +120,23 @@ fn the_body_is_segmented_from_the_background() {
         floor_in_mask * 50 < truth.iter().filter(|t| **t).count(),
         "{floor_in_mask}"
     );
+
+    // Targets on the body, reachable (here: the first link only), with outward normals.
+    let first = |p: &Point3<f64>| p.x < 0.05;
+    for seed in 0..10 {
+        let (p, n) = pick_target(&cam, &depth, &mask, 3, seed, 1000, first).unwrap();
+        assert!(first(&p));
+        let ab = j[1] - j[0];
+        let t = ((p - j[0]).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+        let radial = p - (j[0] + ab * t);
+        assert!(
+            (radial.norm() - RADIUS).abs() < 0.003,
+            "target off the surface by {}",
+            radial.norm() - RADIUS
+        );
+        assert!(n.dot(&radial.normalize()) > 0.99, "normal {n:?} vs {radial:?}");
+    }
+    assert!(pick_target(&cam, &depth, &mask, 3, 0, 100, |_| false).is_none());
 }
 
 #[test]
@@ -196,4 +213,92 @@ fn exploration_goes_where_samples_are_missing() {
         assert!(presses < 200);
     }
     assert!(samples.iter().all(|&s| s >= 16));
+}
+
+/// The whole procedure without a person choosing the points: the exploration rule picks where to
+/// press from rough (CAD) taxel positions, the approach-then-press controller drives a simulated
+/// probe into a spring-like skin until the force settles at 5 N, the simulated skin answers, and
+/// the dataset is calibrated.
+#[test]
+fn a_closed_loop_calibrates_a_patch_on_its_own() {
+    use rand::{Rng, SeedableRng};
+    use skin_control::approach_press::{ApproachPress, Phase, PressOptions};
+    use skin_learn::calibration::{
+        CalibrationErrors, CalibrationOptions, ProbeDataset, ProbeSimulator, calibrate,
+    };
+
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch/layout.json");
+    let truth = skin_core::format::load_link(&path).unwrap();
+    let normal = truth.taxels[0].normal;
+    let n = normal.into_inner();
+    // The CAD layout: every taxel up to 3 mm off in the patch plane.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let t1 = n.cross(&nalgebra::Vector3::x()).normalize();
+    let t2 = n.cross(&t1);
+    let cad: Vec<Point3<f64>> = truth
+        .taxels
+        .iter()
+        .map(|t| t.position + (t1 * rng.random_range(-1.0..1.0) + t2 * rng.random_range(-1.0..1.0)) * 0.003)
+        .collect();
+    // Candidate probe points: 30 random points within 8 mm of every CAD taxel (what the
+    // segmented body offers); each is pressed at most once, so samples come from many places.
+    let mut candidates = Vec::new();
+    for p in &cad {
+        for _ in 0..30 {
+            let a = rng.random_range(0.0..std::f64::consts::TAU);
+            let r = 0.008 * rng.random::<f64>().sqrt();
+            candidates.push(p + (t1 * a.cos() + t2 * a.sin()) * r);
+        }
+    }
+    let mut session = ProbeSimulator::default().session(&truth, 8);
+    let stiffness = 10_000.0; // N/m: 0.5 mm of skin compression at 5 N
+    let surface = truth.taxels[0].position;
+    let mut dataset = ProbeDataset::default();
+    let mut samples = vec![0usize; truth.taxels.len()];
+    let dt = 0.001;
+    // A sample counts for a taxel when the press lands within 6 mm of where the taxel is thought
+    // to be: far answers are weak and leave the Gaussian's centre loose.
+    while let Some(k) = next_probe_point(&candidates, &cad, &samples, 16, 0.006) {
+        assert!(dataset.contacts.len() < 1000, "exploration does not end");
+        let target = candidates.swap_remove(k);
+        let mut press = ApproachPress::new(target, normal, PressOptions::default());
+        let mut tip = target + n * 0.05;
+        let mut force = 0.0;
+        let mut steps = 0;
+        while press.phase() != Phase::Settled {
+            let v = press.step(&tip, force);
+            tip += v * dt;
+            force = stiffness * (surface - tip).dot(&n).max(0.0);
+            steps += 1;
+            assert!(
+                steps < 20_000,
+                "press at {target} did not settle: {:?}",
+                press.phase()
+            );
+        }
+        assert!((force - 5.0).abs() < 0.1);
+        // The robot records the tip as the contact centroid (Ch. 7.2.3).
+        let contact = session.press(&tip, force);
+        for (id, _) in &contact.responses {
+            let i = id.0 as usize;
+            if (tip - cad[i]).norm() <= 0.006 {
+                samples[i] += 1;
+            }
+        }
+        dataset.contacts.push(contact);
+    }
+    let report = calibrate(&dataset, &CalibrationOptions::default());
+    let e = CalibrationErrors::compare(&report, &truth);
+    eprintln!("closed loop: {} presses, {e:?}", dataset.contacts.len());
+    for t in report.flagged() {
+        eprintln!(
+            "flagged {}: {} ({} samples) {:?}",
+            t.id, t.status, t.samples, t.fit
+        );
+    }
+    assert_eq!(e.compared, 61, "every taxel calibrated");
+    assert!(
+        e.mean_mm <= 1.9 && e.max_mm <= 4.0 && e.mean_normal_rad <= 0.06,
+        "{e:?}"
+    );
 }

@@ -10,8 +10,9 @@
 //!    joints ([`containing_polygon`], Fig. 7.4).
 //! 4. Inside the polygon, a pixel is body when its depth is less than that of the closest link
 //!    point plus that link's d_max ([`body_mask`]).
-//! 5. A target is a body pixel projected onto the body with its depth, and its normal the one of
-//!    the depth point cloud around it ([`surface_at`]).
+//! 5. A target is a random body pixel away from the borders, projected onto the body with its
+//!    depth, its normal the one of the depth point cloud around it ([`pick_target`],
+//!    [`surface_at`]).
 //!
 //! Depth images are row-major, metres along the optical axis (z in the camera frame), 0 or NaN
 //! where the sensor has no reading.
@@ -263,4 +264,49 @@ pub fn surface_at(
         n = -n;
     }
     Some((target, Unit::new_normalize(n)))
+}
+
+/// A probe target on the segmented body (Ch. 7.2.2): a random body pixel whose whole
+/// neighbourhood of `radius` pixels is body too (borders give no stable contact), that
+/// `reachable` accepts, with its 3D point and outward normal ([`surface_at`]). Deterministic for a
+/// given `seed`; `None` after `tries` draws without one.
+pub fn pick_target(
+    camera: &PinholeCamera,
+    depth: &[f32],
+    mask: &[bool],
+    radius: usize,
+    seed: u64,
+    tries: usize,
+    reachable: impl Fn(&Point3<f64>) -> bool,
+) -> Option<(Point3<f64>, Unit<Vector3<f64>>)> {
+    use rand::{Rng, SeedableRng};
+    let body: Vec<usize> = (0..mask.len()).filter(|&k| mask[k]).collect();
+    if body.is_empty() || mask.len() != camera.width * camera.height {
+        return None;
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let r = radius as i64;
+    for _ in 0..tries {
+        let k = body[rng.random_range(0..body.len())];
+        let (u, v) = ((k % camera.width) as i64, (k / camera.width) as i64);
+        let interior = (-r..=r).all(|dv| {
+            (-r..=r).all(|du| {
+                let (pu, pv) = (u + du, v + dv);
+                pu >= 0
+                    && pv >= 0
+                    && (pu as usize) < camera.width
+                    && (pv as usize) < camera.height
+                    && mask[pv as usize * camera.width + pu as usize]
+            })
+        });
+        if !interior {
+            continue;
+        }
+        if let Some((p, n)) = surface_at(camera, depth, u as usize, v as usize, radius)
+            && reachable(&p)
+        {
+            return Some((p, n));
+        }
+    }
+    None
 }

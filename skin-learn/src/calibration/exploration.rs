@@ -7,7 +7,8 @@ use nalgebra::Point3;
 /// The candidate (index into `candidates`) whose press would help most: the sum, over taxels
 /// within `reach` metres of it, of how many samples each still lacks to reach `wanted`. `None`
 /// when every taxel within reach of every candidate has its samples (exploration is done). Ties go
-/// to the lowest index, so the rule is deterministic.
+/// to the lowest index, so the rule is deterministic. Remove a candidate once pressed: repeated
+/// presses at one point add samples but not the spread of positions a Gaussian fit needs.
 pub fn next_probe_point(
     candidates: &[Point3<f64>],
     taxels: &[Point3<f64>],

@@ -52,7 +52,7 @@ mod taxel_pose;
 pub use dataset::{CSV_HEADER, ProbeContact, ProbeDataset, TaxelSamples};
 pub use gaussian_fit::{FitOptions, GaussianFit};
 pub use metrics::{CalibrationErrors, CurvePoint, convergence_curve, curve_svg};
-pub use probe_sim::ProbeSimulator;
+pub use probe_sim::{ProbeSession, ProbeSimulator};
 
 use nalgebra::{Point3, Unit, Vector3};
 use rayon::prelude::*;

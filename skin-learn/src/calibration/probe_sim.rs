@@ -77,65 +77,105 @@ fn tangent(n: &Vector3<f64>) -> Vector3<f64> {
     n.cross(&a).normalize()
 }
 
+/// A simulated skin being probed: the patch, its taxels' gains, and the random stream. Made by
+/// [`ProbeSimulator::session`]; a closed-loop calibration presses where it chooses with
+/// [`ProbeSession::press`].
+#[derive(Debug, Clone)]
+pub struct ProbeSession<'a> {
+    sim: ProbeSimulator,
+    patch: &'a LinkSkin,
+    gains: Vec<f64>,
+    rng: ChaCha8Rng,
+}
+
 impl ProbeSimulator {
-    /// `contacts` presses on `patch`, deterministic for a given `seed`. Contacts no taxel
-    /// answered are kept (with no responses): the robot made them too.
-    pub fn run(&self, patch: &LinkSkin, contacts: usize, seed: u64) -> ProbeDataset {
+    /// A probing session on `patch`, deterministic for a given `seed`.
+    pub fn session<'a>(&self, patch: &'a LinkSkin, seed: u64) -> ProbeSession<'a> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let taxels = &patch.taxels;
-        let mut dataset = ProbeDataset::default();
-        if taxels.is_empty() {
-            return dataset;
-        }
-        let gains: Vec<f64> = taxels
+        let gains = patch
+            .taxels
             .iter()
             .map(|_| 1.0 + self.gain_spread * rng.random_range(-1.0..=1.0))
             .collect();
-        let margin = self.margin_mm.max(0.0) * 1e-3;
-        let spread = self.spread_mm.max(1e-6) * 1e-3;
-        let reach2 = (6.0 * spread).powi(2);
-        let noise = Normal::new(0.0, (self.noise * self.full_scale).max(0.0)).ok();
-        let threshold = self.report_sigmas * self.noise * self.full_scale;
+        ProbeSession {
+            sim: *self,
+            patch,
+            gains,
+            rng,
+        }
+    }
+
+    /// `contacts` presses at random points of `patch`, deterministic for a given `seed`.
+    /// Contacts no taxel answered are kept (with no responses): the robot made them too.
+    pub fn run(&self, patch: &LinkSkin, contacts: usize, seed: u64) -> ProbeDataset {
+        let mut session = self.session(patch, seed);
+        let mut dataset = ProbeDataset::default();
+        if patch.taxels.is_empty() {
+            return dataset;
+        }
         while dataset.contacts.len() < contacts {
-            // A point within the margin of a random taxel, in its tangent plane...
-            let base = &taxels[rng.random_range(0..taxels.len())];
-            let t1 = tangent(&base.normal);
-            let t2 = base.normal.cross(&t1);
-            let r = margin * rng.random::<f64>().sqrt();
-            let phi = rng.random_range(0.0..std::f64::consts::TAU);
-            let point = base.position + (t1 * phi.cos() + t2 * phi.sin()) * r;
-            // ... kept with probability 1 / (taxels within the margin): uniform density.
-            let near = taxels
-                .iter()
-                .filter(|t| (t.position - point).norm_squared() <= margin * margin)
-                .count()
-                .max(1);
-            if rng.random_range(0..near) != 0 {
+            let Some(point) = session.random_point() else {
                 continue;
-            }
-            let force = self.force_n * (1.0 + self.force_spread * rng.sample::<f64, _>(StandardNormal));
-            let scale = self.full_scale * self.peak * (force / self.force_n.max(1e-9)).max(0.0);
-            let mut responses = Vec::new();
-            for (t, gain) in taxels.iter().zip(&gains) {
-                let d2 = (t.position - point).norm_squared();
-                if d2 > reach2 {
-                    continue;
-                }
-                let clean = scale * gain * (-d2 / (2.0 * spread * spread)).exp();
-                let noisy = clean + noise.map_or(0.0, |n| n.sample(&mut rng));
-                let value = noisy.min(self.full_scale);
-                if value > threshold {
-                    responses.push((t.id, value));
-                }
-            }
-            let jitter = Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal))
-                * (self.centroid_noise_mm * 1e-3);
-            dataset.contacts.push(ProbeContact {
-                centroid: Point3::from(point.coords + jitter),
-                force_n: Some(force),
-                responses,
-            });
+            };
+            let force =
+                self.force_n * (1.0 + self.force_spread * session.rng.sample::<f64, _>(StandardNormal));
+            dataset.contacts.push(session.press(&point, force));
         }
         dataset
+    }
+}
+
+impl ProbeSession<'_> {
+    /// A uniformly random point of the patch and its margin, or `None` for a rejected draw (call
+    /// again).
+    fn random_point(&mut self) -> Option<Point3<f64>> {
+        let taxels = &self.patch.taxels;
+        let margin = self.sim.margin_mm.max(0.0) * 1e-3;
+        // A point within the margin of a random taxel, in its tangent plane...
+        let base = &taxels[self.rng.random_range(0..taxels.len())];
+        let t1 = tangent(&base.normal);
+        let t2 = base.normal.cross(&t1);
+        let r = margin * self.rng.random::<f64>().sqrt();
+        let phi = self.rng.random_range(0.0..std::f64::consts::TAU);
+        let point = base.position + (t1 * phi.cos() + t2 * phi.sin()) * r;
+        // ... kept with probability 1 / (taxels within the margin): uniform density.
+        let near = taxels
+            .iter()
+            .filter(|t| (t.position - point).norm_squared() <= margin * margin)
+            .count()
+            .max(1);
+        (self.rng.random_range(0..near) == 0).then_some(point)
+    }
+
+    /// The skin's answer to a press at `point` (on the skin) with `force_n` newtons: every
+    /// taxel's response as the simulator's model says, and the centroid as the robot would
+    /// report it (with its noise).
+    pub fn press(&mut self, point: &Point3<f64>, force_n: f64) -> ProbeContact {
+        let sim = self.sim;
+        let spread = sim.spread_mm.max(1e-6) * 1e-3;
+        let reach2 = (6.0 * spread).powi(2);
+        let noise = Normal::new(0.0, (sim.noise * sim.full_scale).max(0.0)).ok();
+        let threshold = sim.report_sigmas * sim.noise * sim.full_scale;
+        let scale = sim.full_scale * sim.peak * (force_n / sim.force_n.max(1e-9)).max(0.0);
+        let mut responses = Vec::new();
+        for (t, gain) in self.patch.taxels.iter().zip(&self.gains) {
+            let d2 = (t.position - point).norm_squared();
+            if d2 > reach2 {
+                continue;
+            }
+            let clean = scale * gain * (-d2 / (2.0 * spread * spread)).exp();
+            let noisy = clean + noise.map_or(0.0, |n| n.sample(&mut self.rng));
+            let value = noisy.min(sim.full_scale);
+            if value > threshold {
+                responses.push((t.id, value));
+            }
+        }
+        let jitter = Vector3::from_fn(|_, _| self.rng.sample::<f64, _>(StandardNormal))
+            * (sim.centroid_noise_mm * 1e-3);
+        ProbeContact {
+            centroid: Point3::from(point.coords + jitter),
+            force_n: Some(force_n),
+            responses,
+        }
     }
 }
