@@ -47,6 +47,7 @@ mod mesh_file;
 mod morphology;
 pub mod raster;
 mod resize;
+pub mod stitch;
 mod tactile_map;
 mod triangulate;
 
@@ -58,4 +59,5 @@ pub use mesh_file::{MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};
 pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager, encode_png, write_png};
 pub use resize::Resizer;
+pub use stitch::{Deadline, JointMode, JointSolve, Placement, StitchOptions, StitchReport, Stitcher};
 pub use tactile_map::{FlattenOptions, FlattenReport, MAP_FORMAT, TactileMap};
