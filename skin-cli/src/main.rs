@@ -3,7 +3,8 @@
 //! `skin flatten` turns a link's taxel layout into a flat tactile map; `skin image` turns
 //! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
 //! candump log of CAN traffic, `skin live` and `skin record` from SocketCAN interfaces;
-//! `skin busmap` writes a bus map for a layout; `skin calibrate` fits taxel positions from probe
+//! `skin busmap` writes a bus map for a layout; `skin stitch` stitches the maps of a chain of
+//! links into one image at every posture; `skin calibrate` fits taxel positions from probe
 //! contacts, `skin probe-sim` simulates such contacts. Run `skin help <command>` for details.
 
 mod busmap_cmd;
@@ -12,6 +13,7 @@ mod flatten;
 mod image_cmd;
 mod live_cmd;
 mod replay;
+mod stitch_cmd;
 
 /// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
 macro_rules! say {
@@ -40,6 +42,7 @@ enum Command {
     Live(live_cmd::LiveArgs),
     Record(live_cmd::RecordArgs),
     Busmap(busmap_cmd::Args),
+    Stitch(stitch_cmd::Args),
     Calibrate(calibrate_cmd::CalibrateArgs),
     ProbeSim(calibrate_cmd::ProbeSimArgs),
 }
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         Command::Live(args) => live_cmd::live(args),
         Command::Record(args) => live_cmd::record(args),
         Command::Busmap(args) => busmap_cmd::run(args),
+        Command::Stitch(args) => stitch_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
     };

@@ -48,6 +48,7 @@ mod morphology;
 pub mod raster;
 mod resize;
 pub mod stitch;
+mod stitch_raster;
 mod tactile_map;
 mod triangulate;
 
@@ -60,4 +61,5 @@ pub use morphology::{dilate_disk, erode_disk};
 pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager, encode_png, write_png};
 pub use resize::Resizer;
 pub use stitch::{Deadline, JointMode, JointSolve, Placement, StitchOptions, StitchReport, Stitcher};
+pub use stitch_raster::StitchedRasterizer;
 pub use tactile_map::{FlattenOptions, FlattenReport, MAP_FORMAT, TactileMap};

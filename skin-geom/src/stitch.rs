@@ -142,6 +142,10 @@ pub struct StitchReport {
     pub placements: Vec<Placement>,
     /// One entry per joint (joint j joins link j and link j + 1).
     pub joints: Vec<JointSolve>,
+    /// The triangles across the joints this cycle (every edge under `max_edge`), each corner a
+    /// (link, taxel index) pair: the skin between two links' maps, which a stitched image fills
+    /// by interpolating across them.
+    pub bridges: Vec<[(usize, usize); 3]>,
 }
 
 /// Fixed 2D chart of a joint region, in the parent link's frame.
@@ -180,6 +184,8 @@ struct Joint {
     mode: JointMode,
     /// Last placement of the child map relative to the parent map.
     placement: Placement,
+    /// Cross triangles of the last triangulation, as (link, taxel) corners.
+    bridges: Vec<[(usize, usize); 3]>,
 }
 
 /// Stitches a chain of link maps; see the module documentation.
@@ -304,6 +310,7 @@ impl Stitcher {
                 chart,
                 mode: JointMode::Full,
                 placement: Placement::IDENTITY,
+                bridges: Vec::new(),
             };
             // Start: boundary centroids on top of each other, no rotation.
             let ca = centroid2(joint.parent.iter().map(|&i| maps[j].points[i]));
@@ -365,11 +372,7 @@ impl Stitcher {
                 ..best
             });
         }
-        let mut placements = vec![Placement::IDENTITY];
-        for (j, s) in joints.iter().enumerate() {
-            placements.push(placements[j].compose(&s.placement));
-        }
-        Ok(StitchReport { placements, joints })
+        Ok(self.report(joints))
     }
 
     /// Where the parent map, extended, would put the child's boundary taxels, and the child-map
@@ -492,11 +495,24 @@ impl Stitcher {
             let to_parent = poses[j].inverse() * poses[j + 1];
             joints.push(self.solve_joint(j, &to_parent, deadline)?);
         }
+        Ok(self.report(joints))
+    }
+
+    fn report(&self, joints: Vec<JointSolve>) -> StitchReport {
         let mut placements = vec![Placement::IDENTITY];
         for (j, s) in joints.iter().enumerate() {
             placements.push(placements[j].compose(&s.placement));
         }
-        Ok(StitchReport { placements, joints })
+        let bridges = self
+            .joints
+            .iter()
+            .flat_map(|j| j.bridges.iter().copied())
+            .collect();
+        StitchReport {
+            placements,
+            joints,
+            bridges,
+        }
     }
 
     /// Eq. 6.1-6.2 for joint `j`: edges (parent boundary index, child boundary index, 3D length)
@@ -519,18 +535,35 @@ impl Stitcher {
             .extend(coords.iter().map(|&(x, y)| Point2::new(x, y)));
         let triangles = cross_delaunay(&self.chart_points)?;
         let np = joint.parent.len();
+        let max_edge = self.options.max_edge;
+        let corner = |v: usize| {
+            if v < np {
+                (j, joint.parent[v])
+            } else {
+                (j + 1, joint.child[v - np])
+            }
+        };
+        let bridges: Vec<[(usize, usize); 3]> = triangles
+            .iter()
+            .filter(|t| {
+                let mixed = t.iter().any(|&v| v < np) && t.iter().any(|&v| v >= np);
+                mixed && (0..3).all(|k| (self.world[t[k]] - self.world[t[(k + 1) % 3]]).norm() <= max_edge)
+            })
+            .map(|t| t.map(corner))
+            .collect();
         let mut edges: Vec<(usize, usize, f64)> = Vec::new();
         for t in &triangles {
             for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
                 let (a, b) = if a < b { (a, b) } else { (b, a) };
                 if a < np && b >= np {
                     let d = (self.world[a] - self.world[b]).norm();
-                    if d <= self.options.max_edge && !edges.iter().any(|e| e.0 == a && e.1 == b - np) {
+                    if d <= max_edge && !edges.iter().any(|e| e.0 == a && e.1 == b - np) {
                         edges.push((a, b - np, d));
                     }
                 }
             }
         }
+        self.joints[j].bridges = bridges;
         Ok(edges)
     }
 

@@ -6,12 +6,14 @@
 //! | [`cyskin`] | Cyskin calibration JSON (`skin`: taxels, faces, parent frame), metres | yes | yes |
 //! | [`icub`] | iCub `positions/*.txt` taxel files, metres | yes | no |
 //! | [`recording`] | Cyskin raw recordings (ids line, then index, time, counts) | yes | yes |
+//! | [`poses`] | link poses over time (`skin-poses/1`), metres | yes | no |
 //!
 //! [`load_link`] picks the reader from the file's extension and content.
 
 pub mod cyskin;
 pub mod icub;
 pub mod native;
+pub mod poses;
 pub mod recording;
 
 use crate::{Error, LinkSkin, Result, Taxel, TaxelId};

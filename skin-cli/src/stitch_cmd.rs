@@ -1,0 +1,285 @@
+//! `skin stitch`: the maps of a chain of links stitched at every posture, and tactile images over
+//! all of them.
+
+use anyhow::{Context, Result, bail};
+use skin_core::format::native;
+use skin_core::format::poses::Postures;
+use skin_core::format::recording;
+use skin_geom::raster::to_grey;
+use skin_geom::{
+    FlattenOptions, Normalisation, Placement, StitchOptions, StitchReport, StitchedRasterizer, Stitcher,
+    TactileMap, dilate_disk, erode_disk, write_png,
+};
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Stitch the tactile maps of a chain of links into one image, posture by posture (thesis Ch. 6).
+///
+/// ARM.json is a project layout with one link per element of the chain, in chain order; each link
+/// is flattened on its own (its map never changes). POSES.json (skin-poses/1) gives every link's
+/// pose over time: at each posture the boundary taxels of adjacent links are triangulated in 3D
+/// and the child map is placed to keep those edges' lengths (Eq. 6.6). Each FRAMES recording
+/// (one reading per taxel id of the layout) becomes one stitched tactile image per frame, using
+/// the posture in effect at the frame's time: OUT/<recording>/frame_<n>.png. Prints each
+/// posture's solve: edges, cost, iterations, and how well the stitched edges keep their 3D length.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Layout of the chain (project JSON, links in chain order).
+    #[arg(long, value_name = "ARM.json")]
+    layout: PathBuf,
+    /// Link poses over time (skin-poses/1).
+    #[arg(long, value_name = "POSES.json")]
+    poses: PathBuf,
+    /// Recordings to turn into stitched tactile images.
+    #[arg(value_name = "FRAMES")]
+    frames: Vec<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// Pixel side, millimetres.
+    #[arg(long, default_value_t = 1.0, value_name = "MM")]
+    step_mm: f64,
+    /// Readings at or below this are no pressure, in the recording's units.
+    #[arg(long, default_value_t = 0.0, value_name = "COUNTS")]
+    threshold: f32,
+    /// Grey erosion (disk of 2 px) then dilation (disk of 4 px), as for the classifier.
+    #[arg(long)]
+    morph: bool,
+    /// Also draw the stitched maps of every posture: OUT/stitched_<posture>.svg.
+    #[arg(long)]
+    svg: bool,
+    /// Cross-boundary edges longer than this are dropped, millimetres.
+    #[arg(long, default_value_t = 30.0, value_name = "MM")]
+    max_edge_mm: f64,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !(args.step_mm.is_finite() && args.step_mm > 0.0) {
+        bail!(
+            "--step-mm must be a positive number of millimetres, not {}",
+            args.step_mm
+        );
+    }
+    let layout = native::read_layout(&args.layout)?;
+    let postures = Postures::read(&args.poses)?;
+    let names: Vec<&str> = layout.links.iter().map(|l| l.name.as_str()).collect();
+    if postures.links != names {
+        bail!(
+            "{}: links {:?}, but the layout {} has {:?} (same names, same order)",
+            args.poses.display(),
+            postures.links,
+            args.layout.display(),
+            names
+        );
+    }
+    let maps: Vec<TactileMap> = layout
+        .links
+        .iter()
+        .map(|l| {
+            TactileMap::flatten(l, &FlattenOptions::default()).with_context(|| format!("link \"{}\"", l.name))
+        })
+        .collect::<Result<_>>()?;
+    // The middle posture is the reference: boundaries, charts and the first warm start.
+    let reference = &postures.postures[postures.postures.len() / 2].poses;
+    let options = StitchOptions {
+        max_edge: args.max_edge_mm * 1e-3,
+        ..StitchOptions::default()
+    };
+    let mut stitcher =
+        Stitcher::new(maps.clone(), reference, options).with_context(|| args.layout.display().to_string())?;
+    for j in 0..maps.len() - 1 {
+        if let Some((a, b)) = stitcher.boundary(j) {
+            crate::say!(
+                "joint {j} ({} - {}): {} + {} boundary taxels",
+                names[j],
+                names[j + 1],
+                a.len(),
+                b.len()
+            );
+        }
+    }
+    // Solve every posture once (a posture is static).
+    let mut solved: Vec<StitchReport> = Vec::new();
+    for p in &postures.postures {
+        let report = stitcher
+            .reset(&p.poses)
+            .with_context(|| format!("posture \"{}\"", p.name))?;
+        for (j, s) in report.joints.iter().enumerate() {
+            let (worst, n) = edge_fidelity(&stitcher, j, &p.poses, &report.placements, options.max_edge);
+            crate::say!(
+                "posture \"{}\", joint {j}: {} edges, cost {:.3} mm^2 in {} iterations{}; stitched edges keep their 3D length within {:.1}% ({n} pairs)",
+                p.name,
+                s.edges,
+                s.cost * 1e6,
+                s.iterations,
+                if s.kept_last {
+                    " (no edge: last placement kept)"
+                } else if s.converged {
+                    ""
+                } else {
+                    " (not converged)"
+                },
+                100.0 * worst
+            );
+        }
+        if args.svg {
+            let path = args.output.join(format!("stitched_{}.svg", file_name(&p.name)));
+            crate::write_atomic(&path, stitched_svg(&maps, &report.placements).as_bytes())?;
+            crate::say!("wrote {}", path.display());
+        }
+        solved.push(report);
+    }
+    let mut raster = StitchedRasterizer::new(&maps, args.step_mm)?;
+    for rec_path in &args.frames {
+        let rec = recording::read(rec_path)?;
+        // Each link's taxels among the recording's columns.
+        let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
+        let mut columns = Vec::new();
+        for (link, map) in layout.links.iter().zip(&maps) {
+            let cols: Vec<usize> = map
+                .ids
+                .iter()
+                .map(|id| {
+                    column.get(id).copied().with_context(|| {
+                        format!(
+                            "{}: taxel {id} of link \"{}\" is not recorded",
+                            rec_path.display(),
+                            link.name
+                        )
+                    })
+                })
+                .collect::<Result<_>>()?;
+            columns.push(cols);
+        }
+        let stem = rec_path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("recording");
+        let dir = args.output.join(stem);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut placed: Option<usize> = None;
+        let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.len()]).collect();
+        let mut image = Vec::new();
+        for (n, frame) in rec.frame_numbers.iter().zip(&rec.frames) {
+            let k = postures.at(frame.time);
+            if placed != Some(k) {
+                raster.place(&solved[k].placements, &solved[k].bridges)?;
+                placed = Some(k);
+            }
+            for (p, cols) in pressures.iter_mut().zip(&columns) {
+                for (v, &c) in p.iter_mut().zip(cols) {
+                    let r = frame.values[c];
+                    *v = if r > args.threshold { r } else { 0.0 };
+                }
+            }
+            let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
+            raster.render(&views, &mut image)?;
+            let (rows, cols) = (raster.rows(), raster.cols());
+            let mut grey = vec![0u8; rows * cols];
+            to_grey(&image, Normalisation::ContactMax, &mut grey);
+            if args.morph {
+                grey = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
+            }
+            write_png(&dir.join(format!("frame_{n:05}.png")), &grey, rows, cols)?;
+        }
+        crate::say!(
+            "{}: {} stitched frames -> {}",
+            rec_path.display(),
+            rec.frames.len(),
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// The worst relative difference between the 3D length and the stitched 2D length over
+/// cross-boundary pairs of joint `j` closer than `max_edge` in 3D, and how many pairs.
+pub(crate) fn edge_fidelity(
+    st: &Stitcher,
+    j: usize,
+    poses: &[nalgebra::Isometry3<f64>],
+    placements: &[Placement],
+    max_edge: f64,
+) -> (f64, usize) {
+    let Some((a, b)) = st.boundary(j) else {
+        return (0.0, 0);
+    };
+    let (ma, mb) = (&st.maps()[j], &st.maps()[j + 1]);
+    let mut worst: f64 = 0.0;
+    let mut n = 0;
+    for &i in a {
+        for &k in b {
+            let d3 = (poses[j] * ma.positions[i] - poses[j + 1] * mb.positions[k]).norm();
+            if d3 > max_edge {
+                continue;
+            }
+            let d2 = (placements[j].apply(&ma.points[i]) - placements[j + 1].apply(&mb.points[k])).norm();
+            worst = worst.max((d2 - d3).abs() / d3);
+            n += 1;
+        }
+    }
+    (worst, n)
+}
+
+fn file_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The placed maps' triangles, one colour per link, millimetres.
+fn stitched_svg(maps: &[TactileMap], placements: &[Placement]) -> String {
+    let colours = [
+        "#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b", "#8c6d31",
+    ];
+    let placed: Vec<Vec<nalgebra::Point2<f64>>> = maps
+        .iter()
+        .zip(placements)
+        .map(|(m, p)| m.points.iter().map(|q| p.apply(q) * 1e3).collect())
+        .collect();
+    let (mut lo, mut hi) = (
+        nalgebra::Point2::new(f64::INFINITY, f64::INFINITY),
+        nalgebra::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+    );
+    for p in placed.iter().flatten() {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let m = 5.0;
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"{:.1} {:.1} {:.1} {:.1}\" width=\"{:.0}mm\" height=\"{:.0}mm\">\n",
+        lo.x - m,
+        lo.y - m,
+        hi.x - lo.x + 2.0 * m,
+        hi.y - lo.y + 2.0 * m,
+        hi.x - lo.x + 2.0 * m,
+        hi.y - lo.y + 2.0 * m
+    );
+    for (k, (map, pts)) in maps.iter().zip(&placed).enumerate() {
+        let colour = colours[k % colours.len()];
+        let _ = writeln!(
+            s,
+            "<g fill=\"{colour}\" fill-opacity=\"0.25\" stroke=\"{colour}\" stroke-width=\"0.2\"><title>{}</title>",
+            map.name
+        );
+        for f in &map.faces {
+            let [a, b, c] = f.map(|i| pts[i]);
+            let _ = writeln!(
+                s,
+                "<polygon points=\"{:.2},{:.2} {:.2},{:.2} {:.2},{:.2}\"/>",
+                a.x, a.y, b.x, b.y, c.x, c.y
+            );
+        }
+        s.push_str("</g>\n");
+    }
+    s.push_str("</svg>\n");
+    s
+}
