@@ -162,7 +162,7 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// Reads a tactile map, or flattens a layout given instead of one.
-fn load_map(path: &Path) -> Result<TactileMap> {
+pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     if text.contains(skin_geom::MAP_FORMAT) || text.contains("\"tactile_maps\"") {
         return Ok(TactileMap::read(path)?);

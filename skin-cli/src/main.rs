@@ -4,11 +4,13 @@
 //! recordings into tactile images through such a map; `skin replay` assembles skin frames from a
 //! candump log of CAN traffic, `skin live` and `skin record` from SocketCAN interfaces;
 //! `skin busmap` writes a bus map for a layout; `skin stitch` stitches the maps of a chain of
-//! links into one image at every posture; `skin calibrate` fits taxel positions from probe
+//! links into one image at every posture, `skin degrade` makes faulty maps for robustness
+//! studies; `skin calibrate` fits taxel positions from probe
 //! contacts, `skin probe-sim` simulates such contacts. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
+mod degrade_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
@@ -43,6 +45,7 @@ enum Command {
     Record(live_cmd::RecordArgs),
     Busmap(busmap_cmd::Args),
     Stitch(stitch_cmd::Args),
+    Degrade(degrade_cmd::Args),
     Calibrate(calibrate_cmd::CalibrateArgs),
     ProbeSim(calibrate_cmd::ProbeSimArgs),
 }
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::Record(args) => live_cmd::record(args),
         Command::Busmap(args) => busmap_cmd::run(args),
         Command::Stitch(args) => stitch_cmd::run(args),
+        Command::Degrade(args) => degrade_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
     };

@@ -41,6 +41,7 @@
 mod chart;
 mod distortion;
 mod error;
+pub mod faults;
 pub mod flatten;
 pub mod mesh;
 mod mesh_file;
@@ -55,6 +56,7 @@ mod triangulate;
 pub use chart::Chart;
 pub use distortion::DistortionReport;
 pub use error::{Error, Result};
+pub use faults::{BlindSpots, Decimation, masked_ground_truth};
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
 pub use mesh_file::{MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};

@@ -221,7 +221,7 @@ impl Rasterizer {
             *f = renumber[old];
         }
         let to_pixel = |p: Point2<f64>| ((p.x - corner.x) / step - 0.5, (corner.y - p.y) / step - 0.5);
-        let planes = visible
+        let planes: Vec<[f32; 9]> = visible
             .iter()
             .map(|&f| {
                 let f = map.faces[f];
@@ -239,6 +239,24 @@ impl Rasterizer {
             })
             .collect();
         let corners: Vec<[u32; 3]> = visible.iter().map(|&f| map.faces[f].map(|t| t as u32)).collect();
+        // Blind spots: a zeroed taxel's column of every plane matrix (and its pixel weights below)
+        // is zero, so its readings never reach the image, at no cost per frame.
+        let mut dead = vec![false; map.ids.len()];
+        for &z in &map.zeroed {
+            if let Some(d) = dead.get_mut(z) {
+                *d = true;
+            }
+        }
+        let mut planes = planes;
+        for (a, c) in planes.iter_mut().zip(&corners) {
+            for (j, &t) in c.iter().enumerate() {
+                if dead[t as usize] {
+                    a[j] = 0.0;
+                    a[3 + j] = 0.0;
+                    a[6 + j] = 0.0;
+                }
+            }
+        }
         let visible_faces = visible.clone();
         let weights = (faces.len() < 2 * visible.len()).then(|| {
             let mut taxels = Vec::with_capacity(faces.len());
@@ -252,7 +270,13 @@ impl Rasterizer {
                     let l0 = ((p[2] - p[1]).perp(&(x - p[1])) / area2).clamp(0.0, 1.0);
                     let l1 = ((p[0] - p[2]).perp(&(x - p[2])) / area2).clamp(0.0, 1.0 - l0);
                     taxels.push(f.map(|t| t as u32));
-                    w.push([l0 as f32, l1 as f32, (1.0 - l0 - l1) as f32]);
+                    let mut weights = [l0 as f32, l1 as f32, (1.0 - l0 - l1) as f32];
+                    for (wk, &t) in weights.iter_mut().zip(&f) {
+                        if dead[t] {
+                            *wk = 0.0;
+                        }
+                    }
+                    w.push(weights);
                 }
             }
             PixelWeights { taxels, weights: w }
@@ -260,6 +284,7 @@ impl Rasterizer {
         let mut used: Vec<u32> = map.faces.iter().flatten().map(|&t| t as u32).collect();
         used.sort_unstable();
         used.dedup();
+        used.retain(|&t| !dead[t as usize]);
         Ok(Rasterizer {
             rows,
             cols,

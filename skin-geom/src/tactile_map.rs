@@ -52,6 +52,9 @@ pub struct TactileMap {
     pub faces: Vec<[usize; 3]>,
     /// How the map was made and how much it distorts.
     pub report: FlattenReport,
+    /// Taxels whose readings count as zero (blind spots, thesis Ch. 5.2): they stay in the
+    /// triangulation, and tactile images ignore what they report. Layout indices, increasing.
+    pub zeroed: Vec<usize>,
 }
 
 impl TactileMap {
@@ -152,6 +155,7 @@ impl TactileMap {
                 pinch_faces,
                 distortion,
             },
+            zeroed: Vec::new(),
         })
     }
 
@@ -452,6 +456,8 @@ struct MapFile {
     faces: Vec<[usize; 3]>,
     #[serde(default)]
     report: FlattenReport,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    zeroed: Vec<TaxelId>,
 }
 
 /// Format tag of the project's tactile-map files.
@@ -469,6 +475,7 @@ impl TactileMap {
             points: self.points.iter().map(|p| [p.x, p.y]).collect(),
             faces: self.faces.clone(),
             report: self.report.clone(),
+            zeroed: self.zeroed.iter().map(|&i| self.ids[i]).collect(),
         };
         serde_json::to_string_pretty(&file).unwrap_or_default()
     }
@@ -488,6 +495,7 @@ impl TactileMap {
                 points: m.points.iter().map(|p| Point2::new(p[0], p[1])).collect(),
                 faces: m.faces,
                 report: FlattenReport::default(),
+                zeroed: Vec::new(),
             });
         }
         let file: MapFile = serde_json::from_str(&text).map_err(|e| skin_core::Error::Json {
@@ -539,6 +547,22 @@ impl TactileMap {
                 ));
             }
         }
+        let index: std::collections::HashMap<TaxelId, usize> =
+            file.ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
+        let mut zeroed = Vec::with_capacity(file.zeroed.len());
+        for id in &file.zeroed {
+            match index.get(id) {
+                Some(&i) => zeroed.push(i),
+                None => {
+                    return Err(bad(
+                        "field \"zeroed\"".into(),
+                        format!("taxel {id} is not among the map's ids"),
+                    ));
+                }
+            }
+        }
+        zeroed.sort_unstable();
+        zeroed.dedup();
         Ok(TactileMap {
             name: file.name,
             ids: file.ids,
@@ -550,6 +574,7 @@ impl TactileMap {
             points: file.points.iter().map(|p| Point2::new(p[0], p[1])).collect(),
             faces: file.faces,
             report: file.report,
+            zeroed,
         })
     }
 
