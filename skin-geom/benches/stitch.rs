@@ -1,6 +1,7 @@
 //! One stitching update (Eq. 6.6 per joint, warm-started), for a 2-link and a 7-link chain of
-//! half-cylinder covers (radius 80 mm, 8 mm pitch) joined by roll joints; about 40 boundary edges
-//! per joint. Each measured cycle moves every joint by 0.5 degree, as between two control cycles.
+//! covers over 108 degrees of a cylinder (radius 80 mm, 8 mm pitch) joined by roll joints: about
+//! 40 boundary edges per joint. Each measured cycle moves every joint by 0.5 degree, as between
+//! two control cycles.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
@@ -18,7 +19,7 @@ fn link(k: usize) -> TactileMap {
     for i in 0..=(LENGTH / 0.008).round() as usize {
         for c in 0..=32 {
             let s = (c as f64 + 0.5 * (i % 2) as f64) * 0.008;
-            if s > std::f64::consts::PI * R {
+            if s > 0.6 * std::f64::consts::PI * R {
                 continue;
             }
             let a = s / R;

@@ -14,6 +14,12 @@
 //! - [`Rasterizer`] ([`raster`]): the grid on the map, with per-pixel taxel triples and
 //!   barycentric weights precomputed; renders a frame with no allocation. [`TactileImager`] adds
 //!   grey conversion (eq. 3.1), erosion / dilation and resizing for classifiers.
+//! - [`Stitcher`] ([`stitch`], Ch. 6): the maps of a chain of links placed every control cycle so
+//!   that the skin across each joint keeps its 3D lengths (Eq. 6.6, argmin's BFGS, anytime), and
+//!   [`StitchedRasterizer`]: one tactile image over all of them. Example:
+//!   `examples/examples/stitch_links.rs`.
+//! - [`faults`] (Ch. 5): blind spots and removed taxels, deterministic per seed, for robustness
+//!   studies.
 //!
 //! ```
 //! use skin_core::{LinkSkin, Taxel, TaxelId};
