@@ -293,16 +293,7 @@ impl Sinks {
 
     fn assembled(&mut self, f: &AssembledFrame) {
         if let Some((_, csv)) = &mut self.csv {
-            let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
-            for v in &f.values {
-                match v {
-                    Some(v) => {
-                        let _ = write!(csv, ",{v}");
-                    }
-                    None => csv.push(','),
-                }
-            }
-            csv.push('\n');
+            crate::replay::csv_row(csv, f);
         }
     }
 

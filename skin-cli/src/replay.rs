@@ -94,6 +94,20 @@ impl Tally {
     }
 }
 
+/// Appends one frame as a CSV row: `t_us,cycle,complete,` then the values (empty when missing).
+pub(crate) fn csv_row(csv: &mut String, f: &AssembledFrame) {
+    let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
+    for v in &f.values {
+        match v {
+            Some(v) => {
+                let _ = write!(csv, ",{v}");
+            }
+            None => csv.push(','),
+        }
+    }
+    csv.push('\n');
+}
+
 /// Checks the bus map against a layout: every taxel on the wire must be in the layout.
 fn check_layout(map: &BusMap, map_path: &Path, layout: &Path) -> Result<()> {
     let link = crate::flatten::load_input(layout)?;
@@ -179,16 +193,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut emit = |f: &AssembledFrame| {
         tally.add(f);
         if args.output.is_some() {
-            let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
-            for v in &f.values {
-                match v {
-                    Some(v) => {
-                        let _ = write!(csv, ",{v}");
-                    }
-                    None => csv.push(','),
-                }
-            }
-            csv.push('\n');
+            csv_row(&mut csv, f);
         }
     };
     for frame in &log.frames {

@@ -336,16 +336,7 @@ impl Stitcher {
     /// then solved from there. Distances alone have folded local minima (the child map laid over
     /// the parent's boundary rows); this start avoids them.
     pub fn reset(&mut self, poses: &[Isometry3<f64>]) -> Result<StitchReport> {
-        if poses.len() != self.maps.len() {
-            return Err(Error::Mismatch(format!(
-                "{} poses for a chain of {} links",
-                poses.len(),
-                self.maps.len()
-            )));
-        }
-        for (k, p) in poses.iter().enumerate() {
-            check_pose(k, p)?;
-        }
+        self.check_poses(poses)?;
         let mut joints = Vec::with_capacity(self.joints.len());
         for j in 0..self.joints.len() {
             let to_parent = poses[j].inverse() * poses[j + 1];
@@ -438,6 +429,21 @@ impl Stitcher {
         (placement.angle.is_finite() && placement.offset.iter().all(|v| v.is_finite())).then_some(placement)
     }
 
+    /// One finite pose per link, or an error saying what is wrong.
+    fn check_poses(&self, poses: &[Isometry3<f64>]) -> Result<()> {
+        if poses.len() != self.maps.len() {
+            return Err(Error::Mismatch(format!(
+                "{} poses for a chain of {} links",
+                poses.len(),
+                self.maps.len()
+            )));
+        }
+        for (k, p) in poses.iter().enumerate() {
+            check_pose(k, p)?;
+        }
+        Ok(())
+    }
+
     /// Centroids of joint `j`'s boundary taxels on the parent map and on the child map.
     fn boundary_centroids(&self, j: usize) -> (Vector2<f64>, Vector2<f64>) {
         let joint = &self.joints[j];
@@ -480,16 +486,7 @@ impl Stitcher {
     /// solve may take. A zero deadline solves nothing: every joint keeps its last placement
     /// (reported as not converged, zero iterations).
     pub fn update(&mut self, poses: &[Isometry3<f64>], deadline: Deadline) -> Result<StitchReport> {
-        if poses.len() != self.maps.len() {
-            return Err(Error::Mismatch(format!(
-                "{} poses for a chain of {} links",
-                poses.len(),
-                self.maps.len()
-            )));
-        }
-        for (k, p) in poses.iter().enumerate() {
-            check_pose(k, p)?;
-        }
+        self.check_poses(poses)?;
         let mut joints = Vec::with_capacity(self.joints.len());
         for j in 0..self.joints.len() {
             let to_parent = poses[j].inverse() * poses[j + 1];

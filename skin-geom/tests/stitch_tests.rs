@@ -259,9 +259,13 @@ fn a_linear_field_is_reproduced_across_the_joint() {
 #[test]
 fn a_time_deadline_returns_a_usable_placement() {
     let mut st = Stitcher::new(maps(), &poses(0.0), StitchOptions::default()).unwrap();
-    let r = st.update(&poses(0.02), Deadline::Time(std::time::Duration::from_secs(5))).unwrap();
+    let r = st
+        .update(&poses(0.02), Deadline::Time(std::time::Duration::from_secs(5)))
+        .unwrap();
     assert!(r.joints[0].converged && r.joints[0].cost <= r.joints[0].start_cost);
-    let kept = st.update(&poses(0.3), Deadline::Time(std::time::Duration::ZERO)).unwrap();
+    let kept = st
+        .update(&poses(0.3), Deadline::Time(std::time::Duration::ZERO))
+        .unwrap();
     assert_eq!((kept.joints[0].iterations, kept.joints[0].converged), (0, false));
     assert_eq!(kept.placements, r.placements);
 }
