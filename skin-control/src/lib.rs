@@ -4,7 +4,13 @@
 //!   align above a target, approach along its normal until the skin reports contact, then hold
 //!   the tangent position while regulating the normal force (hybrid position/force control).
 //!
-//! Planned: the task-priority solver with activations (thesis App. D), contact, reach and physical
-//! human-robot interaction tasks (Ch. 8, 9), and kinematics from URDF.
+//! - [`task_stack`]: the task-priority solver with activations (thesis App. D), with damped and
+//!   activation-aware regularised pseudo-inverses, so tasks fade in and out continuously.
+//!
+//! Planned: contact, reach and physical human-robot interaction tasks (Ch. 8, 9), kinematics from
+//! URDF, and the reach-through-clutter simulation.
 
 pub mod approach_press;
+pub mod task_stack;
+
+pub use task_stack::{Regularisation, StackError, Task, TaskStack};

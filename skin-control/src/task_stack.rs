@@ -1,0 +1,406 @@
+//! Prioritised tasks with activations (thesis App. D): joint velocities that serve task 1 as well
+//! as possible, task 2 as well as possible without disturbing task 1, and so on.
+//!
+//! With r_0 = 0 and P_0 = I, for each task k (Jacobian J_k, reference rho_k, activation a_k):
+//!
+//! ```text
+//! X_k  = J_k P_(k-1)
+//! r_k  = r_(k-1) + P_(k-1) X_k^# (rho_k - J_k r_(k-1))          (D.8-D.11, G_k expanded)
+//! P_k  = P_(k-1) (I - X_k^# X_k)
+//! q_dot = r_L
+//! ```
+//!
+//! where X^# is the activation-weighted pseudo-inverse of [`Regularisation`]. With the plain
+//! pseudo-inverse of H_k = a_k J_k, (a J)^# a rho = J^# rho for every a > 0: the activation only
+//! switches a task on or off, and joint velocities jump when it does. Both regularised modes make
+//! the activation act continuously:
+//!
+//! - [`Regularisation::Damped`]: damped least squares of H = a J,
+//!   X^# = a^2 X^T (a^2 X X^T + lambda^2 I)^-1 (Nakamura; Chiaverini). Simple and fast (an m x m
+//!   Cholesky per task), but it damps every direction a little, also well-conditioned ones.
+//! - [`Regularisation::ActivationAware`]: the regularised pseudo-inverse of Simetti and Casalino
+//!   (2016, "A novel practical technique to integrate inequality control objectives and task
+//!   transitions in priority based control"), with activation matrix A = a I:
+//!   X^# = (X^T A X + V^T P V)^# X^T A A, where X^T A X = V S V^T and P = diag(b(s_i)) damps only
+//!   singular values below `threshold` (b = lambda^2 at 0, falling smoothly to 0 at `threshold`).
+//!   Well-conditioned full-activation tasks are solved exactly; a fading task fades continuously.
+//! - [`Regularisation::Exact`]: the plain pseudo-inverse (singular values under `tolerance`
+//!   dropped), for reference and verification only: it has the on/off behaviour described above.
+
+use nalgebra::{DMatrix, DVector};
+
+/// How the pseudo-inverse is regularised; see the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Regularisation {
+    /// Damped least squares of H = a J, with damping factor `lambda`.
+    Damped {
+        /// Damping factor (in the units of the task's singular values, e.g. metres for a linear
+        /// velocity task of a Jacobian in metres).
+        lambda: f64,
+    },
+    /// Simetti and Casalino's activation-aware regularised pseudo-inverse.
+    ActivationAware {
+        /// Damping of a zero singular value (lambda^2 is added to it).
+        lambda: f64,
+        /// Singular values of X^T A X at or above this are not damped.
+        threshold: f64,
+    },
+    /// The plain pseudo-inverse, singular values under `tolerance` dropped (not for control).
+    Exact {
+        /// Singular values under this are treated as zero.
+        tolerance: f64,
+    },
+}
+
+impl Default for Regularisation {
+    fn default() -> Self {
+        Regularisation::ActivationAware {
+            lambda: 0.05,
+            threshold: 0.01,
+        }
+    }
+}
+
+/// One task: J q_dot should equal `reference`, with weight `activation` in 0..=1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Task {
+    /// m x n Jacobian (n joints).
+    pub jacobian: DMatrix<f64>,
+    /// Desired task velocity, m values.
+    pub reference: DVector<f64>,
+    /// 0 = off, 1 = fully on; values in between fade the task in or out.
+    pub activation: f64,
+}
+
+/// What can be wrong with a stack.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StackError {
+    /// No task.
+    #[error("the task stack is empty")]
+    Empty,
+    /// A task's sizes do not fit.
+    #[error("task {task}: {what}")]
+    Size {
+        /// Index of the task, in priority order.
+        task: usize,
+        /// What does not fit.
+        what: String,
+    },
+}
+
+/// Solves a prioritised stack of tasks for one robot (n joints), reusing its buffers.
+#[derive(Debug, Clone)]
+pub struct TaskStack {
+    joints: usize,
+    regularisation: Regularisation,
+    p: DMatrix<f64>,
+    r: DVector<f64>,
+    work: Work,
+}
+
+/// Buffers of the damped path (row-major), grown to the largest task seen and then reused: a
+/// solve allocates nothing but its result.
+#[derive(Debug, Clone, Default)]
+struct Work {
+    p: Vec<f64>,
+    x: Vec<f64>,
+    g: Vec<f64>,
+    y: Vec<f64>,
+    t: Vec<f64>,
+    pt: Vec<f64>,
+    j: Vec<f64>,
+    w: Vec<f64>,
+    r: Vec<f64>,
+}
+
+impl TaskStack {
+    /// A solver for `joints` joints.
+    pub fn new(joints: usize, regularisation: Regularisation) -> TaskStack {
+        TaskStack {
+            joints,
+            regularisation,
+            p: DMatrix::identity(joints, joints),
+            r: DVector::zeros(joints),
+            work: Work::default(),
+        }
+    }
+
+    /// Joint velocities for `tasks`, highest priority first. A task whose Jacobian, reference or
+    /// activation is not finite is skipped (it contributes nothing); the result is then still
+    /// usable, and all zero when no task is usable.
+    pub fn solve(&mut self, tasks: &[Task]) -> Result<DVector<f64>, StackError> {
+        if tasks.is_empty() {
+            return Err(StackError::Empty);
+        }
+        let n = self.joints;
+        for (k, t) in tasks.iter().enumerate() {
+            if t.jacobian.ncols() != n {
+                return Err(StackError::Size {
+                    task: k,
+                    what: format!(
+                        "Jacobian has {} columns, the robot {n} joints",
+                        t.jacobian.ncols()
+                    ),
+                });
+            }
+            if t.jacobian.nrows() != t.reference.len() {
+                return Err(StackError::Size {
+                    task: k,
+                    what: format!(
+                        "Jacobian has {} rows but the reference {} values",
+                        t.jacobian.nrows(),
+                        t.reference.len()
+                    ),
+                });
+            }
+        }
+        if let Regularisation::Damped { lambda } = self.regularisation {
+            return Ok(self.solve_damped(tasks, lambda));
+        }
+        self.p.fill_with_identity();
+        self.r.fill(0.0);
+        for t in tasks {
+            let finite = t.activation.is_finite()
+                && t.jacobian.iter().all(|v| v.is_finite())
+                && t.reference.iter().all(|v| v.is_finite());
+            if !finite {
+                continue;
+            }
+            let a = t.activation.clamp(0.0, 1.0);
+            if a == 0.0 && !matches!(self.regularisation, Regularisation::Exact { .. }) {
+                continue; // contributes exactly nothing in the regularised modes
+            }
+            let x = &t.jacobian * &self.p;
+            let pinv = self.pinv(&x, a);
+            let error = &t.reference - &t.jacobian * &self.r;
+            self.r += &self.p * (&pinv * error);
+            // P_k = P_(k-1) (I - X^# X), kept symmetric: rounding in the product otherwise
+            // leaves directions of size ~1e-7 that a later task's pseudo-inverse would amplify.
+            self.p = &self.p - &self.p * (&pinv * &x);
+            let sym = (&self.p + self.p.transpose()) * 0.5;
+            self.p = sym;
+        }
+        if self.r.iter().any(|v| !v.is_finite()) {
+            self.r.fill(0.0);
+        }
+        Ok(self.r.clone())
+    }
+
+    /// The damped recursion on flat buffers (the control loop's usual path): the same algebra as
+    /// [`Self::pinv`]'s `Damped` branch inside [`Self::solve`], without temporary matrices.
+    fn solve_damped(&mut self, tasks: &[Task], lambda: f64) -> DVector<f64> {
+        let n = self.joints;
+        let w = &mut self.work;
+        let m_max = tasks.iter().map(|t| t.reference.len()).max().unwrap_or(0);
+        w.p.resize(n * n, 0.0);
+        w.t.resize(n * n, 0.0);
+        w.pt.resize(n * n, 0.0);
+        w.r.resize(n, 0.0);
+        w.w.resize(n, 0.0);
+        w.x.resize(m_max * n, 0.0);
+        w.y.resize(m_max * n, 0.0);
+        w.g.resize(m_max * m_max, 0.0);
+        w.j.resize(m_max * n, 0.0);
+        w.p.fill(0.0);
+        for i in 0..n {
+            w.p[i * n + i] = 1.0;
+        }
+        w.r.fill(0.0);
+        for t in tasks {
+            let a = t.activation;
+            let finite = a.is_finite()
+                && t.jacobian.iter().all(|v| v.is_finite())
+                && t.reference.iter().all(|v| v.is_finite());
+            if !finite || a <= 0.0 {
+                continue;
+            }
+            let a2 = a.min(1.0).powi(2);
+            let m = t.reference.len();
+            // J row-major, so every inner loop below runs over contiguous rows (and vectorises).
+            for i in 0..m {
+                for k in 0..n {
+                    w.j[i * n + k] = t.jacobian[(i, k)];
+                }
+            }
+            // X = J P (m x n), row by row: x_i = sum_k J_ik P_k.
+            for i in 0..m {
+                let (xi, jr) = (&mut w.x[i * n..(i + 1) * n], &w.j[i * n..(i + 1) * n]);
+                xi.fill(0.0);
+                for (k, &jik) in jr.iter().enumerate() {
+                    axpy(xi, jik, &w.p[k * n..(k + 1) * n]);
+                }
+            }
+            // G = a^2 X X^T + lambda^2 I (lower triangle), Cholesky in place.
+            for i in 0..m {
+                for c in 0..=i {
+                    let d = dot(&w.x[i * n..(i + 1) * n], &w.x[c * n..(c + 1) * n]);
+                    w.g[i * m + c] = a2 * d + if i == c { lambda * lambda } else { 0.0 };
+                }
+            }
+            if !cholesky_in_place(&mut w.g[..m * m], m) {
+                continue;
+            }
+            // Y = a^2 G^-1 X (m x n), rows solved together: X^# = Y^T.
+            w.y[..m * n].copy_from_slice(&w.x[..m * n]);
+            for i in 0..m {
+                for k in 0..i {
+                    let l = w.g[i * m + k];
+                    let (done, rest) = w.y.split_at_mut(i * n);
+                    axpy(&mut rest[..n], -l, &done[k * n..(k + 1) * n]);
+                }
+                let d = 1.0 / w.g[i * m + i];
+                w.y[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= d);
+            }
+            for i in (0..m).rev() {
+                for k in i + 1..m {
+                    let l = w.g[k * m + i];
+                    let (head, tail) = w.y.split_at_mut(k * n);
+                    axpy(&mut head[i * n..(i + 1) * n], -l, &tail[..n]);
+                }
+                let d = 1.0 / w.g[i * m + i];
+                w.y[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= d);
+            }
+            w.y[..m * n].iter_mut().for_each(|v| *v *= a2);
+            // e = rho - J r; w = X^# e = sum_i e_i y_i; r += P w.
+            w.w.fill(0.0);
+            for i in 0..m {
+                let e = t.reference[i] - dot(&w.j[i * n..(i + 1) * n], &w.r);
+                axpy(&mut w.w, e, &w.y[i * n..(i + 1) * n]);
+            }
+            for rr in 0..n {
+                w.r[rr] += dot(&w.p[rr * n..(rr + 1) * n], &w.w);
+            }
+            // T = X^# X = sum_i y_i^T x_i (n x n); P <- P - P T, symmetrised.
+            w.t.fill(0.0);
+            for i in 0..m {
+                for rr in 0..n {
+                    let yi = w.y[i * n + rr];
+                    axpy(&mut w.t[rr * n..(rr + 1) * n], yi, &w.x[i * n..(i + 1) * n]);
+                }
+            }
+            for rr in 0..n {
+                let row = &mut w.pt[rr * n..(rr + 1) * n];
+                row.copy_from_slice(&w.p[rr * n..(rr + 1) * n]);
+                for k in 0..n {
+                    axpy(row, -w.p[rr * n + k], &w.t[k * n..(k + 1) * n]);
+                }
+            }
+            for rr in 0..n {
+                for c in 0..n {
+                    w.p[rr * n + c] = 0.5 * (w.pt[rr * n + c] + w.pt[c * n + rr]);
+                }
+            }
+        }
+        if w.r.iter().any(|v| !v.is_finite()) {
+            return DVector::zeros(n);
+        }
+        DVector::from_column_slice(&w.r)
+    }
+
+    /// X^# of the activation-aware and exact modes, activation `a` included (the damped mode has
+    /// its own path, [`Self::solve_damped`]).
+    fn pinv(&self, x: &DMatrix<f64>, a: f64) -> DMatrix<f64> {
+        let n = x.ncols();
+        let m = x.nrows();
+        match self.regularisation {
+            Regularisation::ActivationAware { lambda, threshold } => {
+                // (X^T A X + V P V^T)^# X^T A A with A = a I.
+                let mut m_ = x.transpose() * x * a;
+                // Symmetrise against rounding before the eigen-decomposition.
+                m_ = (&m_ + m_.transpose()) * 0.5;
+                let eig = m_.symmetric_eigen();
+                let mut d = DMatrix::zeros(n, n);
+                for i in 0..n {
+                    let s = eig.eigenvalues[i].max(0.0);
+                    let b = bell(s, lambda * lambda, threshold);
+                    if s + b > 0.0 {
+                        d[(i, i)] = 1.0 / (s + b);
+                    }
+                }
+                &eig.eigenvectors * d * eig.eigenvectors.transpose() * x.transpose() * (a * a)
+            }
+            Regularisation::Exact { tolerance } if a > 0.0 => {
+                // (a X)^+ a = X^+ for a > 0.
+                pseudo_inverse(x, tolerance)
+            }
+            Regularisation::Exact { .. } | Regularisation::Damped { .. } => DMatrix::zeros(n, m),
+        }
+    }
+}
+
+/// y += a x
+fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
+    for (y, x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+/// Cholesky factorisation of the lower triangle of a row-major m x m matrix, in place; false if it
+/// is not positive definite.
+fn cholesky_in_place(g: &mut [f64], m: usize) -> bool {
+    for i in 0..m {
+        for c in 0..=i {
+            let mut acc = g[i * m + c];
+            for k in 0..c {
+                acc -= g[i * m + k] * g[c * m + k];
+            }
+            if i == c {
+                if !(acc > 0.0) {
+                    return false;
+                }
+                g[i * m + i] = acc.sqrt();
+            } else {
+                g[i * m + c] = acc / g[c * m + c];
+            }
+        }
+    }
+    true
+}
+
+/// The Moore-Penrose pseudo-inverse, singular values under `tolerance` dropped, from the
+/// eigen-decomposition of the smaller Gram matrix (X X^T or X^T X). nalgebra's own SVD-based
+/// pseudo-inverse returned a wrong result for a tall rank-1 matrix with an exactly zero singular
+/// value (X X^+ X != X), found by this module's tests.
+pub fn pseudo_inverse(x: &DMatrix<f64>, tolerance: f64) -> DMatrix<f64> {
+    let (m, n) = x.shape();
+    let tol2 = tolerance * tolerance;
+    if m <= n {
+        // X^+ = X^T (X X^T)^+
+        let eig = (x * x.transpose()).symmetric_eigen();
+        let mut inv = DMatrix::zeros(m, m);
+        for i in 0..m {
+            let l = eig.eigenvalues[i];
+            if l > tol2 {
+                let u = eig.eigenvectors.column(i);
+                inv += u * u.transpose() / l;
+            }
+        }
+        x.transpose() * inv
+    } else {
+        // X^+ = (X^T X)^+ X^T
+        let eig = (x.transpose() * x).symmetric_eigen();
+        let mut inv = DMatrix::zeros(n, n);
+        for i in 0..n {
+            let l = eig.eigenvalues[i];
+            if l > tol2 {
+                let v = eig.eigenvectors.column(i);
+                inv += v * v.transpose() / l;
+            }
+        }
+        inv * x.transpose()
+    }
+}
+
+/// The regularisation of a singular value s: `peak` at 0, falling to 0 at `threshold` along a
+/// cosine, 0 beyond.
+fn bell(s: f64, peak: f64, threshold: f64) -> f64 {
+    if threshold <= 0.0 || s >= threshold {
+        0.0
+    } else {
+        peak * 0.5 * (1.0 + (std::f64::consts::PI * s / threshold).cos())
+    }
+}
