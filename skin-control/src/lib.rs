@@ -7,10 +7,14 @@
 //! - [`task_stack`]: the task-priority solver with activations (thesis App. D), with damped and
 //!   activation-aware regularised pseudo-inverses, so tasks fade in and out continuously.
 //!
-//! Planned: contact, reach and physical human-robot interaction tasks (Ch. 8, 9), kinematics from
-//! URDF, and the reach-through-clutter simulation.
+//! - [`kinematics`]: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
+//!
+//! Planned: contact, reach and physical human-robot interaction tasks (Ch. 8, 9), and the
+//! reach-through-clutter simulation.
 
 pub mod approach_press;
+pub mod kinematics;
 pub mod task_stack;
 
+pub use kinematics::{Chain, KinematicsError};
 pub use task_stack::{Regularisation, StackError, Task, TaskStack};
