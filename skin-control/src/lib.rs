@@ -7,12 +7,16 @@
 //! - [`task_stack`]: the task-priority solver with activations (thesis App. D), with damped and
 //!   activation-aware regularised pseudo-inverses, so tasks fade in and out continuously.
 //!
+//! - [`contact_tasks`]: the skin's tasks of Ch. 8.4, contact-force minimisation per link
+//!   (Eq. 8.13-8.17) with its activation, and reaching in the null space of the end-effector's
+//!   contact task (Eq. 8.18-8.26).
 //! - [`kinematics`]: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
 //!
-//! Planned: contact, reach and physical human-robot interaction tasks (Ch. 8, 9), and the
+//! Planned: the physical human-robot interaction tasks (Ch. 9), priority sorting by force, and the
 //! reach-through-clutter simulation.
 
 pub mod approach_press;
+pub mod contact_tasks;
 pub mod kinematics;
 pub mod task_stack;
 
