@@ -10,15 +10,19 @@
 //! - [`contact_tasks`]: the skin's tasks of Ch. 8.4, contact-force minimisation per link
 //!   (Eq. 8.13-8.17) with its activation, and reaching in the null space of the end-effector's
 //!   contact task (Eq. 8.18-8.26).
+//! - [`controller`]: one control cycle, [`SkinController`]: contact tasks of every touched link and
+//!   the reaching task, sorted by contact force, solved into joint velocities.
 //! - [`kinematics`]: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
 //!
-//! Planned: the physical human-robot interaction tasks (Ch. 9), priority sorting by force, and the
-//! reach-through-clutter simulation.
+//! Planned: the physical human-robot interaction tasks (Ch. 9) and the reach-through-clutter
+//! simulation.
 
 pub mod approach_press;
 pub mod contact_tasks;
+pub mod controller;
 pub mod kinematics;
 pub mod task_stack;
 
+pub use controller::{LinkContacts, ReachGoal, SkinController};
 pub use kinematics::{Chain, KinematicsError};
 pub use task_stack::{Regularisation, StackError, Task, TaskStack};

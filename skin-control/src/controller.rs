@@ -1,0 +1,147 @@
+//! One control cycle of a skin-covered arm (thesis Ch. 8.3): a contact task for every link the
+//! skin reports touched, the end-effector's reaching task, priorities sorted by contact force
+//! (largest first, Ch. 8.3), solved by the [`TaskStack`] into joint velocities.
+
+use crate::contact_tasks::{Contact, Gains, activation, contact_twist, reach_twist};
+use crate::kinematics::{Chain, KinematicsError};
+use crate::task_stack::{Regularisation, Task, TaskStack};
+use nalgebra::{DVector, Point3, Unit, Vector3};
+
+/// The contacts the skin reports on one link (base frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkContacts {
+    /// Link name, as in the chain's URDF.
+    pub link: String,
+    /// Its contacts.
+    pub contacts: Vec<Contact>,
+}
+
+/// Where the end-effector should go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReachGoal {
+    /// Goal position, base frame, metres.
+    pub goal: Point3<f64>,
+    /// The hand point x_h, in the tip link's frame.
+    pub hand: Point3<f64>,
+    /// The tool axis w, in the tip link's frame.
+    pub tool_axis: Unit<Vector3<f64>>,
+}
+
+/// A skin-driven velocity controller for one chain.
+#[derive(Debug, Clone)]
+pub struct SkinController {
+    chain: Chain,
+    tip: String,
+    stack: TaskStack,
+    gains: Gains,
+    threshold: f64,
+}
+
+impl SkinController {
+    /// A controller for `chain` whose end-effector is link `tip`, with the contact-force threshold
+    /// F_thresh (newtons) of the activations.
+    pub fn new(
+        chain: Chain,
+        tip: &str,
+        regularisation: Regularisation,
+        gains: Gains,
+        threshold: f64,
+    ) -> Result<SkinController, KinematicsError> {
+        chain.link_pose(tip, &vec![0.0; chain.dof()])?;
+        Ok(SkinController {
+            stack: TaskStack::new(chain.dof(), regularisation),
+            chain,
+            tip: tip.into(),
+            gains,
+            threshold,
+        })
+    }
+
+    /// The chain.
+    pub fn chain(&self) -> &Chain {
+        &self.chain
+    }
+
+    /// Joint velocities for one cycle at joint values `q`. Non-finite joint values give zero
+    /// velocity (never garbage); an unknown link in `contacts` is an error.
+    pub fn step(
+        &mut self,
+        q: &[f64],
+        contacts: &[LinkContacts],
+        goal: Option<&ReachGoal>,
+    ) -> Result<DVector<f64>, KinematicsError> {
+        let n = self.chain.dof();
+        if q.len() != n {
+            return Err(KinematicsError::Joints(format!(
+                "{} joint values for a chain of {n} joints",
+                q.len()
+            )));
+        }
+        if q.iter().any(|v| !v.is_finite()) {
+            return Ok(DVector::zeros(n));
+        }
+        // (priority force, task)
+        let mut tasks: Vec<(f64, Task)> = Vec::new();
+        let mut tip_contacts: Vec<Contact> = Vec::new();
+        for lc in contacts {
+            if lc.link == self.tip {
+                tip_contacts.extend(lc.contacts.iter().copied());
+                continue;
+            }
+            let pose = self.chain.link_pose(&lc.link, q)?;
+            let origin = Point3::from(pose.translation.vector);
+            let f_max = lc
+                .contacts
+                .iter()
+                .map(|c| c.force)
+                .filter(|f| f.is_finite())
+                .fold(0.0, f64::max);
+            let a = activation(f_max, self.threshold);
+            if a == 0.0 {
+                continue;
+            }
+            let rho = contact_twist(&origin, &lc.contacts, &self.gains);
+            tasks.push((
+                f_max,
+                Task {
+                    jacobian: self.chain.jacobian(&lc.link, &Point3::origin(), q)?,
+                    reference: DVector::from_iterator(6, rho.iter().copied()),
+                    activation: a,
+                },
+            ));
+        }
+        let tip_pose = self.chain.link_pose(&self.tip, q)?;
+        let tip_origin = Point3::from(tip_pose.translation.vector);
+        let tip_force = tip_contacts
+            .iter()
+            .map(|c| c.force)
+            .filter(|f| f.is_finite())
+            .fold(0.0, f64::max);
+        let tip_rho = match goal {
+            Some(g) => reach_twist(
+                &tip_origin,
+                &(tip_pose * g.hand),
+                &Unit::new_normalize(tip_pose.rotation * g.tool_axis.into_inner()),
+                &g.goal,
+                &tip_contacts,
+                &self.gains,
+            ),
+            None => contact_twist(&tip_origin, &tip_contacts, &self.gains),
+        };
+        tasks.push((
+            tip_force,
+            Task {
+                jacobian: self.chain.jacobian(&self.tip, &Point3::origin(), q)?,
+                reference: DVector::from_iterator(6, tip_rho.iter().copied()),
+                activation: 1.0,
+            },
+        ));
+        // Largest contact force first (Ch. 8.3); stable, so equal forces keep the chain's order.
+        tasks.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let tasks: Vec<Task> = tasks.into_iter().map(|(_, t)| t).collect();
+        Ok(self
+            .stack
+            .solve(&tasks)
+            .unwrap_or_else(|_| DVector::from_element(n, 0.0)))
+    }
+}
