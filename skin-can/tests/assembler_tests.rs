@@ -9,25 +9,10 @@ use skin_can::decode::skin16::{encode_module, encode_sync};
 use skin_can::{AssembledFrame, Assembler, BusMap, ModuleRef};
 use std::path::Path;
 
-const MAP: &str = r#"
-format = "skin16"
-[[bus]]
-interface = "can0"
-[[bus.module]]
-address = 0
-taxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]
-[[bus.module]]
-address = 5
-taxels = [32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, -1]
-[[bus]]
-interface = "can1"
-[[bus.module]]
-address = 1
-taxels = [48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, -1]
-"#;
+mod common;
 
 fn map() -> BusMap {
-    BusMap::parse(MAP, Path::new("map.toml")).unwrap()
+    common::two_buses()
 }
 
 /// The reading of slot `slot` of module (bus, address) in cycle `cycle`.
@@ -161,10 +146,10 @@ fn a_silent_bus_leaves_its_modules_missing_in_every_frame() {
 
 #[test]
 fn bad_bus_maps_name_the_module_and_slot() {
-    let dup = MAP.replace("[48,", "[16,");
+    let dup = common::TWO_BUSES.replace("[48,", "[16,");
     let e = BusMap::parse(&dup, Path::new("m.toml")).unwrap_err().to_string();
     assert!(e.contains("taxel 16 is also in bus \"can0\" module 0"), "{e}");
-    let short = MAP.replacen("26, -1]", "26]", 1);
+    let short = common::TWO_BUSES.replacen("26, -1]", "26]", 1);
     let e = BusMap::parse(&short, Path::new("m.toml"))
         .unwrap_err()
         .to_string();
@@ -173,7 +158,7 @@ fn bad_bus_maps_name_the_module_and_slot() {
         .unwrap_err()
         .to_string();
     assert!(e.starts_with("m.toml: line 1:"), "{e}");
-    let big = MAP.replacen("address = 5", "address = 200", 1);
+    let big = common::TWO_BUSES.replacen("address = 5", "address = 200", 1);
     assert!(
         BusMap::parse(&big, Path::new("m.toml"))
             .unwrap_err()

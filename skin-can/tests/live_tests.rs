@@ -8,7 +8,7 @@ use skin_can::candump::{CanFrame, CandumpLog, Direction, write_line};
 use skin_can::decode::Skin16;
 use skin_can::decode::skin16::encode_module;
 use skin_can::live::{Acquisition, CanPort, LiveEvent, LiveOptions, now_us};
-use skin_can::{AssembledFrame, Assembler, BusMap};
+use skin_can::{AssembledFrame, Assembler};
 use std::collections::VecDeque;
 use std::io::{Error, ErrorKind};
 use std::path::Path;
@@ -189,28 +189,13 @@ fn an_interface_that_goes_down_is_reported_reopened_and_read_on() {
     }
 }
 
-const MAP: &str = r#"
-format = "skin16"
-[[bus]]
-interface = "can0"
-[[bus.module]]
-address = 0
-taxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]
-[[bus.module]]
-address = 3
-taxels = [32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, -1]
-[[bus]]
-interface = "can1"
-[[bus.module]]
-address = 1
-taxels = [48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, -1]
-"#;
+mod common;
 
 #[test]
 fn as_master_it_syncs_every_bus_and_a_live_session_replays_to_the_same_frames() {
-    let map = BusMap::parse(MAP, Path::new("live.toml")).unwrap();
+    let map = common::two_buses();
     let mut can0 = Scripted::new("can0");
-    can0.modules = vec![0, 3];
+    can0.modules = vec![0, 5];
     let mut can1 = Scripted::new("can1");
     can1.modules = vec![1];
     let (sent0, sent1) = (Arc::clone(&can0.sent), Arc::clone(&can1.sent));
@@ -247,7 +232,7 @@ fn as_master_it_syncs_every_bus_and_a_live_session_replays_to_the_same_frames() 
     for f in assembled.iter().filter(|f| f.is_complete()) {
         let counter = f.cycle as u8;
         let mut want = Vec::new();
-        for a in [0u32, 3, 1] {
+        for a in [0u32, 5, 1] {
             want.extend((0..11).map(|s| Some(reading(counter, a, s))));
         }
         assert_eq!(f.values, want, "cycle {}", f.cycle);

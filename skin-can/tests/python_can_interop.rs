@@ -50,6 +50,11 @@ fn python() -> Result<PathBuf, String> {
     }
 }
 
+/// The python to run the script with, or None after saying why the test skips.
+fn python_or_skip() -> Option<PathBuf> {
+    python().map_err(|why| eprintln!("skipped: {why}")).ok()
+}
+
 fn refs(list: &[ModuleRef]) -> Vec<(u16, u32)> {
     list.iter().map(|m| (m.bus, m.address)).collect()
 }
@@ -107,12 +112,8 @@ fn check(dir: &Path, format: &str, name: &str) {
 
 #[test]
 fn python_can_logs_decode_to_exactly_what_was_written() {
-    let python = match python() {
-        Ok(p) => p,
-        Err(why) => {
-            eprintln!("skipped: {why}");
-            return;
-        }
+    let Some(python) = python_or_skip() else {
+        return;
     };
     let dir = tempfile::tempdir().unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("interop/python_can_logs.py");
@@ -130,12 +131,8 @@ fn python_can_logs_decode_to_exactly_what_was_written() {
 
 #[test]
 fn python_can_writes_the_fixture_traffic_frame_for_frame_as_the_project_writer_does() {
-    let python = match python() {
-        Ok(p) => p,
-        Err(why) => {
-            eprintln!("skipped: {why}");
-            return;
-        }
+    let Some(python) = python_or_skip() else {
+        return;
     };
     let dir = tempfile::tempdir().unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
