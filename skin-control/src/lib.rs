@@ -12,14 +12,16 @@
 //!   contact task (Eq. 8.18-8.26).
 //! - [`controller`]: one control cycle, [`SkinController`]: contact tasks of every touched link and
 //!   the reaching task, sorted by contact force, solved into joint velocities.
+//! - [`hri`]: the physical human-robot interaction tasks of Ch. 9.2 (move along a push, turn a
+//!   held link, bend a joint), triggered by skin contacts through a [`hri::ContactGate`].
 //! - [`kinematics`]: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
 //!
-//! Planned: the physical human-robot interaction tasks (Ch. 9) and the reach-through-clutter
-//! simulation.
+//! Planned: path following, and the reach-through-clutter and interaction simulations.
 
 pub mod approach_press;
 pub mod contact_tasks;
 pub mod controller;
+pub mod hri;
 pub mod kinematics;
 pub mod task_stack;
 

@@ -1,0 +1,208 @@
+//! Physical human-robot interaction tasks triggered by skin contacts (thesis Ch. 9.2), and the
+//! gate that decides whether a contact may trigger them (so a hand classifier can veto a bump).
+//!
+//! Three tasks, mutually exclusive, with binary activations, checked in this order:
+//!
+//! 3. **Bend a joint**: both links next to a joint are touched. The joint between them moves with
+//!    speed proportional to the torque the contacts on the child link exert about its axis.
+//! 2. **Turn a link**: one link is held by two hands from opposite sides (the contact normals
+//!    cancel: ||sum of the unit normals|| < zeta). Its joint moves with speed proportional to the
+//!    torque about its axis.
+//! 1. **Move along the push**: a single touched link. Its contact centroid moves along the mean
+//!    contact normal, inwards (yielding to the push), at
+//!    `V_max (p_mean - p_min) / (p_max - p_min)` (saturated to 0..V_max): rho_1 = -v [k; 0].
+//!
+//! The result is one [`Task`] for the [`crate::TaskStack`], activation 1.
+
+use crate::contact_tasks::Contact;
+use crate::controller::LinkContacts;
+use crate::kinematics::{Chain, KinematicsError};
+use crate::task_stack::Task;
+use nalgebra::{DMatrix, DVector, Point3, Vector3};
+
+/// Decides whether a link's contacts may trigger an interaction task (for instance: only if the
+/// classifier says a human hand made them).
+pub trait ContactGate {
+    /// True to let the contacts on `link` trigger a task.
+    fn allows(&mut self, link: &str, contacts: &[Contact]) -> bool;
+}
+
+/// A gate that lets every contact through.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AllowAll;
+
+impl ContactGate for AllowAll {
+    fn allows(&mut self, _: &str, _: &[Contact]) -> bool {
+        true
+    }
+}
+
+impl<F: FnMut(&str, &[Contact]) -> bool> ContactGate for F {
+    fn allows(&mut self, link: &str, contacts: &[Contact]) -> bool {
+        self(link, contacts)
+    }
+}
+
+/// Settings of the interaction tasks (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HriParams {
+    /// Top speed of task 1, m/s (0.3 in the thesis' experiment).
+    pub v_max: f64,
+    /// Contact force (mean over the contact) at which task 1 starts, newtons.
+    pub force_min: f64,
+    /// Contact force at which task 1 reaches `v_max`, newtons.
+    pub force_max: f64,
+    /// Normals cancel when the norm of their (unit) sum is under this: a two-hand grasp.
+    pub zeta: f64,
+    /// Joint speed per newton-metre of torque, rad/s per N m (tasks 2 and 3).
+    pub torque_gain: f64,
+}
+
+impl Default for HriParams {
+    fn default() -> Self {
+        HriParams {
+            v_max: 0.3,
+            force_min: 1.0,
+            force_max: 20.0,
+            zeta: 0.5,
+            torque_gain: 0.2,
+        }
+    }
+}
+
+/// Which interaction task triggered.
+#[derive(Debug, Clone, PartialEq)]
+pub enum HriKind {
+    /// Task 1, on this link.
+    MoveAlongPush {
+        /// The touched link.
+        link: String,
+    },
+    /// Task 2: turn this joint (the held link's own joint).
+    TurnLink {
+        /// Index of the joint in the chain.
+        joint: usize,
+    },
+    /// Task 3: bend this joint (between two touched links).
+    BendJoint {
+        /// Index of the joint in the chain.
+        joint: usize,
+    },
+}
+
+fn usable(c: &Contact) -> bool {
+    c.point.coords.iter().all(|v| v.is_finite())
+        && c.normal.iter().all(|v| v.is_finite())
+        && c.force.is_finite()
+}
+
+/// Index of the joint that moves `link` (its parent joint), if it is one of the chain's links.
+fn joint_of(chain: &Chain, link: &str) -> Option<usize> {
+    chain.joints().iter().position(|j| j.link == link)
+}
+
+/// Torque of the contacts (forces pushing into the skin, along minus the outward normal) about
+/// joint `joint`'s axis at `q`.
+fn torque(chain: &Chain, joint: usize, q: &[f64], contacts: &[Contact]) -> Result<f64, KinematicsError> {
+    let pose = chain.link_poses(q)?[joint];
+    let axis = pose.rotation * chain.joints()[joint].axis.into_inner();
+    let origin = pose.translation.vector;
+    Ok(contacts
+        .iter()
+        .map(|c| {
+            (c.point.coords - origin)
+                .cross(&(-c.normal.into_inner() * c.force))
+                .dot(&axis)
+        })
+        .sum())
+}
+
+/// A joint-space task moving joint `joint` alone at `speed`.
+fn joint_task(n: usize, joint: usize, speed: f64) -> Task {
+    let mut j = DMatrix::zeros(1, n);
+    j[(0, joint)] = 1.0;
+    Task {
+        jacobian: j,
+        reference: DVector::from_element(1, speed),
+        activation: 1.0,
+    }
+}
+
+/// The interaction task the contacts call for, if any (see the module documentation).
+pub fn interaction_task(
+    chain: &Chain,
+    q: &[f64],
+    touched: &[LinkContacts],
+    gate: &mut dyn ContactGate,
+    params: &HriParams,
+) -> Result<Option<(HriKind, Task)>, KinematicsError> {
+    let n = chain.dof();
+    // Links whose (usable) contacts the gate lets through.
+    let mut live: Vec<(usize, &str, Vec<Contact>)> = Vec::new();
+    for lc in touched {
+        let contacts: Vec<Contact> = lc
+            .contacts
+            .iter()
+            .copied()
+            .filter(usable)
+            .filter(|c| c.force > 0.0)
+            .collect();
+        if contacts.is_empty() || !gate.allows(&lc.link, &contacts) {
+            continue;
+        }
+        let Some(joint) = joint_of(chain, &lc.link) else {
+            return Err(KinematicsError::UnknownLink {
+                name: lc.link.clone(),
+                place: "the chain's moving links".into(),
+                available: chain
+                    .joints()
+                    .iter()
+                    .map(|j| j.link.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        };
+        live.push((joint, lc.link.as_str(), contacts));
+    }
+    live.sort_by_key(|l| l.0);
+    // Task 3: two adjacent links touched.
+    if let Some(w) = live.windows(2).find(|w| w[1].0 == w[0].0 + 1) {
+        let joint = w[1].0;
+        let speed = params.torque_gain * torque(chain, joint, q, &w[1].2)?;
+        return Ok(Some((HriKind::BendJoint { joint }, joint_task(n, joint, speed))));
+    }
+    if live.len() != 1 {
+        return Ok(None);
+    }
+    let (joint, link, contacts) = &live[0];
+    // Task 2: a two-hand grasp, the normals cancelling.
+    let sum: Vector3<f64> = contacts.iter().map(|c| c.normal.into_inner()).sum();
+    if contacts.len() >= 2 && sum.norm() < params.zeta {
+        let speed = params.torque_gain * torque(chain, *joint, q, contacts)?;
+        return Ok(Some((
+            HriKind::TurnLink { joint: *joint },
+            joint_task(n, *joint, speed),
+        )));
+    }
+    // Task 1: move the contact centroid along the mean normal, inwards.
+    let k = sum.try_normalize(1e-9).unwrap_or_else(Vector3::zeros);
+    let mean_force = contacts.iter().map(|c| c.force).sum::<f64>() / contacts.len() as f64;
+    let span = (params.force_max - params.force_min).max(1e-9);
+    let v = params.v_max * ((mean_force - params.force_min) / span).clamp(0.0, 1.0);
+    let centroid =
+        Point3::from(contacts.iter().map(|c| c.point.coords).sum::<Vector3<f64>>() / contacts.len() as f64);
+    let pose = chain.link_pose(link, q)?;
+    let local = pose.inverse() * centroid;
+    let mut reference = DVector::zeros(6);
+    reference.rows_mut(0, 3).copy_from(&(-k * v));
+    Ok(Some((
+        HriKind::MoveAlongPush {
+            link: link.to_string(),
+        },
+        Task {
+            jacobian: chain.jacobian(link, &local, q)?,
+            reference,
+            activation: 1.0,
+        },
+    )))
+}

@@ -1,0 +1,142 @@
+//! The interaction tasks of Ch. 9.2 on the 7-DOF fixture arm: which task a touch triggers, which
+//! way it moves the arm, and the gate's veto.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use nalgebra::{Point3, Unit, Vector3};
+use skin_control::contact_tasks::Contact;
+use skin_control::hri::{AllowAll, HriKind, HriParams, interaction_task};
+use skin_control::{Chain, LinkContacts, Regularisation, TaskStack};
+use std::path::Path;
+
+fn chain() -> Chain {
+    Chain::from_urdf(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm7/arm7.urdf"),
+        "base",
+        "tool",
+    )
+    .unwrap()
+}
+
+const Q: [f64; 7] = [0.2, 0.6, -0.1, 1.2, 0.1, 0.5, 0.0];
+
+/// A contact on `link` at `local` (link frame), skin normal `n` (link frame), force `f`.
+fn touch(chain: &Chain, link: &str, local: [f64; 3], n: [f64; 3], f: f64) -> Contact {
+    let pose = chain.link_pose(link, &Q).unwrap();
+    Contact {
+        point: pose * Point3::from(local),
+        normal: Unit::new_normalize(pose.rotation * Vector3::from(n)),
+        force: f,
+        stiffness: 2000.0,
+    }
+}
+
+#[test]
+fn a_push_moves_the_touched_point_along_the_push() {
+    let c = chain();
+    let contact = touch(&c, "link5", [0.0, 0.05, 0.05], [0.0, 1.0, 0.0], 12.0);
+    let touched = [LinkContacts {
+        link: "link5".into(),
+        contacts: vec![contact],
+    }];
+    let (kind, task) = interaction_task(&c, &Q, &touched, &mut AllowAll, &HriParams::default())
+        .unwrap()
+        .unwrap();
+    assert_eq!(kind, HriKind::MoveAlongPush { link: "link5".into() });
+    let qdot = TaskStack::new(7, Regularisation::default())
+        .solve(std::slice::from_ref(&task))
+        .unwrap();
+    let v = (&task.jacobian * qdot).rows(0, 3).into_owned();
+    // Yields: moves against the outward normal, at up to (12 - 1) / (20 - 1) of 0.3 m/s (the task
+    // also asks for no rotation, which five joints cannot always grant exactly).
+    let speed = 0.3 * 11.0 / 19.0;
+    let along = -v.dot(&contact.normal);
+    assert!(
+        along > 0.9 * v.norm() && v.norm() <= speed * 1.01 && along > 0.5 * speed,
+        "{v}"
+    );
+}
+
+#[test]
+fn two_hands_turn_a_link_and_touches_on_two_neighbours_bend_their_joint() {
+    let c = chain();
+    // Two hands on link3 from opposite sides, off-centre: a torque about its joint.
+    let grasp = vec![
+        touch(&c, "link3", [0.05, 0.0, 0.1], [1.0, 0.0, 0.0], 10.0),
+        touch(&c, "link3", [-0.05, 0.0, 0.1], [-1.0, 0.0, 0.0], 10.0),
+    ];
+    let held = [LinkContacts {
+        link: "link3".into(),
+        contacts: grasp.clone(),
+    }];
+    let (kind, task) = interaction_task(&c, &Q, &held, &mut AllowAll, &HriParams::default())
+        .unwrap()
+        .unwrap();
+    assert_eq!(kind, HriKind::TurnLink { joint: 2 });
+    assert_eq!(task.jacobian.nrows(), 1);
+    // Opposite forces along x at the same axis point: no torque about link3's z axis; twist them.
+    let twist = vec![
+        touch(&c, "link3", [0.05, 0.03, 0.1], [1.0, 0.0, 0.0], 10.0),
+        touch(&c, "link3", [-0.05, -0.03, 0.1], [-1.0, 0.0, 0.0], 10.0),
+    ];
+    let held = [LinkContacts {
+        link: "link3".into(),
+        contacts: twist,
+    }];
+    let (_, task) = interaction_task(&c, &Q, &held, &mut AllowAll, &HriParams::default())
+        .unwrap()
+        .unwrap();
+    assert!(
+        task.reference[0].abs() > 0.01,
+        "a twisting grasp turns the joint: {}",
+        task.reference[0]
+    );
+    // Touches on link4 and link5: bend joint 4 (between them).
+    let both = [
+        LinkContacts {
+            link: "link4".into(),
+            contacts: vec![touch(&c, "link4", [0.0, 0.05, 0.1], [0.0, 1.0, 0.0], 8.0)],
+        },
+        LinkContacts {
+            link: "link5".into(),
+            contacts: vec![touch(&c, "link5", [0.0, 0.05, 0.1], [0.0, 1.0, 0.0], 8.0)],
+        },
+    ];
+    let (kind, task) = interaction_task(&c, &Q, &both, &mut AllowAll, &HriParams::default())
+        .unwrap()
+        .unwrap();
+    assert_eq!(kind, HriKind::BendJoint { joint: 4 });
+    assert!(task.reference[0] != 0.0);
+}
+
+#[test]
+fn the_gate_can_veto_a_contact_and_nan_is_ignored() {
+    let c = chain();
+    let contact = touch(&c, "link5", [0.0, 0.05, 0.05], [0.0, 1.0, 0.0], 12.0);
+    let touched = [LinkContacts {
+        link: "link5".into(),
+        contacts: vec![contact],
+    }];
+    let mut not_a_hand = |_: &str, _: &[Contact]| false;
+    assert!(
+        interaction_task(&c, &Q, &touched, &mut not_a_hand, &HriParams::default())
+            .unwrap()
+            .is_none()
+    );
+    let mut nan = contact;
+    nan.force = f64::NAN;
+    let touched = [LinkContacts {
+        link: "link5".into(),
+        contacts: vec![nan],
+    }];
+    assert!(
+        interaction_task(&c, &Q, &touched, &mut AllowAll, &HriParams::default())
+            .unwrap()
+            .is_none()
+    );
+    let elsewhere = [LinkContacts {
+        link: "elbow".into(),
+        contacts: vec![contact],
+    }];
+    assert!(interaction_task(&c, &Q, &elsewhere, &mut AllowAll, &HriParams::default()).is_err());
+}
