@@ -20,10 +20,13 @@
 //!   Cholesky per task), but it damps every direction a little, also well-conditioned ones.
 //! - [`Regularisation::ActivationAware`]: the regularised pseudo-inverse of Simetti and Casalino
 //!   (2016, "A novel practical technique to integrate inequality control objectives and task
-//!   transitions in priority based control"), with activation matrix A = a I:
-//!   X^# = (X^T A X + V^T P V)^# X^T A A, where X^T A X = V S V^T and P = diag(b(s_i)) damps only
-//!   singular values below `threshold` (b = lambda^2 at 0, falling smoothly to 0 at `threshold`).
-//!   Well-conditioned full-activation tasks are solved exactly; a fading task fades continuously.
+//!   transitions in priority based control"), with activation matrix A = a I and Q the projector
+//!   the higher tasks leave: X^# = (X^T A X + eta (I - Q)^T (I - Q) + V^T P V)^# X^T A A, where
+//!   V S V^T is the eigen-decomposition of the first two terms and P = diag(b(s_i)) damps only
+//!   values below `threshold` (b = lambda^2 at 0, falling smoothly to 0 at `threshold`). The eta
+//!   term keeps a lower task out of directions a higher task is fading in, which it would
+//!   otherwise exploit with large gains just before the higher task takes them. Well-conditioned
+//!   full-activation tasks are solved exactly; a fading task fades continuously.
 //! - [`Regularisation::Exact`]: the plain pseudo-inverse (singular values under `tolerance`
 //!   dropped), for reference and verification only: it has the on/off behaviour described above.
 
@@ -44,6 +47,8 @@ pub enum Regularisation {
         lambda: f64,
         /// Singular values of X^T A X at or above this are not damped.
         threshold: f64,
+        /// Weight of the penalty on directions the higher tasks have (partly) taken.
+        eta: f64,
     },
     /// The plain pseudo-inverse, singular values under `tolerance` dropped (not for control).
     Exact {
@@ -57,6 +62,7 @@ impl Default for Regularisation {
         Regularisation::ActivationAware {
             lambda: 0.05,
             threshold: 0.01,
+            eta: 1.0,
         }
     }
 }
@@ -303,9 +309,17 @@ impl TaskStack {
         let n = x.ncols();
         let m = x.nrows();
         match self.regularisation {
-            Regularisation::ActivationAware { lambda, threshold } => {
-                // (X^T A X + V P V^T)^# X^T A A with A = a I.
-                let mut m_ = x.transpose() * x * a;
+            Regularisation::ActivationAware {
+                lambda,
+                threshold,
+                eta,
+            } => {
+                // (X^T A X + eta (I - Q)^T (I - Q) + V P V^T)^# X^T A A with A = a I and Q the
+                // projector left by the higher tasks: the eta term keeps this task out of the
+                // directions a higher task is claiming (partly, while its activation rises), which
+                // X^T A X alone would exploit with large gains.
+                let iq = DMatrix::identity(n, n) - &self.p;
+                let mut m_ = x.transpose() * x * a + iq.transpose() * &iq * eta;
                 // Symmetrise against rounding before the eigen-decomposition.
                 m_ = (&m_ + m_.transpose()) * 0.5;
                 let eig = m_.symmetric_eigen();

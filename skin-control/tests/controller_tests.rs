@@ -81,3 +81,56 @@ fn nan_joints_give_zero_velocity_and_unknown_links_an_error() {
     assert!(c.step(&Q, &bad, None).is_err());
     assert!(c.step(&Q[..6], &[], None).is_err());
 }
+
+/// The largest change of the joint velocities between two cycles as a contact force on the forearm
+/// rises from 0 to 20 N in steps of 5 mN, the goal lying behind the obstacle (so the reaching task
+/// pulls hard against the contact task that fades in).
+fn largest_step(regularisation: Regularisation) -> f64 {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm7/arm7.urdf");
+    let chain = Chain::from_urdf(&path, "base", "tool").unwrap();
+    let mut c = SkinController::new(chain, "tool", regularisation, Gains::default(), 15.0).unwrap();
+    let pose = c.chain().link_pose("link5", &Q).unwrap();
+    let normal = Unit::new_normalize(pose.rotation * Vector3::y());
+    let hand = c.chain().link_pose("tool", &Q).unwrap().translation.vector;
+    let g = goal(Point3::from(hand + normal.into_inner() * 0.2));
+    let mut last: Option<nalgebra::DVector<f64>> = None;
+    let mut worst: f64 = 0.0;
+    for k in 0..=4000 {
+        let force = 20.0 * f64::from(k) / 4000.0;
+        let contact = Contact {
+            point: pose * Point3::new(0.0, 0.04, 0.05),
+            normal,
+            force,
+            stiffness: 2000.0,
+        };
+        let qdot = c
+            .step(
+                &Q,
+                &[LinkContacts {
+                    link: "link5".into(),
+                    contacts: vec![contact],
+                }],
+                Some(&g),
+            )
+            .unwrap();
+        if let Some(prev) = &last {
+            worst = worst.max((&qdot - prev).norm());
+        }
+        last = Some(qdot);
+    }
+    worst
+}
+
+#[test]
+fn joint_velocities_stay_continuous_while_a_strong_lower_task_gives_way() {
+    let aware = largest_step(Regularisation::default());
+    // Without the penalty on directions the contact task is claiming, the reaching task uses them
+    // with large gains until the very end of the fade-in: a jump.
+    let no_penalty = largest_step(Regularisation::ActivationAware {
+        lambda: 0.05,
+        threshold: 0.01,
+        eta: 0.0,
+    });
+    assert!(aware < 0.01, "largest change per 5 mN step: {aware}");
+    assert!(no_penalty > 3.0 * aware, "{no_penalty} vs {aware}");
+}
