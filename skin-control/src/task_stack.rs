@@ -113,9 +113,8 @@ struct Work {
     g: Vec<f64>,
     y: Vec<f64>,
     t: Vec<f64>,
-    pt: Vec<f64>,
     j: Vec<f64>,
-    w: Vec<f64>,
+    e: Vec<f64>,
     r: Vec<f64>,
 }
 
@@ -199,14 +198,13 @@ impl TaskStack {
         let w = &mut self.work;
         let m_max = tasks.iter().map(|t| t.reference.len()).max().unwrap_or(0);
         w.p.resize(n * n, 0.0);
-        w.t.resize(n * n, 0.0);
-        w.pt.resize(n * n, 0.0);
+        w.t.resize(m_max * n, 0.0);
         w.r.resize(n, 0.0);
-        w.w.resize(n, 0.0);
         w.x.resize(m_max * n, 0.0);
         w.y.resize(m_max * n, 0.0);
         w.g.resize(m_max * m_max, 0.0);
         w.j.resize(m_max * n, 0.0);
+        w.e.resize(m_max, 0.0);
         w.p.fill(0.0);
         for i in 0..n {
             w.p[i * n + i] = 1.0;
@@ -267,33 +265,32 @@ impl TaskStack {
                 w.y[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= d);
             }
             w.y[..m * n].iter_mut().for_each(|v| *v *= a2);
-            // e = rho - J r; w = X^# e = sum_i e_i y_i; r += P w.
-            w.w.fill(0.0);
+            // W = P X^# = P Y^T (n x m, stored as m rows of n: row i = P y_i, P symmetric).
             for i in 0..m {
-                let e = t.reference[i] - dot(&w.j[i * n..(i + 1) * n], &w.r);
-                axpy(&mut w.w, e, &w.y[i * n..(i + 1) * n]);
+                let (yi, wi) = (&w.y[i * n..(i + 1) * n], &mut w.t[i * n..(i + 1) * n]);
+                for (rr, o) in wi.iter_mut().enumerate() {
+                    *o = dot(&w.p[rr * n..(rr + 1) * n], yi);
+                }
             }
-            for rr in 0..n {
-                w.r[rr] += dot(&w.p[rr * n..(rr + 1) * n], &w.w);
+            // r += P X^# e with e = rho - J r (all of e from the old r): sum_i e_i W_i.
+            for i in 0..m {
+                w.e[i] = t.reference[i] - dot(&w.j[i * n..(i + 1) * n], &w.r);
             }
-            // T = X^# X = sum_i y_i^T x_i (n x n); P <- P - P T, symmetrised.
-            w.t.fill(0.0);
+            for i in 0..m {
+                axpy(&mut w.r, w.e[i], &w.t[i * n..(i + 1) * n]);
+            }
+            // P <- P - W X = P - sum_i W_i^T x_i, symmetrised.
             for i in 0..m {
                 for rr in 0..n {
-                    let yi = w.y[i * n + rr];
-                    axpy(&mut w.t[rr * n..(rr + 1) * n], yi, &w.x[i * n..(i + 1) * n]);
+                    let wi = w.t[i * n + rr];
+                    axpy(&mut w.p[rr * n..(rr + 1) * n], -wi, &w.x[i * n..(i + 1) * n]);
                 }
             }
             for rr in 0..n {
-                let row = &mut w.pt[rr * n..(rr + 1) * n];
-                row.copy_from_slice(&w.p[rr * n..(rr + 1) * n]);
-                for k in 0..n {
-                    axpy(row, -w.p[rr * n + k], &w.t[k * n..(k + 1) * n]);
-                }
-            }
-            for rr in 0..n {
-                for c in 0..n {
-                    w.p[rr * n + c] = 0.5 * (w.pt[rr * n + c] + w.pt[c * n + rr]);
+                for c in rr + 1..n {
+                    let v = 0.5 * (w.p[rr * n + c] + w.p[c * n + rr]);
+                    w.p[rr * n + c] = v;
+                    w.p[c * n + rr] = v;
                 }
             }
         }
