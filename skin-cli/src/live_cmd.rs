@@ -72,6 +72,8 @@ struct Sinks {
     log: Option<(PathBuf, PathBuf, std::io::BufWriter<std::fs::File>)>,
     csv: Option<(PathBuf, String)>,
     status: bool,
+    /// One candump line, reused for every CAN frame.
+    line: String,
 }
 
 /// What a session saw.
@@ -278,14 +280,19 @@ impl Sinks {
             s.push('\n');
             (p.to_owned(), s)
         });
-        Ok(Sinks { log, csv, status })
+        Ok(Sinks {
+            log,
+            csv,
+            status,
+            line: String::with_capacity(64),
+        })
     }
 
     fn frame(&mut self, f: &CanFrame, interfaces: &[String]) -> Result<()> {
         if let Some((_, tmp, out)) = &mut self.log {
-            let mut line = String::with_capacity(48);
-            write_line(&mut line, f, &interfaces[usize::from(f.bus)]);
-            out.write_all(line.as_bytes())
+            self.line.clear();
+            write_line(&mut self.line, f, &interfaces[usize::from(f.bus)]);
+            out.write_all(self.line.as_bytes())
                 .with_context(|| format!("cannot write {}", tmp.display()))?;
         }
         Ok(())

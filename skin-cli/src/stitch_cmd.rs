@@ -87,9 +87,10 @@ pub fn run(args: Args) -> Result<()> {
         max_edge: args.max_edge_mm * 1e-3,
         ..StitchOptions::default()
     };
+    let links = maps.len();
     let mut stitcher =
-        Stitcher::new(maps.clone(), reference, options).with_context(|| args.layout.display().to_string())?;
-    for j in 0..maps.len() - 1 {
+        Stitcher::new(maps, reference, options).with_context(|| args.layout.display().to_string())?;
+    for j in 0..links - 1 {
         if let Some((a, b)) = stitcher.boundary(j) {
             crate::say!(
                 "joint {j} ({} - {}): {} + {} boundary taxels",
@@ -126,18 +127,22 @@ pub fn run(args: Args) -> Result<()> {
         }
         if args.svg {
             let path = args.output.join(format!("stitched_{}.svg", file_name(&p.name)));
-            crate::write_atomic(&path, stitched_svg(&maps, &report.placements).as_bytes())?;
+            crate::write_atomic(
+                &path,
+                stitched_svg(stitcher.maps(), &report.placements).as_bytes(),
+            )?;
             crate::say!("wrote {}", path.display());
         }
         solved.push(report);
     }
-    let mut raster = StitchedRasterizer::new(&maps, args.step_mm)?;
+    let maps = stitcher.maps();
+    let mut raster = StitchedRasterizer::new(maps, args.step_mm)?;
     for rec_path in &args.frames {
         let rec = recording::read(rec_path)?;
         // Each link's taxels among the recording's columns.
         let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
         let mut columns = Vec::new();
-        for (link, map) in layout.links.iter().zip(&maps) {
+        for (link, map) in layout.links.iter().zip(maps) {
             let cols: Vec<usize> = map
                 .ids
                 .iter()
@@ -161,7 +166,7 @@ pub fn run(args: Args) -> Result<()> {
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let mut placed: Option<usize> = None;
         let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.len()]).collect();
-        let mut image = Vec::new();
+        let (mut image, mut grey) = (Vec::new(), Vec::new());
         for (n, frame) in rec.frame_numbers.iter().zip(&rec.frames) {
             let k = postures.at(frame.time);
             if placed != Some(k) {
@@ -177,12 +182,14 @@ pub fn run(args: Args) -> Result<()> {
             let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
             raster.render(&views, &mut image)?;
             let (rows, cols) = (raster.rows(), raster.cols());
-            let mut grey = vec![0u8; rows * cols];
+            grey.resize(rows * cols, 0);
             to_grey(&image, Normalisation::ContactMax, &mut grey);
             if args.morph {
-                grey = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
+                let morphed = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
+                write_png(&dir.join(format!("frame_{n:05}.png")), &morphed, rows, cols)?;
+            } else {
+                write_png(&dir.join(format!("frame_{n:05}.png")), &grey, rows, cols)?;
             }
-            write_png(&dir.join(format!("frame_{n:05}.png")), &grey, rows, cols)?;
         }
         crate::say!(
             "{}: {} stitched frames -> {}",
