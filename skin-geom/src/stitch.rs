@@ -158,18 +158,18 @@ struct JointChart {
 }
 
 impl JointChart {
-    fn project(&self, p: &Point3<f64>) -> (f64, f64) {
+    fn project(&self, p: &Point3<f64>) -> Point2<f64> {
         match self.chart {
             Chart::Plane { .. } => {
                 let d = p - self.centre;
-                (d.dot(&self.e1), d.dot(&self.e2))
+                Point2::new(d.dot(&self.e1), d.dot(&self.e2))
             }
             Chart::Cylinder { axis, centre, radius } => {
                 let axis = Vector3::from(axis);
                 let d = p - Point3::from(centre);
                 let along = d.dot(&axis);
                 let angle = d.dot(&self.e2).atan2(d.dot(&self.e1));
-                (radius * angle, along)
+                Point2::new(radius * angle, along)
             }
         }
     }
@@ -281,10 +281,10 @@ impl Stitcher {
         for (j, (parent, child)) in boundaries.into_iter().enumerate() {
             check_pose(j, &reference[j])?;
             check_pose(j + 1, &reference[j + 1])?;
-            for (side, list, map) in [("link", &parent, &maps[j]), ("link", &child, &maps[j + 1])] {
+            for (list, map) in [(&parent, &maps[j]), (&child, &maps[j + 1])] {
                 if list.is_empty() {
                     return Err(Error::Mismatch(format!(
-                        "joint {j}: the {side} \"{}\" has no boundary taxel near its neighbour",
+                        "joint {j}: the link \"{}\" has no boundary taxel near its neighbour",
                         map.name
                     )));
                 }
@@ -304,19 +304,15 @@ impl Stitcher {
             let mut normals: Vec<Unit<Vector3<f64>>> = parent.iter().map(|&i| na[i]).collect();
             normals.extend(child.iter().map(|&i| to_parent.rotation * nb[i]));
             let chart = fixed_chart(&points, &normals)?;
-            let mut joint = Joint {
+            // The placement is set by the reference solve below.
+            joints.push(Joint {
                 parent,
                 child,
                 chart,
                 mode: JointMode::Full,
                 placement: Placement::IDENTITY,
                 bridges: Vec::new(),
-            };
-            // Start: boundary centroids on top of each other, no rotation.
-            let ca = centroid2(joint.parent.iter().map(|&i| maps[j].points[i]));
-            let cb = centroid2(joint.child.iter().map(|&i| maps[j + 1].points[i]));
-            joint.placement.offset = ca - cb;
-            joints.push(joint);
+            });
         }
         let mut stitcher = Stitcher {
             maps,
@@ -522,14 +518,13 @@ impl Stitcher {
             .extend(joint.parent.iter().map(|&i| parent_map.positions[i]));
         self.world
             .extend(joint.child.iter().map(|&i| to_parent * child_map.positions[i]));
-        self.chart_points.clear();
         let chart = joint.chart;
-        let mut coords: Vec<(f64, f64)> = self.world.iter().map(|p| chart.project(p)).collect();
-        if let Chart::Cylinder { radius, .. } = chart.chart {
-            unwrap_angles(&mut coords, radius);
-        }
+        self.chart_points.clear();
         self.chart_points
-            .extend(coords.iter().map(|&(x, y)| Point2::new(x, y)));
+            .extend(self.world.iter().map(|p| chart.project(p)));
+        if let Chart::Cylinder { radius, .. } = chart.chart {
+            unwrap_angles(&mut self.chart_points, radius);
+        }
         let triangles = cross_delaunay(&self.chart_points)?;
         let np = joint.parent.len();
         let max_edge = self.options.max_edge;
@@ -548,18 +543,20 @@ impl Stitcher {
             })
             .map(|t| t.map(corner))
             .collect();
-        let mut edges: Vec<(usize, usize, f64)> = Vec::new();
-        for t in &triangles {
-            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                let (a, b) = if a < b { (a, b) } else { (b, a) };
-                if a < np && b >= np {
-                    let d = (self.world[a] - self.world[b]).norm();
-                    if d <= max_edge && !edges.iter().any(|e| e.0 == a && e.1 == b - np) {
-                        edges.push((a, b - np, d));
-                    }
-                }
-            }
-        }
+        // Each cross edge, once (an inner edge belongs to two triangles).
+        let mut pairs: Vec<(usize, usize)> = triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .filter(|&(a, b)| a < np && b >= np)
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let edges: Vec<(usize, usize, f64)> = pairs
+            .into_iter()
+            .map(|(a, b)| (a, b - np, (self.world[a] - self.world[b]).norm()))
+            .filter(|e| e.2 <= max_edge)
+            .collect();
         self.joints[j].bridges = bridges;
         Ok(edges)
     }
@@ -725,12 +722,12 @@ fn fixed_chart(points: &[Point3<f64>], normals: &[Unit<Vector3<f64>>]) -> Result
 }
 
 /// Cuts the unrolled angles at the widest empty sector, so the region is in one piece.
-fn unwrap_angles(coords: &mut [(f64, f64)], radius: f64) {
+fn unwrap_angles(coords: &mut [Point2<f64>], radius: f64) {
     if coords.is_empty() || radius <= 0.0 {
         return;
     }
     let tau = std::f64::consts::TAU;
-    let mut angles: Vec<f64> = coords.iter().map(|c| c.0 / radius).collect();
+    let mut angles: Vec<f64> = coords.iter().map(|c| c.x / radius).collect();
     angles.sort_by(f64::total_cmp);
     let mut cut = angles[0] + tau;
     let mut widest = angles[0] + tau - angles[angles.len() - 1];
@@ -741,14 +738,14 @@ fn unwrap_angles(coords: &mut [(f64, f64)], radius: f64) {
         }
     }
     for c in coords.iter_mut() {
-        let mut a = c.0 / radius;
+        let mut a = c.x / radius;
         while a < cut {
             a += tau;
         }
         while a >= cut + tau {
             a -= tau;
         }
-        c.0 = a * radius;
+        c.x = a * radius;
     }
 }
 
