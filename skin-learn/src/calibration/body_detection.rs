@@ -17,7 +17,7 @@
 //! Depth images are row-major, metres along the optical axis (z in the camera frame), 0 or NaN
 //! where the sensor has no reading.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Unit, Vector2, Vector3};
+use nalgebra::{Isometry3, Point3, Unit, Vector2, Vector3};
 
 /// A pinhole camera (Eq. 7.1): k_x, k_y the focal length in pixels along each axis, (u_0, v_0) the
 /// principal point, and where the camera is.
@@ -226,7 +226,7 @@ pub fn body_mask(
 
 /// The 3D point at pixel (u, v) and the surface normal there, from the depth point cloud within
 /// `radius` pixels (plane fit of the back-projected neighbours, turned towards the camera).
-/// `None` without depth at the pixel or with fewer than 6 neighbours.
+/// `None` without depth at the pixel, with fewer than 6 neighbours, or when they span no plane.
 pub fn surface_at(
     camera: &PinholeCamera,
     depth: &[f32],
@@ -252,14 +252,8 @@ pub fn surface_at(
     if points.len() < 6 {
         return None;
     }
-    let mean = points.iter().fold(Vector3::zeros(), |m, p| m + p.coords) / points.len() as f64;
-    let cov = points.iter().fold(Matrix3::zeros(), |c, p| {
-        let d = p.coords - mean;
-        c + d * d.transpose()
-    });
-    let eig = cov.symmetric_eigen();
-    let k = eig.eigenvalues.imin();
-    let mut n = eig.eigenvectors.column(k).into_owned();
+    // The same plane fit as a taxel's contacts get (a degenerate neighbourhood gives no normal).
+    let (_, [_, _, mut n], _) = super::taxel_pose::plane(&points).ok()?;
     if n.dot(&(camera.centre() - target)) < 0.0 {
         n = -n;
     }
