@@ -21,6 +21,9 @@ use std::path::Path;
 /// The header line of the CSV form.
 pub const CSV_HEADER: &str = "contact,x_m,y_m,z_m,taxel,response";
 
+/// Its fields, in order.
+const FIELDS: [&str; 6] = ["contact", "x_m", "y_m", "z_m", "taxel", "response"];
+
 /// One press of the probe.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProbeContact {
@@ -91,20 +94,21 @@ impl ProbeDataset {
                     format!("\"{}\" is not a contact number", cells[0]),
                 )
             })?;
-            let mut xyz = [0.0; 3];
-            for (k, name) in ["x_m", "y_m", "z_m"].iter().enumerate() {
-                xyz[k] = cells[1 + k]
+            // A finite number in column `k`, or an error naming the field.
+            let finite = |k: usize, what: &str| {
+                cells[k]
                     .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| {
-                        Error::invalid(
-                            path,
-                            place(name),
-                            format!("\"{}\" is not a finite number of metres", cells[1 + k]),
-                        )
-                    })?;
-            }
+                        Error::invalid(path, place(FIELDS[k]), format!("\"{}\" is not {what}", cells[k]))
+                    })
+            };
+            let xyz = [
+                finite(1, "a finite number of metres")?,
+                finite(2, "a finite number of metres")?,
+                finite(3, "a finite number of metres")?,
+            ];
             let taxel: u32 = cells[4].parse().map_err(|_| {
                 Error::invalid(
                     path,
@@ -112,17 +116,7 @@ impl ProbeDataset {
                     format!("\"{}\" is not a taxel id", cells[4]),
                 )
             })?;
-            let response: f64 = cells[5]
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    Error::invalid(
-                        path,
-                        place("response"),
-                        format!("\"{}\" is not a finite number", cells[5]),
-                    )
-                })?;
+            let response = finite(5, "a finite number")?;
             let centroid = Point3::from(xyz);
             let k = *index.entry(contact).or_insert_with(|| {
                 dataset.contacts.push(ProbeContact {
