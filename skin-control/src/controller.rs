@@ -80,6 +80,8 @@ impl SkinController {
         if q.iter().any(|v| !v.is_finite()) {
             return Ok(DVector::zeros(n));
         }
+        // Forward kinematics once for every pose and Jacobian of this cycle.
+        let at = self.chain.posture(q)?;
         // (priority force, task)
         let mut tasks: Vec<(f64, Task)> = Vec::new();
         let mut tip_contacts: Vec<Contact> = Vec::new();
@@ -88,7 +90,7 @@ impl SkinController {
                 tip_contacts.extend(lc.contacts.iter().copied());
                 continue;
             }
-            let pose = self.chain.link_pose(&lc.link, q)?;
+            let pose = at.link_pose(&lc.link)?;
             let origin = Point3::from(pose.translation.vector);
             let f_max = lc
                 .contacts
@@ -104,13 +106,13 @@ impl SkinController {
             tasks.push((
                 f_max,
                 Task {
-                    jacobian: self.chain.jacobian(&lc.link, &Point3::origin(), q)?,
+                    jacobian: at.jacobian(&lc.link, &Point3::origin())?,
                     reference: DVector::from_iterator(6, rho.iter().copied()),
                     activation: a,
                 },
             ));
         }
-        let tip_pose = self.chain.link_pose(&self.tip, q)?;
+        let tip_pose = at.link_pose(&self.tip)?;
         let tip_origin = Point3::from(tip_pose.translation.vector);
         let tip_force = tip_contacts
             .iter()
@@ -131,7 +133,7 @@ impl SkinController {
         tasks.push((
             tip_force,
             Task {
-                jacobian: self.chain.jacobian(&self.tip, &Point3::origin(), q)?,
+                jacobian: at.jacobian(&self.tip, &Point3::origin())?,
                 reference: DVector::from_iterator(6, tip_rho.iter().copied()),
                 activation: 1.0,
             },

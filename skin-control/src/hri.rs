@@ -191,8 +191,8 @@ pub fn interaction_task(
     let v = params.v_max * ((mean_force - params.force_min) / span).clamp(0.0, 1.0);
     let centroid =
         Point3::from(contacts.iter().map(|c| c.point.coords).sum::<Vector3<f64>>() / contacts.len() as f64);
-    let pose = chain.link_pose(link, q)?;
-    let local = pose.inverse() * centroid;
+    let at = chain.posture(q)?;
+    let local = at.link_pose(link)?.inverse() * centroid;
     let mut reference = DVector::zeros(6);
     reference.rows_mut(0, 3).copy_from(&(-k * v));
     Ok(Some((
@@ -200,7 +200,7 @@ pub fn interaction_task(
             link: link.to_string(),
         },
         Task {
-            jacobian: chain.jacobian(link, &local, q)?,
+            jacobian: at.jacobian(link, &local)?,
             reference,
             activation: 1.0,
         },

@@ -280,9 +280,7 @@ impl Chain {
 
     /// Pose of `link` in the base frame at `q`.
     pub fn link_pose(&self, link: &str, q: &[f64]) -> Result<Isometry3<f64>, KinematicsError> {
-        let (k, off) = self.locate(link)?;
-        let poses = self.link_poses(q)?;
-        Ok(k.map_or(Isometry3::identity(), |k| poses[k]) * off)
+        self.posture(q)?.link_pose(link)
     }
 
     /// The 6 x n geometric Jacobian of `point` (in `link`'s frame) at `q`: rows 0-2 its linear
@@ -294,15 +292,43 @@ impl Chain {
         point: &Point3<f64>,
         q: &[f64],
     ) -> Result<DMatrix<f64>, KinematicsError> {
-        let (k, off) = self.locate(link)?;
-        let poses = self.link_poses(q)?;
-        let n = self.joints.len();
-        let mut jac = DMatrix::zeros(6, n);
+        self.posture(q)?.jacobian(link, point)
+    }
+
+    /// The chain at joint values `q`, its forward kinematics computed once for any number of
+    /// poses and Jacobians (a control cycle asks for several).
+    pub fn posture(&self, q: &[f64]) -> Result<Posture<'_>, KinematicsError> {
+        Ok(Posture {
+            chain: self,
+            poses: self.link_poses(q)?,
+        })
+    }
+}
+
+/// A [`Chain`] at given joint values: every moving link's pose, computed once.
+#[derive(Debug, Clone)]
+pub struct Posture<'a> {
+    chain: &'a Chain,
+    poses: Vec<Isometry3<f64>>,
+}
+
+impl Posture<'_> {
+    /// Pose of `link` in the base frame.
+    pub fn link_pose(&self, link: &str) -> Result<Isometry3<f64>, KinematicsError> {
+        let (k, off) = self.chain.locate(link)?;
+        Ok(k.map_or(Isometry3::identity(), |k| self.poses[k]) * off)
+    }
+
+    /// The 6 x n geometric Jacobian of `point` (in `link`'s frame), as [`Chain::jacobian`].
+    pub fn jacobian(&self, link: &str, point: &Point3<f64>) -> Result<DMatrix<f64>, KinematicsError> {
+        let (k, off) = self.chain.locate(link)?;
+        let joints = &self.chain.joints;
+        let mut jac = DMatrix::zeros(6, joints.len());
         let Some(k) = k else {
             return Ok(jac);
         };
-        let p = poses[k] * off * point;
-        for (i, (j, pose)) in self.joints.iter().zip(&poses).enumerate().take(k + 1) {
+        let p = self.poses[k] * off * point;
+        for (i, (j, pose)) in joints.iter().zip(&self.poses).enumerate().take(k + 1) {
             // The joint axis in the base frame, through the joint frame's origin (the child
             // link's frame at the joint value).
             let axis = pose.rotation * j.axis.into_inner();

@@ -26,5 +26,5 @@ pub mod kinematics;
 pub mod task_stack;
 
 pub use controller::{LinkContacts, ReachGoal, SkinController};
-pub use kinematics::{Chain, KinematicsError};
+pub use kinematics::{Chain, KinematicsError, Posture};
 pub use task_stack::{Regularisation, StackError, Task, TaskStack};
