@@ -290,7 +290,10 @@ mod properties {
             let a = calibrate(&probes, &opts(up));
             let b = calibrate(&moved, &opts(motion * up));
             for (x, y) in a.taxels.iter().zip(&b.taxels) {
-                prop_assert_eq!(&x.status, &y.status);
+                // The same verdict for every taxel. (The distance quoted by a "centre far outside
+                // the contacts" flag is where a diverging fit stopped: rounding in the moved
+                // coordinates changes it, not the verdict.)
+                prop_assert_eq!(std::mem::discriminant(&x.status), std::mem::discriminant(&y.status), "{}: {} vs {}", x.id, x.status, y.status);
                 if let (Some(p), Some(q)) = (x.position, y.position) {
                     prop_assert!((motion * p - q).norm() < 1e-7, "{} moved by {} m", x.id, (motion * p - q).norm());
                     prop_assert!((motion * x.normal.unwrap().into_inner() - y.normal.unwrap().into_inner()).norm() < 1e-7);
