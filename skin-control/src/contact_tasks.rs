@@ -42,6 +42,9 @@ pub struct Gains {
     pub orientation: f64,
     /// Damping of the pseudo-inverses.
     pub lambda: f64,
+    /// Top speed of the hand towards the goal, m/s (the error term is scaled down beyond it;
+    /// infinite for none).
+    pub max_speed: f64,
 }
 
 impl Default for Gains {
@@ -51,6 +54,7 @@ impl Default for Gains {
             position: 1.0,
             orientation: 0.5,
             lambda: 1e-3,
+            max_speed: f64::INFINITY,
         }
     }
 }
@@ -156,7 +160,11 @@ pub fn reach_twist(
         gains.orientation,
         gains.orientation,
     ]);
-    let ge = e.component_mul(&gamma);
+    let mut ge = e.component_mul(&gamma);
+    let speed = ge.rows(0, 3).norm();
+    if speed > gains.max_speed {
+        ge *= gains.max_speed / speed;
+    }
     // S_h (Eq. 8.24), 6 x 6.
     let mut s_h = DMatrix::identity(6, 6);
     s_h.view_mut((0, 3), (3, 3))
@@ -180,4 +188,65 @@ pub fn reach_twist(
     } else {
         Vector6::zeros()
     }
+}
+
+/// Groups taxel readings into contacts (Ch. 8.3, 9.2): taxels closer than `radius` (chained)
+/// form one contact, at the force-weighted centroid of its taxels, with their force-weighted
+/// mean normal, the largest force among them and their mean stiffness. A patch of taxels pressed
+/// against one bar is one contact with one normal, as the thesis models it; kept as separate
+/// rows, the spread of the taxels' normals across a curved link would forbid sliding along the
+/// bar too. Taxels with non-finite values or no force are left out.
+pub fn group_contacts(taxels: &[Contact], radius: f64) -> Vec<Contact> {
+    let live: Vec<&Contact> = taxels.iter().filter(|c| usable(c) && c.force > 0.0).collect();
+    let n = live.len();
+    // Union-find over the taxels within `radius` of each other.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            if (live[i].point - live[j].point).norm() <= radius {
+                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                if a != b {
+                    parent[b] = a;
+                }
+            }
+        }
+    }
+    let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        match groups.iter_mut().find(|(g, _)| *g == r) {
+            Some((_, members)) => members.push(i),
+            None => groups.push((r, vec![i])),
+        }
+    }
+    groups
+        .into_iter()
+        .filter_map(|(_, members)| {
+            let total: f64 = members.iter().map(|&i| live[i].force).sum();
+            let mut point = Vector3::zeros();
+            let mut normal = Vector3::zeros();
+            let mut stiffness = 0.0;
+            let mut force: f64 = 0.0;
+            for &i in &members {
+                let w = live[i].force / total;
+                point += live[i].point.coords * w;
+                normal += live[i].normal.into_inner() * w;
+                stiffness += live[i].stiffness / members.len() as f64;
+                force = force.max(live[i].force);
+            }
+            Some(Contact {
+                point: Point3::from(point),
+                normal: Unit::try_new(normal, 1e-9)?,
+                force,
+                stiffness,
+            })
+        })
+        .collect()
 }

@@ -1,6 +1,12 @@
 //! One control cycle of a skin-covered arm (thesis Ch. 8.3): a contact task for every link the
 //! skin reports touched, the end-effector's reaching task, priorities sorted by contact force
 //! (largest first, Ch. 8.3), solved by the [`TaskStack`] into joint velocities.
+//!
+//! Above them all, joint-limit tasks (as inequality tasks in Simetti and Casalino's framework):
+//! a joint within `margin` of a limit gets a one-joint task pushing it back, its activation
+//! rising smoothly from 0 at the margin to 1 at the limit. Without them the arm would drive a
+//! joint into its stop, where the velocity it was given is lost and a contact it was meant to
+//! relieve is not; with them the other joints take over.
 
 use crate::contact_tasks::{Contact, Gains, activation, contact_twist, reach_twist};
 use crate::kinematics::{Chain, KinematicsError};
@@ -35,6 +41,16 @@ pub struct SkinController {
     stack: TaskStack,
     gains: Gains,
     threshold: f64,
+    limit_margin: f64,
+}
+
+/// Margin of the joint-limit tasks, radians (or metres for a prismatic joint).
+pub const JOINT_LIMIT_MARGIN: f64 = 0.15;
+
+/// Smooth step: 0 at x <= 0, 1 at x >= 1, C1 in between.
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
 }
 
 impl SkinController {
@@ -54,7 +70,47 @@ impl SkinController {
             tip: tip.into(),
             gains,
             threshold,
+            limit_margin: JOINT_LIMIT_MARGIN,
         })
+    }
+
+    /// Sets the margin of the joint-limit tasks (0 turns them off).
+    pub fn with_limit_margin(mut self, margin: f64) -> SkinController {
+        self.limit_margin = if margin.is_finite() { margin.max(0.0) } else { 0.0 };
+        self
+    }
+
+    /// Joint-limit tasks at `q`: one per joint inside its margin, pushing it back out at the
+    /// position gain's rate.
+    fn limit_tasks(&self, q: &[f64]) -> Vec<Task> {
+        let n = q.len();
+        let m = self.limit_margin;
+        if m <= 0.0 {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for (i, (j, &qi)) in self.chain.joints().iter().zip(q).enumerate() {
+            let (lo, hi) = j.limits;
+            // Depth into the margin, signed: positive near the lower limit (push up).
+            let depth = if qi - lo < m {
+                m - (qi - lo)
+            } else if hi - qi < m {
+                -(m - (hi - qi))
+            } else {
+                continue;
+            };
+            if !depth.is_finite() {
+                continue;
+            }
+            let mut jac = nalgebra::DMatrix::zeros(1, n);
+            jac[(0, i)] = 1.0;
+            out.push(Task {
+                jacobian: jac,
+                reference: DVector::from_element(1, self.gains.position * depth),
+                activation: smoothstep(depth.abs() / m),
+            });
+        }
+        out
     }
 
     /// The chain.
@@ -140,7 +196,9 @@ impl SkinController {
         ));
         // Largest contact force first (Ch. 8.3); stable, so equal forces keep the chain's order.
         tasks.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let tasks: Vec<Task> = tasks.into_iter().map(|(_, t)| t).collect();
+        let mut stack = self.limit_tasks(q);
+        stack.extend(tasks.into_iter().map(|(_, t)| t));
+        let tasks = stack;
         Ok(self
             .stack
             .solve(&tasks)

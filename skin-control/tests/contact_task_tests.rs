@@ -5,7 +5,7 @@
 
 use nalgebra::{Point3, Unit, Vector3, Vector6};
 use proptest::prelude::*;
-use skin_control::contact_tasks::{Contact, Gains, activation, contact_twist, reach_twist};
+use skin_control::contact_tasks::{Contact, Gains, activation, contact_twist, group_contacts, reach_twist};
 
 /// The rate of change of each contact force under a link twist (Eq. 8.10, 8.13):
 /// f_dot = -K n^T (x_L dot + omega x r), n = minus the skin normal.
@@ -140,4 +140,43 @@ proptest! {
         let v_dot: f64 = contacts.iter().zip(&rates).map(|(c, r)| c.force * r).sum();
         prop_assert!(v_dot <= 1e-9, "V_dot = {}", v_dot);
     }
+}
+
+fn taxel(x: f64, y: f64, normal: Vector3<f64>, force: f64) -> Contact {
+    Contact {
+        point: Point3::new(x, y, 0.0),
+        normal: Unit::new_normalize(normal),
+        force,
+        stiffness: 1000.0,
+    }
+}
+
+#[test]
+fn taxels_of_one_patch_make_one_contact_with_the_mean_normal() {
+    // Two patches 10 cm apart: three taxels 1 cm apart, and one alone.
+    let taxels = [
+        taxel(0.00, 0.0, Vector3::new(-0.2, 0.0, 1.0), 1.0),
+        taxel(0.01, 0.0, Vector3::new(0.0, 0.0, 1.0), 2.0),
+        taxel(0.02, 0.0, Vector3::new(0.2, 0.0, 1.0), 1.0),
+        taxel(0.12, 0.0, Vector3::new(1.0, 0.0, 0.0), 0.5),
+        taxel(0.30, 0.0, Vector3::new(1.0, 0.0, 0.0), 0.0), // no force: not a contact
+    ];
+    let contacts = group_contacts(&taxels, 0.015);
+    assert_eq!(contacts.len(), 2);
+    let c = &contacts[0];
+    assert!(
+        (c.point - Point3::new(0.01, 0.0, 0.0)).norm() < 1e-12,
+        "{}",
+        c.point
+    );
+    assert!(
+        (c.normal.into_inner() - Vector3::z()).norm() < 1e-12,
+        "{}",
+        c.normal.into_inner()
+    );
+    assert_eq!(c.force, 2.0);
+    assert_eq!(contacts[1].force, 0.5);
+    // Chained: taxels 1 cm apart join even though the ends are 2 cm apart.
+    assert_eq!(group_contacts(&taxels[..3], 0.011).len(), 1);
+    assert_eq!(group_contacts(&taxels[..3], 0.009).len(), 3);
 }

@@ -134,3 +134,34 @@ fn joint_velocities_stay_continuous_while_a_strong_lower_task_gives_way() {
     assert!(aware < 0.01, "largest change per 5 mN step: {aware}");
     assert!(no_penalty > 3.0 * aware, "{no_penalty} vs {aware}");
 }
+
+#[test]
+fn a_joint_at_its_limit_is_pushed_back_whatever_the_goal() {
+    let c = controller();
+    let (_, hi) = c.chain().joints()[3].limits;
+    let mut q = Q;
+    q[3] = hi; // the elbow at its stop
+    let hand = c.chain().link_pose("tool", &q).unwrap().translation.vector;
+    let mut driven_on = 0;
+    for k in 0..26 {
+        // Goals 10 cm away in 26 directions.
+        let a = k as f64 * 0.7;
+        let b = k as f64 * 1.3;
+        let dir = Vector3::new(a.cos() * b.sin(), a.sin() * b.sin(), b.cos());
+        let target = Point3::from(hand + dir * 0.1);
+        let unguarded = controller()
+            .with_limit_margin(0.0)
+            .step(&q, &[], Some(&goal(target)))
+            .unwrap();
+        if unguarded[3] > 1e-3 {
+            driven_on += 1;
+        }
+        let qdot = controller().step(&q, &[], Some(&goal(target))).unwrap();
+        assert!(
+            qdot[3] < 0.0,
+            "goal {k}: the elbow is not pushed back out: {qdot}"
+        );
+    }
+    // Without the limit task, some of those goals drive the elbow into its stop.
+    assert!(driven_on > 0);
+}
