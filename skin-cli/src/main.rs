@@ -14,6 +14,7 @@ mod degrade_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
+mod reach_cmd;
 mod replay;
 mod stitch_cmd;
 
@@ -48,6 +49,7 @@ enum Command {
     Degrade(degrade_cmd::Args),
     Calibrate(calibrate_cmd::CalibrateArgs),
     ProbeSim(calibrate_cmd::ProbeSimArgs),
+    Reach(reach_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +65,7 @@ fn main() -> ExitCode {
         Command::Degrade(args) => degrade_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
+        Command::Reach(args) => reach_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,14 +15,20 @@
 //! - [`hri`]: the physical human-robot interaction tasks of Ch. 9.2 (move along a push, turn a
 //!   held link, bend a joint), triggered by skin contacts through a [`hri::ContactGate`].
 //! - [`kinematics`]: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
-//!
-//! Planned: path following, and the reach-through-clutter and interaction simulations.
+//! - [`path_following`]: follow a polyline at a constant speed (the low-priority task of the
+//!   interaction experiment, Ch. 9.3).
+//! - `sim` (feature `sim`): a headless, deterministic world (skin-covered capsule links, padded
+//!   obstacles, the spring contact model of Eq. 8.1) and the thesis' experiments in it: reaching
+//!   through clutter (Ch. 8.5) and physical interaction (Ch. 9.3).
 
 pub mod approach_press;
 pub mod contact_tasks;
 pub mod controller;
 pub mod hri;
 pub mod kinematics;
+pub mod path_following;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod task_stack;
 
 pub use controller::{LinkContacts, ReachGoal, SkinController};

@@ -1,0 +1,204 @@
+//! The simulation (feature `sim`): the scene format and its errors, the spring contact model and
+//! the skin that reads it, and the reach experiment's acceptance figures on the default scene.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use nalgebra::{Isometry3, Point3, Vector3};
+use skin_control::sim::stats::{counts, table, wilson};
+use skin_control::sim::{Outcome, ReachExperiment, ReachOptions, Scene, SceneError, Solid, Trial, World};
+
+fn run_all(e: &ReachExperiment, options: &ReachOptions) -> Vec<Trial> {
+    // Two threads: the trials are independent.
+    let all = e.trials();
+    let (a, b) = all.split_at(all.len() / 2);
+    std::thread::scope(|s| {
+        let h = s.spawn(|| {
+            a.iter()
+                .map(|&(g, t)| e.run(g, t, options).unwrap())
+                .collect::<Vec<_>>()
+        });
+        let mut out: Vec<Trial> = b.iter().map(|&(g, t)| e.run(g, t, options).unwrap()).collect();
+        let mut first = h.join().unwrap();
+        first.append(&mut out);
+        first
+    })
+}
+
+#[test]
+fn the_default_scene_reaches_the_thesis_success_rates_and_the_skin_is_what_makes_it_work() {
+    let scene = Scene::fig_8_4().unwrap();
+    assert_eq!(scene.goals.len(), 5);
+    assert_eq!(scene.obstacles.len(), 5);
+    let e = ReachExperiment::new(&scene, None).unwrap();
+    // Every start of every goal has its straight path to the goal blocked by a bar.
+    for g in 0..5 {
+        assert_eq!(e.starts(g).len(), 10);
+        for q in e.starts(g) {
+            let at = e.world().chain().posture(q).unwrap();
+            assert!(
+                e.world()
+                    .blocked(&e.world().hand(&at), &Point3::from(scene.goals[g]))
+            );
+        }
+    }
+    let at = |threshold: f64, no_skin: bool| {
+        let options = ReachOptions {
+            threshold,
+            no_skin,
+            ..ReachOptions::default()
+        };
+        counts(&run_all(&e, &options))
+    };
+    let high = at(15.0, false);
+    let low = at(7.5, false);
+    let baseline = at(15.0, true);
+    assert!(high.success >= 43, "15 N: {high:?}");
+    assert!(low.success >= 37, "7.5 N: {low:?}");
+    // Without the skin the arm pushes straight through the bars: the threshold is exceeded.
+    assert!(baseline.success <= 5, "no skin: {baseline:?}");
+    assert!(baseline.force >= 40, "no skin: {baseline:?}");
+}
+
+#[test]
+fn with_no_obstacles_every_goal_is_reached_and_the_same_seed_gives_the_same_table() {
+    let mut scene = Scene::fig_8_4().unwrap();
+    scene.obstacles.clear();
+    scene.blocked_starts = false;
+    scene.random_starts = 4;
+    let e = ReachExperiment::new(&scene, None).unwrap();
+    let options = ReachOptions::default();
+    let trials = run_all(&e, &options);
+    for t in &trials {
+        assert_eq!(t.outcome, Outcome::Success, "{t:?}");
+        assert_eq!(t.max_force, 0.0);
+    }
+    let again = run_all(&ReachExperiment::new(&scene, None).unwrap(), &options);
+    assert_eq!(table(&trials, 5, 15.0, false), table(&again, 5, 15.0, false));
+    // Another seed, other starts.
+    scene.seed += 1;
+    let other = ReachExperiment::new(&scene, None).unwrap();
+    assert_ne!(other.starts(0), e.starts(0));
+}
+
+#[test]
+fn the_spring_model_gives_k_times_the_depth_and_the_skin_reads_it() {
+    let scene = Scene::parse(r#"{"goals": [[0.5, 0, 0.5]]}"#, "test").unwrap();
+    let world = World::from_scene(&scene).unwrap();
+    let q = [0.0, 0.5, 0.0, 1.3, 0.0, 0.6, 0.0];
+    let at = world.chain().posture(&q).unwrap();
+    let tool = at.link_pose("tool").unwrap();
+    let tip = world.hand(&at);
+    let axis = tool.rotation * Vector3::z();
+    for depth in [0.001, 0.004, 0.01] {
+        // A wall across the tool's axis, pressed `depth` into the hand's tip.
+        let centre = tip + axis * (0.05 - depth);
+        let wall = Solid::cuboid(
+            &Vector3::new(0.2, 0.2, 0.05),
+            &Isometry3::from_parts(centre.coords.into(), tool.rotation),
+        );
+        let s = world.sense(&at, &[wall]);
+        let want = world.stiffness() * depth;
+        assert!(
+            (s.max_force - want).abs() < 1e-6 * want.max(1.0),
+            "{} vs {want}",
+            s.max_force
+        );
+        // The pole taxel sits on the tip: the skin reads the same force.
+        assert!(
+            (s.skin_max - want).abs() < 1e-6 * want.max(1.0),
+            "{} vs {want}",
+            s.skin_max
+        );
+        assert_eq!(s.contacts.len(), 1);
+        assert_eq!(s.contacts[0].link, "tool");
+        // One contact, its normal along the tool axis (pressed from the front).
+        let c = &s.contacts[0].contacts;
+        assert_eq!(c.len(), 1);
+        assert!(c[0].normal.dot(&axis) > 0.99, "{}", c[0].normal.into_inner());
+    }
+    // Clear of the wall: nothing.
+    let wall = Solid::cuboid(
+        &Vector3::new(0.2, 0.2, 0.05),
+        &Isometry3::from_parts((tip + axis * 0.051).coords.into(), tool.rotation),
+    );
+    let s = world.sense(&at, &[wall]);
+    assert_eq!((s.max_force, s.skin_max, s.contacts.len()), (0.0, 0.0, 0));
+}
+
+#[test]
+fn every_point_of_a_link_surface_is_near_a_taxel() {
+    let world = World::from_scene(&Scene::fig_8_4().unwrap()).unwrap();
+    let q = [0.0; 7];
+    let at = world.chain().posture(&q).unwrap();
+    // Probe each part with a small ball touching its surface all around: the skin notices.
+    for part in world.parts() {
+        let pose = at.link_pose(&part.link).unwrap();
+        let axis = part.b - part.a;
+        let side = axis
+            .cross(&Vector3::x())
+            .try_normalize(1e-9)
+            .unwrap_or(Vector3::y());
+        for k in 0..8 {
+            let along = part.a + axis * (k as f64 / 7.0);
+            let dir = nalgebra::UnitQuaternion::from_axis_angle(
+                &nalgebra::Unit::new_normalize(axis),
+                k as f64 * 0.9,
+            ) * side;
+            // A 1 cm ball pressed 3 mm into the skin.
+            let centre = pose * (along + dir * (part.radius + 0.01 - 0.003));
+            let ball = Solid::capsule(&centre, &centre, 0.01);
+            let s = world.sense(&at, &[ball]);
+            assert!(s.max_force > 2.9, "{}: {}", part.link, s.max_force);
+            assert!(s.skin_max > 0.0, "{} at {k}: no taxel felt it", part.link);
+        }
+    }
+}
+
+#[test]
+fn bad_scenes_are_refused_with_the_field_at_fault() {
+    let err = |text: &str| Scene::parse(text, "s.json").unwrap_err().to_string();
+    assert!(err("{\"goals\": [[0,0,0]],\n \"obstacles\": [{\"type\": \"sphere\"}]}").contains("line 2"));
+    assert!(
+        err(r#"{"goals": [[0,0,0]], "obstacles": [{"type": "capsule", "a": [0,0,0], "b": [0,0,1], "radius": -1}]}"#)
+            .contains("obstacles[0].radius")
+    );
+    assert!(err(r#"{"goals": []}"#).contains("goals"));
+    assert!(err(r#"{"goals": [[0,0,0]], "stiffness": 0}"#).contains("stiffness"));
+    assert!(err(r#"{"goals": [[0,0,0]], "speed": 1}"#).contains("unknown field"));
+    let scene = Scene::parse(r#"{"goals": [[0.5,0,0.5]], "tip": "gripper"}"#, "s.json").unwrap();
+    let e = World::from_scene(&scene).unwrap_err();
+    assert!(e.to_string().contains("gripper"), "{e}");
+    let scene = Scene::parse(r#"{"goals": [[0.5,0,0.5]], "starts": [[0, 0, 0]]}"#, "s.json").unwrap();
+    let e = ReachExperiment::new(&scene, None).unwrap_err();
+    assert!(
+        matches!(e, SceneError::Field { .. }) && e.to_string().contains("starts[0]"),
+        "{e}"
+    );
+    // A goal no random start can have blocked.
+    let scene = Scene::parse(
+        r#"{"goals": [[0.5,0,0.5]], "blocked_starts": true, "random_starts": 2}"#,
+        "s.json",
+    )
+    .unwrap();
+    assert!(
+        ReachExperiment::new(&scene, None)
+            .unwrap_err()
+            .to_string()
+            .contains("goals[0]")
+    );
+}
+
+#[test]
+fn wilson_intervals_match_published_values() {
+    // Newcombe (1998), Table I: 81/263 -> 0.2553 to 0.3662.
+    let (lo, hi) = wilson(81, 263);
+    assert!(
+        (lo - 0.2553).abs() < 5e-4 && (hi - 0.3662).abs() < 5e-4,
+        "{lo} {hi}"
+    );
+    // 0/10 -> 0 to 0.2775; 10/10 -> 0.7225 to 1.
+    let (lo, hi) = wilson(0, 10);
+    assert!(lo == 0.0 && (hi - 0.2775).abs() < 5e-4);
+    let (lo, hi) = wilson(10, 10);
+    assert!((lo - 0.7225).abs() < 5e-4 && (hi - 1.0).abs() < 1e-12);
+}
