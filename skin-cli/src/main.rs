@@ -6,7 +6,8 @@
 //! `skin busmap` writes a bus map for a layout; `skin stitch` stitches the maps of a chain of
 //! links into one image at every posture, `skin degrade` makes faulty maps for robustness
 //! studies; `skin calibrate` fits taxel positions from probe
-//! contacts, `skin probe-sim` simulates such contacts. Run `skin help <command>` for details.
+//! contacts, `skin probe-sim` simulates such contacts; `skin reach` and `skin phri` run the
+//! control experiments in simulation. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
@@ -14,6 +15,7 @@ mod degrade_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
+mod phri_cmd;
 mod reach_cmd;
 mod replay;
 mod stitch_cmd;
@@ -50,6 +52,7 @@ enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
     ProbeSim(calibrate_cmd::ProbeSimArgs),
     Reach(reach_cmd::Args),
+    Phri(phri_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -66,6 +69,7 @@ fn main() -> ExitCode {
         Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
         Command::Reach(args) => reach_cmd::run(args),
+        Command::Phri(args) => phri_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -749,3 +749,71 @@ fn degrade_writes_the_same_faulty_map_for_the_same_seed() {
         text(&o).1
     );
 }
+
+/// A small reach scene: the first two goals and bars of the default one, two starts each.
+fn small_reach_scene(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("skin-control/scenes/fig8_4.json")).unwrap();
+    let mut scene: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for key in ["obstacles", "goals"] {
+        scene[key].as_array_mut().unwrap().truncate(2);
+    }
+    scene["random_starts"] = 2.into();
+    let path = dir.join("scene.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn reach_prints_the_same_table_for_the_same_seed_and_the_baseline_fails_on_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_reach_scene(dir.path());
+    let scene = scene.to_str().unwrap();
+    let csv = dir.path().join("trials.csv");
+    let a = skin(&["reach", "--scene", scene, "--csv", csv.to_str().unwrap()]);
+    let b = skin(&["reach", "--scene", scene]);
+    assert!(a.status.success(), "{:?}", text(&a));
+    assert_eq!(a.stdout, b.stdout, "same seed, same table");
+    let (out, _) = text(&a);
+    assert!(out.contains("F_thresh = 15 N"), "{out}");
+    assert!(out.lines().any(|l| l.starts_with("A ")) && out.lines().any(|l| l.starts_with("all ")));
+    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 1 + 4);
+    let base = skin(&["reach", "--scene", scene, "--no-skin"]);
+    let (out, _) = text(&base);
+    assert!(out.contains("WITHOUT skin"), "{out}");
+    // Every baseline trial pushes through a bar: 0 successes, 4 force failures.
+    let all = out.lines().find(|l| l.starts_with("all ")).unwrap();
+    assert!(all.contains("0/4"), "{all}");
+    let other = skin(&["reach", "--scene", scene, "--seed", "5"]);
+    assert_ne!(other.stdout, a.stdout, "another seed, other starts");
+}
+
+#[test]
+fn reach_refuses_a_bad_threshold_and_a_bad_scene_in_one_line() {
+    let o = skin(&["reach", "--threshold=-3"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--threshold"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, r#"{"goals": [[0.5, 0, 0.5]], "obstacles": [{"type": "capsule", "a": [0,0,0], "b": [0,0,1], "radius": 0}]}"#).unwrap();
+    let o = skin(&["reach", "--scene", bad.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("bad.json") && err.contains("obstacles[0].radius"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn phri_reports_the_ignored_bump_and_the_push_and_plots_the_timeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("timeline.svg");
+    let o = skin(&["phri", "--svg", svg.to_str().unwrap()]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("task 1 not activated (ignored)"), "{out}");
+    assert!(out.contains("task 1 active after"), "{out}");
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg") && plot.contains("path error (mm)"));
+}

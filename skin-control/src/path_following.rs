@@ -10,9 +10,10 @@
 //! v = speed * t(s*) + gain * (p(s*) - x)
 //! ```
 //!
-//! with s* the arc length of the closest path point (searched forward from the previous one, so
-//! a path that comes back near itself is still followed in order), t its unit tangent and p the
-//! path. Near the end the along-path speed ramps down so that the point settles on the last
+//! with s* the arc length of the closest path point, t its unit tangent and p the path. The
+//! closest point is searched from the segment of the previous one onwards, never on earlier
+//! segments, so a path that comes back near itself is still followed in order (within a segment
+//! a push backwards is followed back: the arm resumes where it was pushed to). Near the end the along-path speed ramps down so that the point settles on the last
 //! waypoint instead of overshooting it.
 
 use nalgebra::{Point3, Vector3};
@@ -133,12 +134,16 @@ impl PathFollowing {
             let d = self.points[k + 1] - a;
             let t = ((x - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
             let dist = (a + d * t - x).norm();
-            // Ties go to the later segment: at a corner, the next segment's direction.
-            if dist <= best.0 + 1e-12 {
+            if dist < best.0 - 1e-12 {
                 best = (dist, k, t);
             }
         }
-        let (error, k, t) = best;
+        let (error, mut k, mut t) = best;
+        // At the end of a segment, go on with the next one (its direction, not a stop).
+        if t >= 1.0 - 1e-12 && k + 2 < self.points.len() {
+            k += 1;
+            t = 0.0;
+        }
         self.segment = k;
         let a = self.points[k];
         let d = self.points[k + 1] - a;

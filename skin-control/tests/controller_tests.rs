@@ -165,3 +165,35 @@ fn a_joint_at_its_limit_is_pushed_back_whatever_the_goal() {
     // Without the limit task, some of those goals drive the elbow into its stop.
     assert!(driven_on > 0);
 }
+
+#[test]
+fn nan_forces_are_ignored_and_the_velocities_stay_finite() {
+    let pose = controller().chain().link_pose("link5", &Q).unwrap();
+    let mut bad = Contact {
+        point: pose * Point3::new(0.0, 0.04, 0.05),
+        normal: Unit::new_normalize(pose.rotation * Vector3::y()),
+        force: f64::NAN,
+        stiffness: 1000.0,
+    };
+    let hand = controller()
+        .chain()
+        .link_pose("tool", &Q)
+        .unwrap()
+        .translation
+        .vector;
+    let target = goal(Point3::from(hand + Vector3::new(0.05, 0.0, 0.0)));
+    let clean = controller().step(&Q, &[], Some(&target)).unwrap();
+    for (force, point) in [(f64::NAN, bad.point), (5.0, Point3::new(f64::NAN, 0.0, 0.0))] {
+        bad.force = force;
+        bad.point = point;
+        let contacts = [LinkContacts {
+            link: "link5".into(),
+            contacts: vec![bad],
+        }];
+        let qdot = controller().step(&Q, &contacts, Some(&target)).unwrap();
+        assert!(qdot.iter().all(|v| v.is_finite()), "{qdot}");
+        if force.is_nan() {
+            assert_eq!(qdot, clean, "a NaN force must count as no contact");
+        }
+    }
+}

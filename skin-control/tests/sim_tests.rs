@@ -202,3 +202,72 @@ fn wilson_intervals_match_published_values() {
     let (lo, hi) = wilson(10, 10);
     assert!((lo - 0.7225).abs() < 5e-4 && (hi - 1.0).abs() < 1e-12);
 }
+
+#[test]
+fn a_bump_is_ignored_and_a_hand_push_takes_over_then_the_path_is_picked_up_again() {
+    use skin_control::sim::phri::{self, PhriScript};
+    let scene = phri::default_scene().unwrap();
+    let script = PhriScript::default();
+    let run = phri::run(&scene, &phri::default_start(7), &script).unwrap();
+    let (b0, bd) = script.bump;
+    let (p0, pd) = script.push;
+    // The bump presses, but task 1 stays off and the hand stays on its path.
+    let bump: Vec<_> = run.between(b0, b0 + bd).collect();
+    assert!(bump.iter().any(|s| s.force > 5.0), "the bump never pressed");
+    assert!(bump.iter().all(|s| !s.task1));
+    assert!(bump.iter().all(|s| s.path_error < 1e-3));
+    // The push: task 1 within 0.2 s (the gate's 0.07 s latency plus the first millimetres).
+    let on = run.task1_from(p0).expect("task 1 never activated");
+    assert!(on - p0 < 0.2, "task 1 after {} s", on - p0);
+    let active: Vec<_> = run.between(on, p0 + pd).collect();
+    assert!(
+        active.iter().all(|s| s.task1),
+        "task 1 dropped out during the push"
+    );
+    for s in &active {
+        assert!(s.reference_speed <= 0.3 + 1e-9);
+        // The centroid follows its reference (within 25 %: the joint speed limit scales
+        // all joints down together when one would exceed it).
+        assert!(
+            (s.centroid_speed - s.reference_speed).abs() <= 0.25 * s.reference_speed + 1e-3,
+            "t = {}: {} vs {}",
+            s.t,
+            s.centroid_speed,
+            s.reference_speed
+        );
+    }
+    // The arm yielded: it moved off its path by several centimetres, and after the hand lets go
+    // it is back on the path within 3 s.
+    let off = run.between(p0, p0 + pd).map(|s| s.path_error).fold(0.0, f64::max);
+    assert!(off > 0.03, "{off}");
+    let end = run
+        .between(p0 + pd + 3.0, script.duration)
+        .map(|s| s.path_error)
+        .fold(0.0, f64::max);
+    assert!(end < 1e-3, "{end}");
+}
+
+#[test]
+fn the_finger_gate_needs_three_contacts_for_its_latency() {
+    use skin_control::contact_tasks::Contact;
+    use skin_control::hri::ContactGate;
+    use skin_control::sim::phri::FingerGate;
+    let c = Contact {
+        point: Point3::origin(),
+        normal: Vector3::z_axis(),
+        force: 5.0,
+        stiffness: 1000.0,
+    };
+    let mut gate = FingerGate::new(3, 0.07, 0.005);
+    // One broad contact: never a hand.
+    for _ in 0..100 {
+        assert!(!gate.allows("link5", &[c]));
+    }
+    // Three: after 0.07 s (14 cycles), not before.
+    for k in 1..=20 {
+        assert_eq!(gate.allows("link5", &[c, c, c]), k >= 14, "cycle {k}");
+    }
+    // A gap resets it.
+    assert!(!gate.allows("link5", &[c]));
+    assert!(!gate.allows("link5", &[c, c, c]));
+}
