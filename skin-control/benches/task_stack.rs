@@ -78,5 +78,51 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// One whole control cycle of the 7-DOF fixture arm: forward kinematics, contact tasks on three
+/// links (two grouped contacts each), the reaching task, joint-limit tasks, the solve.
+fn control_cycle(c: &mut Criterion) {
+    use nalgebra::{Point3, Unit, Vector3};
+    use skin_control::contact_tasks::{Contact, Gains};
+    use skin_control::{Chain, LinkContacts, ReachGoal, SkinController};
+    let urdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm7/arm7.urdf");
+    let chain = Chain::from_urdf(&urdf, "base", "tool").unwrap();
+    let q = [0.2, 0.6, -0.1, 1.2, 0.1, 0.5, 0.0];
+    let mut contacts = Vec::new();
+    for (k, link) in ["link3", "link5", "tool"].iter().enumerate() {
+        let pose = chain.link_pose(link, &q).unwrap();
+        let contact = |y: f64, force: f64| Contact {
+            point: pose * Point3::new(0.0, 0.04, y),
+            normal: Unit::new_normalize(pose.rotation * Vector3::y()),
+            force,
+            stiffness: 1000.0,
+        };
+        contacts.push(LinkContacts {
+            link: link.to_string(),
+            contacts: vec![contact(0.03, 4.0 + k as f64), contact(0.09, 2.0)],
+        });
+    }
+    let goal = ReachGoal {
+        goal: Point3::new(0.45, 0.1, 0.35),
+        hand: Point3::origin(),
+        tool_axis: Vector3::z_axis(),
+    };
+    let mut group = c.benchmark_group("control_cycle");
+    for (name, reg) in [
+        ("damped", Regularisation::Damped { lambda: 0.05 }),
+        ("activation-aware", Regularisation::default()),
+    ] {
+        let mut ctl = SkinController::new(chain.clone(), "tool", reg, Gains::default(), 15.0).unwrap();
+        group.bench_function(format!("3 touched links + reach, {name}"), |b| {
+            b.iter(|| {
+                black_box(
+                    ctl.step(black_box(&q), black_box(&contacts), Some(&goal))
+                        .unwrap(),
+                )
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, control_cycle);
 criterion_main!(benches);

@@ -195,21 +195,26 @@ impl TaskStack {
     /// [`Self::pinv`]'s `Damped` branch inside [`Self::solve`], without temporary matrices.
     fn solve_damped(&mut self, tasks: &[Task], lambda: f64) -> DVector<f64> {
         let n = self.joints;
+        // Rows are padded with zeros to a multiple of 4 (stride `s`): the kernels then run on
+        // whole chunks of 4 with independent sums, which the compiler turns into SIMD.
+        let s = n.next_multiple_of(LANES);
         let w = &mut self.work;
         let m_max = tasks.iter().map(|t| t.reference.len()).max().unwrap_or(0);
-        w.p.resize(n * n, 0.0);
-        w.t.resize(m_max * n, 0.0);
-        w.r.resize(n, 0.0);
-        w.x.resize(m_max * n, 0.0);
-        w.y.resize(m_max * n, 0.0);
+        w.p.resize(n * s, 0.0);
+        w.t.resize(m_max * s, 0.0);
+        w.r.resize(s, 0.0);
+        w.x.resize(m_max * s, 0.0);
+        w.y.resize(m_max * s, 0.0);
         w.g.resize(m_max * m_max, 0.0);
-        w.j.resize(m_max * n, 0.0);
+        w.j.resize(m_max * s, 0.0);
         w.e.resize(m_max, 0.0);
         w.p.fill(0.0);
         for i in 0..n {
-            w.p[i * n + i] = 1.0;
+            w.p[i * s + i] = 1.0;
         }
         w.r.fill(0.0);
+        w.j.fill(0.0);
+        w.t.fill(0.0);
         for t in tasks {
             let a = t.activation;
             let finite = a.is_finite()
@@ -220,24 +225,31 @@ impl TaskStack {
             }
             let a2 = a.min(1.0).powi(2);
             let m = t.reference.len();
-            // J row-major, so every inner loop below runs over contiguous rows (and vectorises).
+            // J row-major, so every inner loop below runs over contiguous rows.
             for i in 0..m {
                 for k in 0..n {
-                    w.j[i * n + k] = t.jacobian[(i, k)];
+                    w.j[i * s + k] = t.jacobian[(i, k)];
                 }
             }
             // X = J P (m x n), row by row: x_i = sum_k J_ik P_k.
+            // Four columns at a time, held in registers across the n terms.
             for i in 0..m {
-                let (xi, jr) = (&mut w.x[i * n..(i + 1) * n], &w.j[i * n..(i + 1) * n]);
-                xi.fill(0.0);
-                for (k, &jik) in jr.iter().enumerate() {
-                    axpy(xi, jik, &w.p[k * n..(k + 1) * n]);
+                let (xi, jr) = (&mut w.x[i * s..(i + 1) * s], &w.j[i * s..i * s + n]);
+                for (c, chunk) in xi.chunks_exact_mut(LANES).enumerate() {
+                    let mut acc = [0.0; LANES];
+                    for (k, &jik) in jr.iter().enumerate() {
+                        let pk = &w.p[k * s + c * LANES..k * s + (c + 1) * LANES];
+                        for l in 0..LANES {
+                            acc[l] += jik * pk[l];
+                        }
+                    }
+                    chunk.copy_from_slice(&acc);
                 }
             }
             // G = a^2 X X^T + lambda^2 I (lower triangle), Cholesky in place.
             for i in 0..m {
                 for c in 0..=i {
-                    let d = dot(&w.x[i * n..(i + 1) * n], &w.x[c * n..(c + 1) * n]);
+                    let d = dot(&w.x[i * s..(i + 1) * s], &w.x[c * s..(c + 1) * s]);
                     w.g[i * m + c] = a2 * d + if i == c { lambda * lambda } else { 0.0 };
                 }
             }
@@ -245,59 +257,69 @@ impl TaskStack {
                 continue;
             }
             // Y = a^2 G^-1 X (m x n), rows solved together: X^# = Y^T.
-            w.y[..m * n].copy_from_slice(&w.x[..m * n]);
+            w.y[..m * s].copy_from_slice(&w.x[..m * s]);
             for i in 0..m {
                 for k in 0..i {
                     let l = w.g[i * m + k];
-                    let (done, rest) = w.y.split_at_mut(i * n);
-                    axpy(&mut rest[..n], -l, &done[k * n..(k + 1) * n]);
+                    let (done, rest) = w.y.split_at_mut(i * s);
+                    axpy(&mut rest[..s], -l, &done[k * s..(k + 1) * s]);
                 }
                 let d = 1.0 / w.g[i * m + i];
-                w.y[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= d);
+                w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
             }
             for i in (0..m).rev() {
                 for k in i + 1..m {
                     let l = w.g[k * m + i];
-                    let (head, tail) = w.y.split_at_mut(k * n);
-                    axpy(&mut head[i * n..(i + 1) * n], -l, &tail[..n]);
+                    let (head, tail) = w.y.split_at_mut(k * s);
+                    axpy(&mut head[i * s..(i + 1) * s], -l, &tail[..s]);
                 }
                 let d = 1.0 / w.g[i * m + i];
-                w.y[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= d);
+                w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
             }
-            w.y[..m * n].iter_mut().for_each(|v| *v *= a2);
+            w.y[..m * s].iter_mut().for_each(|v| *v *= a2);
             // W = P X^# = P Y^T (n x m, stored as m rows of n: row i = P y_i, P symmetric).
             for i in 0..m {
-                let (yi, wi) = (&w.y[i * n..(i + 1) * n], &mut w.t[i * n..(i + 1) * n]);
-                for (rr, o) in wi.iter_mut().enumerate() {
-                    *o = dot(&w.p[rr * n..(rr + 1) * n], yi);
+                let (yi, wi) = (&w.y[i * s..(i + 1) * s], &mut w.t[i * s..(i + 1) * s]);
+                for (rr, o) in wi[..n].iter_mut().enumerate() {
+                    *o = dot(&w.p[rr * s..(rr + 1) * s], yi);
                 }
             }
             // r += P X^# e with e = rho - J r (all of e from the old r): sum_i e_i W_i.
             for i in 0..m {
-                w.e[i] = t.reference[i] - dot(&w.j[i * n..(i + 1) * n], &w.r);
+                w.e[i] = t.reference[i] - dot(&w.j[i * s..(i + 1) * s], &w.r);
             }
             for i in 0..m {
-                axpy(&mut w.r, w.e[i], &w.t[i * n..(i + 1) * n]);
+                axpy(&mut w.r, w.e[i], &w.t[i * s..(i + 1) * s]);
             }
             // P <- P - W X = P - sum_i W_i^T x_i, symmetrised.
-            for i in 0..m {
-                for rr in 0..n {
-                    let wi = w.t[i * n + rr];
-                    axpy(&mut w.p[rr * n..(rr + 1) * n], -wi, &w.x[i * n..(i + 1) * n]);
+            // Row by row, four columns at a time held in registers across the m rank-1 terms.
+            for rr in 0..n {
+                let row = &mut w.p[rr * s..(rr + 1) * s];
+                for (c, chunk) in row.chunks_exact_mut(LANES).enumerate() {
+                    let mut acc = [0.0; LANES];
+                    acc.copy_from_slice(chunk);
+                    for i in 0..m {
+                        let wi = w.t[i * s + rr];
+                        let xi = &w.x[i * s + c * LANES..i * s + (c + 1) * LANES];
+                        for l in 0..LANES {
+                            acc[l] -= wi * xi[l];
+                        }
+                    }
+                    chunk.copy_from_slice(&acc);
                 }
             }
             for rr in 0..n {
                 for c in rr + 1..n {
-                    let v = 0.5 * (w.p[rr * n + c] + w.p[c * n + rr]);
-                    w.p[rr * n + c] = v;
-                    w.p[c * n + rr] = v;
+                    let v = 0.5 * (w.p[rr * s + c] + w.p[c * s + rr]);
+                    w.p[rr * s + c] = v;
+                    w.p[c * s + rr] = v;
                 }
             }
         }
         if w.r.iter().any(|v| !v.is_finite()) {
             return DVector::zeros(n);
         }
-        DVector::from_column_slice(&w.r)
+        DVector::from_column_slice(&w.r[..n])
     }
 
     /// X^# of the activation-aware and exact modes, activation `a` included (the damped mode has
@@ -340,14 +362,27 @@ impl TaskStack {
 }
 
 /// y += a x
+/// Width of the damped path's kernels; rows are padded to a multiple of it.
+const LANES: usize = 4;
+
+/// y += a x, over whole chunks of [`LANES`] (the rows are padded).
 fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
-    for (y, x) in y.iter_mut().zip(x) {
-        *y += a * x;
+    for (y, x) in y.chunks_exact_mut(LANES).zip(x.chunks_exact(LANES)) {
+        for l in 0..LANES {
+            y[l] += a * x[l];
+        }
     }
 }
 
+/// a . b, over whole chunks of [`LANES`] with one running sum per lane.
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a * b).sum()
+    let mut acc = [0.0; LANES];
+    for (a, b) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
+        for l in 0..LANES {
+            acc[l] += a[l] * b[l];
+        }
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3])
 }
 
 /// Cholesky factorisation of the lower triangle of a row-major m x m matrix, in place; false if it
