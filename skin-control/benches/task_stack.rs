@@ -33,6 +33,16 @@ fn bench(c: &mut Criterion) {
         // The problem and the damped solution, for the numpy reference to check and time.
         let mut damped = TaskStack::new(7, Regularisation::Damped { lambda: 0.05 });
         let q = damped.solve(&stack_tasks).unwrap();
+        let mut aware = TaskStack::new(7, Regularisation::default());
+        let q_aware = aware.solve(&stack_tasks).unwrap();
+        let Regularisation::ActivationAware {
+            lambda: aware_lambda,
+            threshold,
+            eta,
+        } = Regularisation::default()
+        else {
+            unreachable!("the default regularisation is the activation-aware one")
+        };
         let mut json = String::from("{\"tasks\": [");
         for (k, t) in stack_tasks.iter().enumerate() {
             let rows: Vec<String> = (0..6)
@@ -61,8 +71,13 @@ fn bench(c: &mut Criterion) {
         }
         let _ = write!(
             json,
-            "], \"lambda\": 0.05, \"qdot\": [{}]}}",
-            q.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(",")
+            "], \"lambda\": 0.05, \"qdot\": [{}], \"aware\": {{\"lambda\": {aware_lambda:e}, \"threshold\": {threshold:e}, \"eta\": {eta:e}, \"qdot\": [{}]}}}}",
+            q.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(","),
+            q_aware
+                .iter()
+                .map(|v| format!("{v:e}"))
+                .collect::<Vec<_>>()
+                .join(",")
         );
         std::fs::write(out.join(format!("task_stack_{count}.json")), json).unwrap();
         for (name, reg) in [

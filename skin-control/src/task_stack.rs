@@ -26,7 +26,9 @@
 //!   values below `threshold` (b = lambda^2 at 0, falling smoothly to 0 at `threshold`). The eta
 //!   term keeps a lower task out of directions a higher task is fading in, which it would
 //!   otherwise exploit with large gains just before the higher task takes them. Well-conditioned
-//!   full-activation tasks are solved exactly; a fading task fades continuously.
+//!   full-activation tasks are solved exactly; a fading task fades continuously. When no s_i is
+//!   below `threshold` (checked by a Cholesky factorisation of M - threshold I) the damping term
+//!   is zero and X^# comes from a Cholesky solve; only otherwise is M eigen-decomposed.
 //! - [`Regularisation::Exact`]: the plain pseudo-inverse (singular values under `tolerance`
 //!   dropped), for reference and verification only: it has the on/off behaviour described above.
 
@@ -104,11 +106,16 @@ pub struct TaskStack {
     work: Work,
 }
 
-/// Buffers of the damped path (row-major), grown to the largest task seen and then reused: a
-/// solve allocates nothing but its result.
+/// Buffers of the regularised modes (row-major), grown to the largest task seen and then reused:
+/// a solve allocates nothing but its result, except when the activation-aware mode has to
+/// eigen-decompose (nalgebra's decomposition allocates its own matrices).
 #[derive(Debug, Clone, Default)]
 struct Work {
     p: Vec<f64>,
+    /// Activation-aware mode: I - P (padded rows), M and its Cholesky factor (compact n x n).
+    q: Vec<f64>,
+    mm: Vec<f64>,
+    chol: Vec<f64>,
     x: Vec<f64>,
     g: Vec<f64>,
     y: Vec<f64>,
@@ -159,8 +166,8 @@ impl TaskStack {
                 });
             }
         }
-        if let Regularisation::Damped { lambda } = self.regularisation {
-            return Ok(self.solve_damped(tasks, lambda));
+        if !matches!(self.regularisation, Regularisation::Exact { .. }) {
+            return Ok(self.solve_flat(tasks));
         }
         self.p.fill_with_identity();
         self.r.fill(0.0);
@@ -172,9 +179,6 @@ impl TaskStack {
                 continue;
             }
             let a = t.activation.clamp(0.0, 1.0);
-            if a == 0.0 && !matches!(self.regularisation, Regularisation::Exact { .. }) {
-                continue; // contributes exactly nothing in the regularised modes
-            }
             let x = &t.jacobian * &self.p;
             let pinv = self.pinv(&x, a);
             let error = &t.reference - &t.jacobian * &self.r;
@@ -191,10 +195,12 @@ impl TaskStack {
         Ok(self.r.clone())
     }
 
-    /// The damped recursion on flat buffers (the control loop's usual path): the same algebra as
-    /// [`Self::pinv`]'s `Damped` branch inside [`Self::solve`], without temporary matrices.
-    fn solve_damped(&mut self, tasks: &[Task], lambda: f64) -> DVector<f64> {
+    /// The regularised recursions on flat buffers (the control loop's path), without temporary
+    /// matrices: both modes compute Y = X^#^T (m rows of n) their own way, then share the
+    /// updates of r and P.
+    fn solve_flat(&mut self, tasks: &[Task]) -> DVector<f64> {
         let n = self.joints;
+        let regularisation = self.regularisation;
         // Rows are padded with zeros to a multiple of 4 (stride `s`): the kernels then run on
         // whole chunks of 4 with independent sums, which the compiler turns into SIMD.
         let s = n.next_multiple_of(LANES);
@@ -246,37 +252,18 @@ impl TaskStack {
                     chunk.copy_from_slice(&acc);
                 }
             }
-            // G = a^2 X X^T + lambda^2 I (lower triangle), Cholesky in place.
-            for i in 0..m {
-                for c in 0..=i {
-                    let d = dot(&w.x[i * s..(i + 1) * s], &w.x[c * s..(c + 1) * s]);
-                    w.g[i * m + c] = a2 * d + if i == c { lambda * lambda } else { 0.0 };
-                }
-            }
-            if !cholesky_in_place(&mut w.g[..m * m], m) {
+            let ok = match regularisation {
+                Regularisation::Damped { lambda } => damped_y(w, m, s, a2, lambda),
+                Regularisation::ActivationAware {
+                    lambda,
+                    threshold,
+                    eta,
+                } => aware_y(w, m, n, s, a.min(1.0), lambda, threshold, eta),
+                Regularisation::Exact { .. } => false,
+            };
+            if !ok {
                 continue;
             }
-            // Y = a^2 G^-1 X (m x n), rows solved together: X^# = Y^T.
-            w.y[..m * s].copy_from_slice(&w.x[..m * s]);
-            for i in 0..m {
-                for k in 0..i {
-                    let l = w.g[i * m + k];
-                    let (done, rest) = w.y.split_at_mut(i * s);
-                    axpy(&mut rest[..s], -l, &done[k * s..(k + 1) * s]);
-                }
-                let d = 1.0 / w.g[i * m + i];
-                w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
-            }
-            for i in (0..m).rev() {
-                for k in i + 1..m {
-                    let l = w.g[k * m + i];
-                    let (head, tail) = w.y.split_at_mut(k * s);
-                    axpy(&mut head[i * s..(i + 1) * s], -l, &tail[..s]);
-                }
-                let d = 1.0 / w.g[i * m + i];
-                w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
-            }
-            w.y[..m * s].iter_mut().for_each(|v| *v *= a2);
             // W = P X^# = P Y^T (n x m, stored as m rows of n: row i = P y_i, P symmetric).
             for i in 0..m {
                 let (yi, wi) = (&w.y[i * s..(i + 1) * s], &mut w.t[i * s..(i + 1) * s]);
@@ -322,46 +309,136 @@ impl TaskStack {
         DVector::from_column_slice(&w.r[..n])
     }
 
-    /// X^# of the activation-aware and exact modes, activation `a` included (the damped mode has
-    /// its own path, [`Self::solve_damped`]).
+    /// X^# of the exact mode (the regularised modes have their own path, [`Self::solve_flat`]).
     fn pinv(&self, x: &DMatrix<f64>, a: f64) -> DMatrix<f64> {
-        let n = x.ncols();
-        let m = x.nrows();
         match self.regularisation {
-            Regularisation::ActivationAware {
-                lambda,
-                threshold,
-                eta,
-            } => {
-                // (X^T A X + eta (I - Q)^T (I - Q) + V P V^T)^# X^T A A with A = a I and Q the
-                // projector left by the higher tasks: the eta term keeps this task out of the
-                // directions a higher task is claiming (partly, while its activation rises), which
-                // X^T A X alone would exploit with large gains.
-                let iq = DMatrix::identity(n, n) - &self.p;
-                let mut m_ = x.transpose() * x * a + iq.transpose() * &iq * eta;
-                // Symmetrise against rounding before the eigen-decomposition.
-                m_ = (&m_ + m_.transpose()) * 0.5;
-                let eig = m_.symmetric_eigen();
-                let mut d = DMatrix::zeros(n, n);
-                for i in 0..n {
-                    let s = eig.eigenvalues[i].max(0.0);
-                    let b = bell(s, lambda * lambda, threshold);
-                    if s + b > 0.0 {
-                        d[(i, i)] = 1.0 / (s + b);
-                    }
-                }
-                &eig.eigenvectors * d * eig.eigenvectors.transpose() * x.transpose() * (a * a)
-            }
-            Regularisation::Exact { tolerance } if a > 0.0 => {
-                // (a X)^+ a = X^+ for a > 0.
-                pseudo_inverse(x, tolerance)
-            }
-            Regularisation::Exact { .. } | Regularisation::Damped { .. } => DMatrix::zeros(n, m),
+            // (a X)^+ a = X^+ for a > 0.
+            Regularisation::Exact { tolerance } if a > 0.0 => pseudo_inverse(x, tolerance),
+            _ => DMatrix::zeros(x.ncols(), x.nrows()),
         }
     }
 }
 
-/// y += a x
+/// Damped least squares (see [`Regularisation::Damped`]): Y = a^2 G^-1 X with
+/// G = a^2 X X^T + lambda^2 I, so that X^# = Y^T. False if G is not positive definite.
+fn damped_y(w: &mut Work, m: usize, s: usize, a2: f64, lambda: f64) -> bool {
+    // G = a^2 X X^T + lambda^2 I (lower triangle), Cholesky in place.
+    for i in 0..m {
+        for c in 0..=i {
+            let d = dot(&w.x[i * s..(i + 1) * s], &w.x[c * s..(c + 1) * s]);
+            w.g[i * m + c] = a2 * d + if i == c { lambda * lambda } else { 0.0 };
+        }
+    }
+    if !cholesky_in_place(&mut w.g[..m * m], m) {
+        return false;
+    }
+    // Y = a^2 G^-1 X (m x n), rows solved together: X^# = Y^T.
+    w.y[..m * s].copy_from_slice(&w.x[..m * s]);
+    for i in 0..m {
+        for k in 0..i {
+            let l = w.g[i * m + k];
+            let (done, rest) = w.y.split_at_mut(i * s);
+            axpy(&mut rest[..s], -l, &done[k * s..(k + 1) * s]);
+        }
+        let d = 1.0 / w.g[i * m + i];
+        w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
+    }
+    for i in (0..m).rev() {
+        for k in i + 1..m {
+            let l = w.g[k * m + i];
+            let (head, tail) = w.y.split_at_mut(k * s);
+            axpy(&mut head[i * s..(i + 1) * s], -l, &tail[..s]);
+        }
+        let d = 1.0 / w.g[i * m + i];
+        w.y[i * s..(i + 1) * s].iter_mut().for_each(|v| *v *= d);
+    }
+    w.y[..m * s].iter_mut().for_each(|v| *v *= a2);
+    true
+}
+
+/// Simetti and Casalino's regularisation (see [`Regularisation::ActivationAware`]), with A = a I:
+/// Y = a^2 X (M + V B V^T)^-1, M = a X^T X + eta (I - P)^2 (P symmetric), V S V^T = M and
+/// B = diag(b(s_i)). When every s_i is at or above `threshold` (M - threshold I has a Cholesky
+/// factor) B is zero and two small Cholesky factorisations replace the eigen-decomposition.
+#[allow(clippy::too_many_arguments)]
+fn aware_y(
+    w: &mut Work,
+    m: usize,
+    n: usize,
+    s: usize,
+    a: f64,
+    lambda: f64,
+    threshold: f64,
+    eta: f64,
+) -> bool {
+    // M, compact n x n row-major: M_rc = a sum_i X_ir X_ic + eta sum_k Q_kr Q_kc, Q = I - P.
+    w.q.clear();
+    w.q.extend_from_slice(&w.p[..n * s]);
+    w.q.iter_mut().for_each(|v| *v = -*v);
+    for i in 0..n {
+        w.q[i * s + i] += 1.0;
+    }
+    w.mm.resize(n * n, 0.0);
+    for r in 0..n {
+        for c in 0..=r {
+            let mut acc = 0.0;
+            for i in 0..m {
+                acc += a * w.x[i * s + r] * w.x[i * s + c];
+            }
+            let mut qq = 0.0;
+            for k in 0..n {
+                qq += w.q[k * s + r] * w.q[k * s + c];
+            }
+            let v = acc + eta * qq;
+            w.mm[r * n + c] = v;
+            w.mm[c * n + r] = v;
+        }
+    }
+    let a2 = a * a;
+    w.chol.clear();
+    w.chol.extend_from_slice(&w.mm);
+    for i in 0..n {
+        w.chol[i * n + i] -= threshold;
+    }
+    let plain = cholesky_in_place(&mut w.chol, n) && {
+        w.chol.clear();
+        w.chol.extend_from_slice(&w.mm);
+        cholesky_in_place(&mut w.chol, n)
+    };
+    if plain {
+        for i in 0..m {
+            let row = &mut w.y[i * s..(i + 1) * s];
+            row.copy_from_slice(&w.x[i * s..(i + 1) * s]);
+            cholesky_solve(&w.chol, n, &mut row[..n]);
+            row[..n].iter_mut().for_each(|v| *v *= a2);
+        }
+        return true;
+    }
+    let eig = DMatrix::from_row_slice(n, n, &w.mm).symmetric_eigen();
+    let v = &eig.eigenvectors;
+    // (Reusing the Cholesky buffer: d, then V^T x.)
+    w.chol.clear();
+    w.chol.extend(eig.eigenvalues.iter().map(|&sv| {
+        let sv = sv.max(0.0);
+        let b = bell(sv, lambda * lambda, threshold);
+        if sv + b > 0.0 { a2 / (sv + b) } else { 0.0 }
+    }));
+    w.chol.resize(2 * n, 0.0);
+    for i in 0..m {
+        // y_i = V D V^T x_i
+        let x = &w.x[i * s..i * s + n];
+        let (d, proj) = w.chol.split_at_mut(n);
+        for (k, o) in proj.iter_mut().enumerate() {
+            *o = d[k] * (0..n).map(|r| v[(r, k)] * x[r]).sum::<f64>();
+        }
+        let row = &mut w.y[i * s..(i + 1) * s];
+        for (r, o) in row[..n].iter_mut().enumerate() {
+            *o = (0..n).map(|k| v[(r, k)] * proj[k]).sum();
+        }
+    }
+    true
+}
+
 /// Width of the damped path's kernels; rows are padded to a multiple of it.
 const LANES: usize = 4;
 
@@ -383,6 +460,24 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         }
     }
     (acc[0] + acc[2]) + (acc[1] + acc[3])
+}
+
+/// Solves L L^T c = b in place (`l` from [`cholesky_in_place`], m x m row-major).
+fn cholesky_solve(l: &[f64], m: usize, b: &mut [f64]) {
+    for i in 0..m {
+        let mut acc = b[i];
+        for k in 0..i {
+            acc -= l[i * m + k] * b[k];
+        }
+        b[i] = acc / l[i * m + i];
+    }
+    for i in (0..m).rev() {
+        let mut acc = b[i];
+        for k in i + 1..m {
+            acc -= l[k * m + i] * b[k];
+        }
+        b[i] = acc / l[i * m + i];
+    }
 }
 
 /// Cholesky factorisation of the lower triangle of a row-major m x m matrix, in place; false if it
