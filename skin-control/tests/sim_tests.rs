@@ -111,6 +111,17 @@ fn the_spring_model_gives_k_times_the_depth_and_the_skin_reads_it() {
         );
         assert_eq!(s.contacts.len(), 1);
         assert_eq!(s.contacts[0].link, "tool");
+        // Per taxel: K times its own depth behind the wall's face, so never more than the tip's.
+        let face = centre - axis * 0.05;
+        for t in &s.taxels[0].contacts {
+            let depth_here = (t.point - face).dot(&axis);
+            assert!(
+                (t.force - world.stiffness() * depth_here).abs() < 1e-6,
+                "{} vs {depth_here}",
+                t.force
+            );
+        }
+        assert_eq!(s.taxels_in_contact, s.taxels[0].contacts.len());
         // One contact, its normal along the tool axis (pressed from the front).
         let c = &s.contacts[0].contacts;
         assert_eq!(c.len(), 1);

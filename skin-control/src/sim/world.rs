@@ -197,8 +197,11 @@ fn capsule_taxels(
 /// What the skin and the world report at one posture.
 #[derive(Debug, Clone, Default)]
 pub struct Sensing {
-    /// Taxel contacts, grouped by link (only links with a contact), for the controller.
+    /// Contacts for the controller: each link's touched taxels grouped into contacts
+    /// ([`group_contacts`]), only links with a contact.
     pub contacts: Vec<LinkContacts>,
+    /// What the skin reads: every taxel with a force of at least [`SKIN_FLOOR`], by link.
+    pub taxels: Vec<LinkContacts>,
     /// Largest force a taxel reports, newtons.
     pub skin_max: f64,
     /// Largest contact force on any part by the spring model (K times the deepest penetration
@@ -362,7 +365,15 @@ impl World {
                 continue;
             }
             out.taxels_in_contact += contacts.len();
-            let contacts = group_contacts(&contacts, CONTACT_RADIUS);
+            let grouped = group_contacts(&contacts, CONTACT_RADIUS);
+            match out.taxels.iter_mut().find(|lc| lc.link == part.link) {
+                Some(lc) => lc.contacts.extend(contacts),
+                None => out.taxels.push(LinkContacts {
+                    link: part.link.clone(),
+                    contacts,
+                }),
+            }
+            let contacts = grouped;
             match out.contacts.iter_mut().find(|lc| lc.link == part.link) {
                 Some(lc) => lc.contacts.extend(contacts),
                 None => out.contacts.push(LinkContacts {
