@@ -86,10 +86,10 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
 }
 
 /// One recording, with its readings reordered to map order.
-struct Input {
-    dir: PathBuf,
-    rec: Recording,
-    columns: Vec<usize>,
+pub(crate) struct Input {
+    pub(crate) dir: PathBuf,
+    pub(crate) rec: Recording,
+    pub(crate) columns: Vec<usize>,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -183,7 +183,7 @@ pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
 
 /// Reads the recordings and maps their columns onto the map's taxels; names each output folder
 /// after the recording (with its parent folder when two recordings share a name).
-fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
+pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
     let stem = |p: &Path| {
         p.file_stem()
             .and_then(|s| s.to_str())

@@ -7,10 +7,13 @@
 //! links into one image at every posture, `skin degrade` makes faulty maps for robustness
 //! studies; `skin calibrate` fits taxel positions from probe
 //! contacts, `skin probe-sim` simulates such contacts; `skin reach` and `skin phri` run the
-//! control experiments in simulation. Run `skin help <command>` for details.
+//! control experiments in simulation; `skin classify` tells hand touches from others with an
+//! ONNX model. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
+#[cfg(feature = "onnx")]
+mod classify_cmd;
 mod degrade_cmd;
 mod flatten;
 mod image_cmd;
@@ -53,6 +56,8 @@ enum Command {
     ProbeSim(calibrate_cmd::ProbeSimArgs),
     Reach(reach_cmd::Args),
     Phri(phri_cmd::Args),
+    #[cfg(feature = "onnx")]
+    Classify(classify_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -70,6 +75,8 @@ fn main() -> ExitCode {
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
         Command::Reach(args) => reach_cmd::run(args),
         Command::Phri(args) => phri_cmd::run(args),
+        #[cfg(feature = "onnx")]
+        Command::Classify(args) => classify_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

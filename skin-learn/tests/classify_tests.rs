@@ -1,0 +1,117 @@
+//! Running ONNX classifiers with tract (feature `onnx`): the MATLAB-exported HandsNet from the
+//! shared data, batches against single images, and clear errors for wrong files and inputs.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+use shared_data::shared;
+
+use prost::Message;
+use skin_learn::classify::{Classifier, InputScale, ModelError};
+use tract_onnx::prelude::*;
+
+const HANDSNET: &str = "cyskin/HandsNet_handles_finetuned.onnx";
+
+/// A 68 x 100 test pattern: a blob of `level` centred at (r, c).
+fn blob(r0: f64, c0: f64, radius: f64, level: u8) -> Vec<u8> {
+    let mut im = vec![0u8; 68 * 100];
+    for r in 0..68 {
+        for c in 0..100 {
+            if ((r as f64 - r0).powi(2) + (c as f64 - c0).powi(2)).sqrt() <= radius {
+                im[r * 100 + c] = level;
+            }
+        }
+    }
+    im
+}
+
+#[test]
+fn the_matlab_handsnet_loads_and_gives_two_class_probabilities() {
+    let Some(path) = shared(HANDSNET) else { return };
+    let mut net = Classifier::load(&path, InputScale::Bytes).unwrap();
+    assert_eq!(net.input_size(), (68, 100));
+    assert_eq!(net.classes(), 2);
+    let images = [
+        blob(34.0, 50.0, 10.0, 255),
+        blob(20.0, 30.0, 25.0, 180),
+        vec![0u8; 6800],
+    ];
+    let mut singles = Vec::new();
+    for im in &images {
+        let p = net.classify(im).unwrap();
+        assert_eq!(p.len(), 2);
+        assert!((p.iter().sum::<f32>() - 1.0).abs() < 1e-4, "{p:?}");
+        assert!(p.iter().all(|v| (0.0..=1.0).contains(v)));
+        singles.push(p);
+    }
+    // The same answers in one batch, and again (the reused state keeps nothing between calls).
+    let refs: Vec<&[u8]> = images.iter().map(|v| v.as_slice()).collect();
+    for _ in 0..2 {
+        let batch = net.classify_batch(&refs).unwrap();
+        for (b, s) in batch.iter().zip(&singles) {
+            for (x, y) in b.iter().zip(s) {
+                assert!((x - y).abs() < 1e-4, "{b:?} vs {s:?}");
+            }
+        }
+    }
+    // Different inputs, different answers: the network is really run.
+    assert!((singles[0][0] - singles[2][0]).abs() > 1e-6 || (singles[1][0] - singles[2][0]).abs() > 1e-6);
+}
+
+#[test]
+fn an_image_of_the_wrong_size_is_refused() {
+    let Some(path) = shared(HANDSNET) else { return };
+    let mut net = Classifier::load(&path, InputScale::Bytes).unwrap();
+    let err = net.classify(&[0u8; 100]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ModelError::Image {
+                got: 100,
+                want: 6800,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("68 x 100"), "{err}");
+}
+
+#[test]
+fn a_corrupt_file_and_a_colour_model_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    // Not ONNX at all.
+    let junk = dir.path().join("junk.onnx");
+    std::fs::write(&junk, b"this is not a protobuf model").unwrap();
+    let err = Classifier::load(&junk, InputScale::Unit).unwrap_err();
+    assert!(matches!(err, ModelError::Load { .. }), "{err}");
+    assert!(err.to_string().contains("junk.onnx"), "{err}");
+    // Truncated.
+    let Some(path) = shared(HANDSNET) else { return };
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.path().join("cut.onnx");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let err = Classifier::load(&cut, InputScale::Bytes).unwrap_err();
+    assert!(matches!(err, ModelError::Load { .. }), "{err}");
+    // The same network declaring a 3-channel input.
+    let mut proto = tract_onnx::onnx().proto_model_for_path(&path).unwrap();
+    let graph = proto.graph.as_mut().unwrap();
+    let input = graph.input.iter_mut().find(|i| i.name == "imageinput").unwrap();
+    let Some(tract_onnx::pb::type_proto::Value::TensorType(t)) =
+        input.r#type.as_mut().and_then(|t| t.value.as_mut())
+    else {
+        panic!("imageinput is not a tensor")
+    };
+    let dim = &mut t.shape.as_mut().unwrap().dim[1];
+    dim.value = Some(tract_onnx::pb::tensor_shape_proto::dimension::Value::DimValue(3));
+    let colour = dir.path().join("colour.onnx");
+    std::fs::write(&colour, proto.encode_to_vec()).unwrap();
+    let err = Classifier::load(&colour, InputScale::Bytes).unwrap_err();
+    assert!(matches!(err, ModelError::Shape { .. }), "{err}");
+    let text = err.to_string();
+    assert!(
+        text.contains("colour.onnx") && text.contains("[N, 1, H, W]") && text.contains('3'),
+        "{text}"
+    );
+}
