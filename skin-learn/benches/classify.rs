@@ -1,0 +1,51 @@
+//! HandsNet (the MATLAB export in ../shared/data) run by tract: one image at a time on one and
+//! two threads, and batches of 32. bench/classify_onnxruntime.py times onnxruntime on the same
+//! model in the same run.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use skin_learn::classify::{Classifier, InputScale};
+use std::hint::black_box;
+use std::path::Path;
+
+fn bench(c: &mut Criterion) {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/cyskin/HandsNet_handles_finetuned.onnx");
+    if !model.exists() {
+        eprintln!("skipped: {} not found", model.display());
+        return;
+    }
+    // A palm-sized blob.
+    let image: Vec<u8> = (0..68 * 100)
+        .map(|i| {
+            let (r, col) = ((i / 100) as f64, (i % 100) as f64);
+            if (r - 34.0).hypot(col - 50.0) < 18.0 {
+                200
+            } else {
+                0
+            }
+        })
+        .collect();
+    let mut group = c.benchmark_group("handsnet");
+    for threads in [1usize, 2] {
+        let mut net = Classifier::load(&model, InputScale::Bytes)
+            .unwrap()
+            .with_threads(threads)
+            .unwrap();
+        group.throughput(Throughput::Elements(1));
+        group.bench_function(format!("batch 1, {threads} thread(s)"), |b| {
+            b.iter(|| black_box(net.classify(black_box(&image)).unwrap()))
+        });
+        let batch: Vec<&[u8]> = (0..32).map(|_| image.as_slice()).collect();
+        net.classify_batch(&batch).unwrap();
+        group.throughput(Throughput::Elements(32));
+        group.bench_function(format!("batch 32, {threads} thread(s)"), |b| {
+            b.iter(|| black_box(net.classify_batch(black_box(&batch)).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
