@@ -507,33 +507,30 @@ fn cholesky_in_place(g: &mut [f64], m: usize) -> bool {
 /// pseudo-inverse returned a wrong result for a tall rank-1 matrix with an exactly zero singular
 /// value (X X^+ X != X), found by this module's tests.
 pub fn pseudo_inverse(x: &DMatrix<f64>, tolerance: f64) -> DMatrix<f64> {
-    let (m, n) = x.shape();
     let tol2 = tolerance * tolerance;
-    if m <= n {
+    if x.nrows() <= x.ncols() {
         // X^+ = X^T (X X^T)^+
-        let eig = (x * x.transpose()).symmetric_eigen();
-        let mut inv = DMatrix::zeros(m, m);
-        for i in 0..m {
-            let l = eig.eigenvalues[i];
-            if l > tol2 {
-                let u = eig.eigenvectors.column(i);
-                inv += u * u.transpose() / l;
-            }
-        }
-        x.transpose() * inv
+        x.transpose() * gram_pinv(x * x.transpose(), tol2)
     } else {
         // X^+ = (X^T X)^+ X^T
-        let eig = (x.transpose() * x).symmetric_eigen();
-        let mut inv = DMatrix::zeros(n, n);
-        for i in 0..n {
-            let l = eig.eigenvalues[i];
-            if l > tol2 {
-                let v = eig.eigenvectors.column(i);
-                inv += v * v.transpose() / l;
-            }
-        }
-        inv * x.transpose()
+        gram_pinv(x.transpose() * x, tol2) * x.transpose()
     }
+}
+
+/// The pseudo-inverse of a symmetric positive semi-definite Gram matrix, eigenvalues under
+/// `tol2` dropped.
+fn gram_pinv(gram: DMatrix<f64>, tol2: f64) -> DMatrix<f64> {
+    let k = gram.nrows();
+    let eig = gram.symmetric_eigen();
+    let mut inv = DMatrix::zeros(k, k);
+    for i in 0..k {
+        let l = eig.eigenvalues[i];
+        if l > tol2 {
+            let u = eig.eigenvectors.column(i);
+            inv += u * u.transpose() / l;
+        }
+    }
+    inv
 }
 
 /// The regularisation of a singular value s: `peak` at 0, falling to 0 at `threshold` along a

@@ -384,11 +384,4 @@ impl World {
         }
         out
     }
-
-    /// The largest spring force at `q` (for checking starting postures), newtons.
-    pub fn clearance_force(&self, q: &[f64]) -> f64 {
-        self.chain
-            .posture(q)
-            .map_or(f64::INFINITY, |at| self.sense(&at, &[]).max_force)
-    }
 }
