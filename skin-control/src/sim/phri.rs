@@ -177,7 +177,7 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         .try_normalize(1e-9)
         .unwrap_or(Vector3::y());
     let up = Vector3::z();
-    let path = PathFollowing::new(
+    let mut path = PathFollowing::new(
         &[
             hand0,
             hand0 + side * 0.2,
@@ -188,7 +188,6 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         2.0,
     )
     .map_err(|e| bad("path", e.to_string()))?;
-    let mut path = path;
     let f = forearm(&world).ok_or_else(|| bad("robot", "no link to touch".into()))?;
     let part = world.parts()[f].clone();
     let mut stack = TaskStack::new(n, Regularisation::default());
@@ -203,7 +202,7 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
     let mut q = start.to_vec();
     let mut samples = Vec::new();
     // The touches are placed where the forearm is when each one starts.
-    let mut bump_at: Option<(Point3<f64>, Vector3<f64>, Vector3<f64>)> = None;
+    let mut bump_at: Option<(Point3<f64>, Vector3<f64>)> = None;
     let mut push_at: Option<(Point3<f64>, Vector3<f64>, Vector3<f64>)> = None;
     let steps = (script.duration / dt).round() as usize;
     for k in 0..steps {
@@ -220,13 +219,12 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         let mut touching: Vec<Solid> = Vec::new();
         let (b0, bd) = script.bump;
         if t >= b0 && t < b0 + bd {
-            let (c, ax, dir) = *bump_at.get_or_insert((mid, axis, across));
+            let (c, dir) = *bump_at.get_or_insert((mid, across));
             // In and out along a half sine, `bump_depth` at the middle.
             let depth = script.bump_depth * (std::f64::consts::PI * (t - b0) / bd).sin();
             let r = 0.1;
             let centre = c + dir * (part.radius + r - depth);
             touching.push(Solid::capsule(&(centre - up * 0.1), &(centre + up * 0.1), r));
-            let _ = ax;
         }
         let (p0, pd) = script.push;
         if t >= p0 && t < p0 + pd {
@@ -253,11 +251,11 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
             .jacobian(world.tip(), &Point3::origin())
             .map_err(|e| bad("robot", e.to_string()))?;
         let mut tasks: Vec<Task> = Vec::new();
-        let touched: Vec<_> = sensing.contacts.clone();
+        let touched = &sensing.contacts;
         if touched.is_empty() {
             gate.idle();
         }
-        let hri = interaction_task(chain, &q, &touched, &mut gate, &params)
+        let hri = interaction_task(chain, &q, touched, &mut gate, &params)
             .map_err(|e| bad("robot", e.to_string()))?;
         let mut sample = Sample {
             t,
