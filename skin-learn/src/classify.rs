@@ -232,7 +232,9 @@ impl Classifier {
             .to_plain_array_view::<f32>()
             .map_err(|e| ModelError::Run(format!("{e:#}")))?;
         let classes = scores.len() / n;
-        let flat: Vec<f32> = scores.iter().copied().collect();
+        let flat = scores
+            .as_slice()
+            .ok_or_else(|| ModelError::Run("the output is not contiguous".into()))?;
         Ok(flat.chunks(classes).map(probabilities).collect())
     }
 }
