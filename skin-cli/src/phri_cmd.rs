@@ -148,13 +148,12 @@ fn plot(run: &PhriRun) -> Result<String> {
             .fold(0.05, f64::max)
             * 1.1;
         let emax = s.iter().map(|x| x.path_error * 1000.0).fold(1.0, f64::max) * 1.1;
-        let mut force = ChartBuilder::on(&panels[0])
-            .caption("contact force (N); shaded: task 1 active", ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..t_end, 0.0..fmax)?;
-        force.configure_mesh().x_desc("time (s)").draw()?;
+        let mut force = panel(
+            &panels[0],
+            "contact force (N); shaded: task 1 active",
+            t_end,
+            fmax,
+        )?;
         force.draw_series(s.iter().filter(|x| x.task1).map(|x| {
             Rectangle::new(
                 [(x.t, 0.0), (x.t + 0.005, fmax)],
@@ -162,28 +161,18 @@ fn plot(run: &PhriRun) -> Result<String> {
             )
         }))?;
         force.draw_series(LineSeries::new(s.iter().map(|x| (x.t, x.force)), &RED))?;
-        let mut speed = ChartBuilder::on(&panels[1])
-            .caption(
-                "contact centroid speed (m/s): reference (black), actual (blue)",
-                ("sans-serif", 16),
-            )
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..t_end, 0.0..vmax)?;
-        speed.configure_mesh().x_desc("time (s)").draw()?;
+        let mut speed = panel(
+            &panels[1],
+            "contact centroid speed (m/s): reference (black), actual (blue)",
+            t_end,
+            vmax,
+        )?;
         speed.draw_series(LineSeries::new(
             s.iter().map(|x| (x.t, x.reference_speed)),
             &BLACK,
         ))?;
         speed.draw_series(LineSeries::new(s.iter().map(|x| (x.t, x.centroid_speed)), &BLUE))?;
-        let mut error = ChartBuilder::on(&panels[2])
-            .caption("path error (mm)", ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..t_end, 0.0..emax)?;
-        error.configure_mesh().x_desc("time (s)").draw()?;
+        let mut error = panel(&panels[2], "path error (mm)", t_end, emax)?;
         error.draw_series(LineSeries::new(
             s.iter().map(|x| (x.t, x.path_error * 1000.0)),
             &GREEN,
@@ -191,4 +180,27 @@ fn plot(run: &PhriRun) -> Result<String> {
         root.present()?;
     }
     Ok(svg)
+}
+
+/// One panel of the timeline: time (0..t_end s) across, 0..ymax up, with its caption and grid.
+fn panel<'a, 'b>(
+    area: &'a DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    caption: &str,
+    t_end: f64,
+    ymax: f64,
+) -> Result<
+    ChartContext<
+        'a,
+        SVGBackend<'b>,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(28)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..t_end, 0.0..ymax)?;
+    chart.configure_mesh().x_desc("time (s)").draw()?;
+    Ok(chart)
 }
