@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result, bail};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
+use skin_learn::card::ModelCard;
 use skin_learn::classify::{Classifier, InputScale};
 use std::path::PathBuf;
 
@@ -15,7 +16,8 @@ use std::path::PathBuf;
 ///
 /// One line per image: its name (or frame number and time), the probability of each class and
 /// the most likely one. The model must take [N, 1, H, W] grey images; --input-scale says how it
-/// expects grey levels (255: 0..255 as floats, as the MATLAB-exported HandsNet; 1: 0..1).
+/// expects grey levels (255: 0..255 as floats, as the MATLAB-exported HandsNet; 1: 0..1), or
+/// the model card beside it does (`input_scale: unit`, as for fixtures/models/handsnet.onnx).
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -31,17 +33,19 @@ pub struct Args {
     /// With --map: readings at or below this count as no contact.
     #[arg(long, default_value_t = 10.0)]
     threshold: f32,
-    /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1).
-    #[arg(long, value_enum, default_value = "255")]
-    input_scale: Scale,
-    /// Class names, in the model's output order, comma separated (default: class0, class1, ...).
+    /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1). Default: what the
+    /// model card (MODEL.md beside MODEL.onnx) says, else 255.
+    #[arg(long, value_enum)]
+    input_scale: Option<Scale>,
+    /// Class names, in the model's output order, comma separated (default: from the model card,
+    /// else class0, class1, ...).
     #[arg(long, value_delimiter = ',')]
     labels: Vec<String>,
 }
 
 /// How the model expects grey levels.
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum Scale {
+pub(crate) enum Scale {
     /// 0..255 as floats.
     #[value(name = "255")]
     Bytes,
@@ -50,15 +54,29 @@ enum Scale {
     Unit,
 }
 
+/// The input scaling: as given, else as the model card says, else 0..255 (the MATLAB HandsNet).
+pub(crate) fn input_scale(model: &std::path::Path, given: Option<Scale>) -> InputScale {
+    match given {
+        Some(Scale::Unit) => InputScale::Unit,
+        Some(Scale::Bytes) => InputScale::Bytes,
+        None => match ModelCard::for_model(model).and_then(|c| c.unit_scale) {
+            Some(true) => InputScale::Unit,
+            _ => InputScale::Bytes,
+        },
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
-    let scale = match args.input_scale {
-        Scale::Unit => InputScale::Unit,
-        Scale::Bytes => InputScale::Bytes,
-    };
+    let scale = input_scale(&args.model, args.input_scale);
     let mut net = Classifier::load(&args.model, scale)?;
     let (h, w) = net.input_size();
     let classes = net.classes();
-    let labels: Vec<String> = if args.labels.is_empty() {
+    let card = ModelCard::for_model(&args.model)
+        .map(|c| c.classes)
+        .unwrap_or_default();
+    let labels: Vec<String> = if args.labels.is_empty() && card.len() == classes {
+        card
+    } else if args.labels.is_empty() {
         (0..classes).map(|k| format!("class{k}")).collect()
     } else if args.labels.len() == classes {
         args.labels.clone()
@@ -108,31 +126,22 @@ pub fn run(args: Args) -> Result<()> {
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
             let inputs = crate::image_cmd::load_inputs(&args.inputs, &map, std::path::Path::new("."))?;
-            let mut pressures = vec![0.0f32; map.ids.len()];
-            let mut quiet = 0usize;
-            for (input, path) in inputs.iter().zip(&args.inputs) {
-                for (f, frame) in input.rec.frames.iter().enumerate() {
-                    let mut any = false;
-                    for (p, &c) in pressures.iter_mut().zip(&input.columns) {
-                        let v = frame.values[c];
-                        *p = if v > args.threshold { v } else { 0.0 };
-                        any |= *p > 0.0;
-                    }
+            let quiet = crate::image_cmd::each_touched_frame(
+                &inputs,
+                &mut imager,
+                args.threshold,
+                |input, f, _, grey| {
                     let name = format!(
                         "{} frame {} ({:.2} s)",
-                        path.display(),
+                        input.path.display(),
                         input.rec.frame_numbers[f],
-                        frame.time
+                        input.rec.frames[f].time
                     );
-                    if !any {
-                        quiet += 1;
-                        continue;
-                    }
-                    let grey = imager.process(&pressures)?;
                     let p = net.classify(grey)?;
                     report(&name, &p, &mut counts);
-                }
-            }
+                    Ok(())
+                },
+            )?;
             crate::say!("{quiet} frame(s) with no contact above {}", args.threshold);
         }
     }

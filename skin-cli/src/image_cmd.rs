@@ -67,7 +67,7 @@ enum Norm {
     ContactMax,
 }
 
-fn parse_size(s: &str) -> Result<(usize, usize), String> {
+pub(crate) fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let (r, c) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("\"{s}\" is not ROWSxCOLS (e.g. 68x100)"))?;
@@ -87,6 +87,8 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
 
 /// One recording, with its readings reordered to map order.
 pub(crate) struct Input {
+    /// The recording.
+    pub(crate) path: PathBuf,
     pub(crate) dir: PathBuf,
     pub(crate) rec: Recording,
     pub(crate) columns: Vec<usize>,
@@ -181,6 +183,36 @@ pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
     Ok(map)
 }
 
+/// Runs `each(input, frame, pressures, grey)` on every frame of `inputs` with a reading above
+/// `threshold` (readings at or below it count as zero), imaged by `imager`; returns how many
+/// frames had no contact.
+pub(crate) fn each_touched_frame(
+    inputs: &[Input],
+    imager: &mut TactileImager,
+    threshold: f32,
+    mut each: impl FnMut(&Input, usize, &[f32], &[u8]) -> Result<()>,
+) -> Result<usize> {
+    let mut pressures = vec![0.0f32; imager.raster().taxel_count()];
+    let mut quiet = 0usize;
+    for input in inputs {
+        for (f, frame) in input.rec.frames.iter().enumerate() {
+            let mut any = false;
+            for (p, &c) in pressures.iter_mut().zip(&input.columns) {
+                let v = frame.values[c];
+                *p = if v > threshold { v } else { 0.0 };
+                any |= *p > 0.0;
+            }
+            if !any {
+                quiet += 1;
+                continue;
+            }
+            let grey = imager.process(&pressures)?;
+            each(input, f, &pressures, grey)?;
+        }
+    }
+    Ok(quiet)
+}
+
 /// Reads the recordings and maps their columns onto the map's taxels; names each output folder
 /// after the recording (with its parent folder when two recordings share a name).
 pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
@@ -238,6 +270,7 @@ pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Re
             );
         }
         inputs.push(Input {
+            path: p.clone(),
             dir: out.join(name),
             rec,
             columns,

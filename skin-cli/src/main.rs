@@ -7,21 +7,27 @@
 //! links into one image at every posture, `skin degrade` makes faulty maps for robustness
 //! studies; `skin calibrate` fits taxel positions from probe
 //! contacts, `skin probe-sim` simulates such contacts; `skin reach` and `skin phri` run the
-//! control experiments in simulation; `skin classify` tells hand touches from others with an
-//! ONNX model. Run `skin help <command>` for details.
+//! control experiments in simulation; `skin synth` generates labelled hand and non-hand
+//! contacts; `skin classify` tells hand touches from others with an ONNX model, `skin segment`
+//! labels the hand parts, `skin eval` scores either on a dataset. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
 #[cfg(feature = "onnx")]
 mod classify_cmd;
 mod degrade_cmd;
+#[cfg(feature = "onnx")]
+mod eval_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
 mod phri_cmd;
 mod reach_cmd;
 mod replay;
+#[cfg(feature = "onnx")]
+mod segment_cmd;
 mod stitch_cmd;
+mod synth_cmd;
 
 /// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
 macro_rules! say {
@@ -56,8 +62,13 @@ enum Command {
     ProbeSim(calibrate_cmd::ProbeSimArgs),
     Reach(reach_cmd::Args),
     Phri(phri_cmd::Args),
+    Synth(synth_cmd::Args),
     #[cfg(feature = "onnx")]
     Classify(classify_cmd::Args),
+    #[cfg(feature = "onnx")]
+    Segment(segment_cmd::Args),
+    #[cfg(feature = "onnx")]
+    Eval(eval_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -75,8 +86,13 @@ fn main() -> ExitCode {
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
         Command::Reach(args) => reach_cmd::run(args),
         Command::Phri(args) => phri_cmd::run(args),
+        Command::Synth(args) => synth_cmd::run(args),
         #[cfg(feature = "onnx")]
         Command::Classify(args) => classify_cmd::run(args),
+        #[cfg(feature = "onnx")]
+        Command::Segment(args) => segment_cmd::run(args),
+        #[cfg(feature = "onnx")]
+        Command::Eval(args) => eval_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -881,3 +881,139 @@ fn skin_geom_png(rows: u32, cols: u32) -> Vec<u8> {
         .unwrap();
     out
 }
+
+// skin synth, skin eval, skin segment: touch understanding (Ch. 4, 5).
+
+fn synth(dir: &Path, seed: &str) -> String {
+    let layout = root().join("fixtures/forearm/layout.json");
+    let o = skin(&[
+        "synth",
+        "--layout",
+        layout.to_str().unwrap(),
+        "--count",
+        "60",
+        "--subjects",
+        "4",
+        "--seed",
+        seed,
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    out
+}
+
+fn grey(path: &Path) -> Vec<u8> {
+    image::open(path).unwrap().into_luma8().into_raw()
+}
+
+#[test]
+fn synth_writes_a_repeatable_labelled_dataset() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    let report = synth(&a, "5");
+    synth(&b, "5");
+    assert!(report.contains("60 samples of 4 subjects"), "{report}");
+    for f in ["labels.csv", "frames.txt", "taxel_parts.txt", "map.json"] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f} differs between two runs with one seed"
+        );
+    }
+    let data = skin_learn::dataset::Dataset::read(&a).unwrap();
+    assert_eq!(data.entries.len(), 60);
+    let hands = data.entries.iter().filter(|e| e.hand).count();
+    assert!((15..=45).contains(&hands), "{hands} hands of 60 at a 50% share");
+    let mut labelled = 0;
+    for (i, e) in data.entries.iter().enumerate() {
+        let image = grey(&a.join("images").join(&e.file));
+        assert_eq!(image.len(), 68 * 100);
+        let mask = a.join("masks").join(&e.file);
+        assert_eq!(mask.exists(), e.hand, "a mask for hands only ({})", e.file);
+        if e.hand {
+            let mask = grey(&mask);
+            assert!(mask.iter().all(|&l| l <= 6));
+            assert!(
+                mask.iter().zip(&image).all(|(&l, &g)| l == 0 || g > 0),
+                "sample {i}: a part label on a black pixel"
+            );
+            labelled += usize::from(mask.iter().any(|&l| l > 0));
+        }
+    }
+    assert!(
+        labelled * 10 >= hands * 9,
+        "only {labelled} of {hands} hand masks show a part"
+    );
+    // Another seed, another dataset.
+    let c = tmp.path().join("c");
+    synth(&c, "6");
+    assert_ne!(
+        std::fs::read(a.join("frames.txt")).unwrap(),
+        std::fs::read(c.join("frames.txt")).unwrap()
+    );
+}
+
+#[cfg(feature = "onnx")]
+#[test]
+fn eval_scores_the_matlab_handsnet_and_runs_test_a() {
+    let model = root().join("../shared/data/cyskin/HandsNet_handles_finetuned.onnx");
+    if !model.exists() {
+        eprintln!(
+            "skipped: {} is absent (../shared/data not beside the project)",
+            model.display()
+        );
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("d");
+    synth(&data, "9");
+    let m = model.to_str().unwrap();
+    let d = data.to_str().unwrap();
+    let o = skin(&["eval", "--model", m, "--dataset", d, "--test-fraction", "0"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("60 test images"), "{out}");
+    assert!(
+        out.contains("accuracy ") && out.contains("by interaction / contact:"),
+        "{out}"
+    );
+    let o = skin(&[
+        "eval",
+        "--model",
+        m,
+        "--dataset",
+        d,
+        "--test-a",
+        "--patterns",
+        "1",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let rows = out.lines().filter(|l| l.trim_end().ends_with('%')).count();
+    assert_eq!(rows, 16, "Test A has 4 x 4 cells:\n{out}");
+    // A segmenter's wrong model: HandsNet has no per-pixel output.
+    let o = skin(&[
+        "segment",
+        "--model",
+        m,
+        &root().join("fixtures/forearm/layout.json").display().to_string(),
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("per-pixel class scores"), "{err}");
+}
+
+#[test]
+fn a_broken_labels_file_names_its_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("d");
+    synth(&data, "1");
+    let csv = data.join("labels.csv");
+    let mut text_csv = std::fs::read_to_string(&csv).unwrap();
+    text_csv = text_csv.replacen(",hand,", ",hnad,", 1);
+    std::fs::write(&csv, text_csv).unwrap();
+    let err = skin_learn::dataset::Dataset::read(&data).unwrap_err().to_string();
+    assert!(err.contains("labels.csv:") && err.contains("hnad"), "{err}");
+}

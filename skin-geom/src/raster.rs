@@ -346,6 +346,14 @@ impl Rasterizer {
         pixel_centre(self.corner, self.step, row, col)
     }
 
+    /// The pixel (`row`, `col`) containing map point `p` (metres), if it is on the grid.
+    pub fn pixel_of(&self, p: Point2<f64>) -> Option<(usize, usize)> {
+        let col = (p.x - self.corner.x) / self.step;
+        let row = (self.corner.y - p.y) / self.step;
+        (col >= 0.0 && row >= 0.0 && (col as usize) < self.cols && (row as usize) < self.rows)
+            .then_some((row as usize, col as usize))
+    }
+
     /// Interpolates one frame: `pressures` has one value per taxel in map order, `image` one value
     /// per pixel, row-major. Pixels outside the map get 0. Allocates nothing.
     pub fn render(&mut self, pressures: &[f32], image: &mut [f32]) -> Result<()> {

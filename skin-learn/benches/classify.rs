@@ -1,21 +1,18 @@
-//! HandsNet (the MATLAB export in ../shared/data) run by tract: one image at a time on one and
+//! Tactile image models run by tract: the MATLAB-exported HandsNet of ../shared/data, the
+//! project's HandsNet and hand-part segmenter (fixtures/models); one image at a time on one and
 //! two threads, and batches of 32. bench/classify_onnxruntime.py times onnxruntime on the same
-//! model in the same run.
+//! models in the same run.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use skin_learn::classify::{Classifier, InputScale};
+use skin_learn::segment::Segmenter;
 use std::hint::black_box;
 use std::path::Path;
 
 fn bench(c: &mut Criterion) {
-    let model = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/cyskin/HandsNet_handles_finetuned.onnx");
-    if !model.exists() {
-        eprintln!("skipped: {} not found", model.display());
-        return;
-    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     // A palm-sized blob.
     let image: Vec<u8> = (0..68 * 100)
         .map(|i| {
@@ -27,24 +24,63 @@ fn bench(c: &mut Criterion) {
             }
         })
         .collect();
-    let mut group = c.benchmark_group("handsnet");
-    for threads in [1usize, 2] {
-        let mut net = Classifier::load(&model, InputScale::Bytes)
-            .unwrap()
-            .with_threads(threads)
-            .unwrap();
-        group.throughput(Throughput::Elements(1));
-        group.bench_function(format!("batch 1, {threads} thread(s)"), |b| {
-            b.iter(|| black_box(net.classify(black_box(&image)).unwrap()))
-        });
-        let batch: Vec<&[u8]> = (0..32).map(|_| image.as_slice()).collect();
-        net.classify_batch(&batch).unwrap();
-        group.throughput(Throughput::Elements(32));
-        group.bench_function(format!("batch 32, {threads} thread(s)"), |b| {
-            b.iter(|| black_box(net.classify_batch(black_box(&batch)).unwrap()))
-        });
+    let batch: Vec<&[u8]> = (0..32).map(|_| image.as_slice()).collect();
+    let models = [
+        (
+            "handsnet",
+            root.join("../shared/data/cyskin/HandsNet_handles_finetuned.onnx"),
+            InputScale::Bytes,
+        ),
+        (
+            "handsnet-ours",
+            root.join("fixtures/models/handsnet.onnx"),
+            InputScale::Unit,
+        ),
+        (
+            "handseg",
+            root.join("fixtures/models/handseg.onnx"),
+            InputScale::Unit,
+        ),
+    ];
+    for (name, model, scale) in models {
+        if !model.exists() {
+            eprintln!("skipped {name}: {} not found", model.display());
+            continue;
+        }
+        let mut group = c.benchmark_group(name);
+        for threads in [1usize, 2] {
+            if name == "handseg" {
+                let mut net = Segmenter::load(&model, scale)
+                    .unwrap()
+                    .with_threads(threads)
+                    .unwrap();
+                group.throughput(Throughput::Elements(1));
+                group.bench_function(format!("batch 1, {threads} thread(s)"), |b| {
+                    b.iter(|| black_box(net.segment(black_box(&image)).unwrap()))
+                });
+                net.segment_batch(&batch).unwrap();
+                group.throughput(Throughput::Elements(32));
+                group.bench_function(format!("batch 32, {threads} thread(s)"), |b| {
+                    b.iter(|| black_box(net.segment_batch(black_box(&batch)).unwrap()))
+                });
+            } else {
+                let mut net = Classifier::load(&model, scale)
+                    .unwrap()
+                    .with_threads(threads)
+                    .unwrap();
+                group.throughput(Throughput::Elements(1));
+                group.bench_function(format!("batch 1, {threads} thread(s)"), |b| {
+                    b.iter(|| black_box(net.classify(black_box(&image)).unwrap()))
+                });
+                net.classify_batch(&batch).unwrap();
+                group.throughput(Throughput::Elements(32));
+                group.bench_function(format!("batch 32, {threads} thread(s)"), |b| {
+                    b.iter(|| black_box(net.classify_batch(black_box(&batch)).unwrap()))
+                });
+            }
+        }
+        group.finish();
     }
-    group.finish();
 }
 
 criterion_group!(benches, bench);

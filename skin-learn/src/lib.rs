@@ -4,10 +4,23 @@
 //!   probe datasets and their CSV form, the per-taxel Gaussian fit, a probe simulator, and the
 //!   error metrics and convergence curve of the thesis.
 //! - `classify` (feature `onnx`): tactile image classification (hand / non-hand, HandsNet,
-//!   Ch. 4.3) with any ONNX classifier of grey images, run by tract.
-//!
-//! Planned: hand-part segmentation, its metrics, and synthetic contact data on a skin layout.
+//!   Ch. 4.3) with any ONNX classifier of grey images, run by tract; `segment` (feature `onnx`):
+//!   hand-part segmentation (Ch. 4.4) the same way. [`card`]: the model card beside a model.
+//! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8.
+//! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
+//! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
+//!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
+//! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.
 
 pub mod calibration;
+pub mod card;
 #[cfg(feature = "onnx")]
 pub mod classify;
+pub mod dataset;
+#[cfg(feature = "onnx")]
+mod image_model;
+pub mod metrics;
+pub mod parts;
+#[cfg(feature = "onnx")]
+pub mod segment;
+pub mod synth;

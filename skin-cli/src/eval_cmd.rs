@@ -1,0 +1,430 @@
+//! `skin eval`: scores of a classifier or segmenter on a dataset, and the robustness study of
+//! thesis Ch. 5 (Test A: blind spots; Test B: removed taxels).
+
+use anyhow::{Context as _, Result, bail};
+use skin_core::format::recording;
+use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use skin_learn::classify::{Classifier, ModelError};
+use skin_learn::dataset::Dataset;
+use skin_learn::metrics::ConfusionMatrix;
+use skin_learn::segment::Segmenter;
+use skin_learn::synth::Part;
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Score an ONNX classifier (HandsNet) or hand-part segmenter on a dataset from `skin synth`
+/// (or your own in the same layout).
+///
+/// The test set is the last --test-fraction of the subjects (unseen people, as in the thesis;
+/// the training script splits the same way); 0 scores every sample. A classifier gets Tables
+/// 4.3/4.4: accuracy, confusion matrix, accuracy per interaction or contact, and how the hard
+/// cases (partly off the skin, fingertips only) fare. A segmenter (output [N, classes, H, W]) is
+/// scored on the hand images, over the hand-part pixels, as Table 4.8 (Acc, mAcc, mIoU, fwIoU)
+/// with the confusion matrix of Table 4.9.
+///
+/// --test-a regenerates the test images from the raw frames through maps with 1-4 blind spots of
+/// 10-40 mm (Table 5.1/5.2); --test-b through maps with 10-70% of the taxels removed and
+/// re-triangulated (Table 5.3/5.4). Each cell is the mean over --patterns random maps. The
+/// segmentation ground truth of a degraded image is masked to what it still shows (Ch. 5.3).
+/// The input scaling comes from the model card (MODEL.md beside MODEL.onnx) unless given.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// The ONNX model.
+    #[arg(long, value_name = "MODEL.onnx")]
+    model: PathBuf,
+    /// Dataset directory (labels.csv, images/, masks/, frames.txt, map.json).
+    #[arg(long, value_name = "DIR")]
+    dataset: PathBuf,
+    /// Fraction of the subjects (the last ones) that form the test set; 0 for all samples.
+    #[arg(long, default_value_t = 0.3)]
+    test_fraction: f64,
+    /// Test A: blind spots (1-4 spots of 10-40 mm).
+    #[arg(long, conflicts_with = "test_b")]
+    test_a: bool,
+    /// Test B: 10-70% of the taxels removed.
+    #[arg(long)]
+    test_b: bool,
+    /// Random degraded maps per cell of Test A / Test B (10 in the thesis).
+    #[arg(long, default_value_t = 10)]
+    patterns: u64,
+    /// Grey levels as the model expects them (default: from the model card, else 255).
+    #[arg(long, value_enum)]
+    input_scale: Option<crate::classify_cmd::Scale>,
+    /// Threads for inference.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+}
+
+/// A degraded map of one cell of Test A / Test B, by pattern seed.
+type Degrade = Box<dyn Fn(u64) -> skin_geom::Result<TactileMap>>;
+
+enum Model {
+    Classifier(Classifier),
+    Segmenter(Segmenter),
+}
+
+impl Model {
+    fn input_size(&self) -> (usize, usize) {
+        match self {
+            Model::Classifier(c) => c.input_size(),
+            Model::Segmenter(s) => s.input_size(),
+        }
+    }
+}
+
+/// Scores of one pass over the test set.
+struct Scores {
+    cm: ConfusionMatrix,
+    by_kind: BTreeMap<String, (usize, usize)>,
+    hard: [(usize, usize); 2],
+    seconds: f64,
+    images: usize,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let scale = crate::classify_cmd::input_scale(&args.model, args.input_scale);
+    let model = match Classifier::load(&args.model, scale) {
+        Ok(c) => Model::Classifier(c.with_threads(args.threads)?),
+        Err(ModelError::Shape { .. }) => Model::Segmenter(
+            Segmenter::load(&args.model, scale)
+                .with_context(|| "neither a classifier ([N, classes]) nor a segmenter")?
+                .with_threads(args.threads)?,
+        ),
+        Err(e) => return Err(e.into()),
+    };
+    let data = Dataset::read(&args.dataset)?;
+    let segmenting = matches!(model, Model::Segmenter(_));
+    let test = test_set(&data, args.test_fraction, segmenting);
+    if test.is_empty() {
+        bail!("{}: no sample in the test set", args.dataset.display());
+    }
+    let hard_partial = test.iter().filter(|&&i| data.entries[i].partial).count();
+    let hard_tips = test.iter().filter(|&&i| data.entries[i].fingertips).count();
+    crate::say!(
+        "{}: {} test images ({} hands; {hard_partial} partly off the skin, {hard_tips} fingertips only) of {} subjects",
+        args.dataset.display(),
+        test.len(),
+        test.iter().filter(|&&i| data.entries[i].hand).count(),
+        test.iter()
+            .map(|&i| data.entries[i].subject)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len()
+    );
+    let mut model = model;
+    if !(args.test_a || args.test_b) {
+        let mut images = Vec::with_capacity(test.len());
+        let mut truths = Vec::with_capacity(test.len());
+        for &i in &test {
+            let (img, r, c) = data.image(i)?;
+            if (r, c) != model.input_size() {
+                bail!(
+                    "{}: image {} is {r} x {c}, the model takes {:?}",
+                    args.dataset.display(),
+                    data.entries[i].file,
+                    model.input_size()
+                );
+            }
+            images.push(img);
+            truths.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
+        }
+        let s = score(&mut model, &data, &test, &images, &truths)?;
+        report(&s, segmenting);
+        return Ok(());
+    }
+
+    // Robustness (Ch. 5): regenerate the test images through degraded maps.
+    let map = TactileMap::read(&data.dir.join("map.json"))?;
+    let frames = recording::read(&data.dir.join("frames.txt"))?;
+    let parts = recording::read(&data.dir.join("taxel_parts.txt"))?;
+    if frames.frames.len() != data.entries.len() || parts.frames.len() != data.entries.len() {
+        bail!(
+            "{}: frames.txt has {} frames and taxel_parts.txt {}, labels.csv {} rows",
+            args.dataset.display(),
+            frames.frames.len(),
+            parts.frames.len(),
+            data.entries.len()
+        );
+    }
+    let column: HashMap<_, _> = frames
+        .taxel_ids
+        .iter()
+        .enumerate()
+        .map(|(k, id)| (*id, k))
+        .collect();
+    let size = model.input_size();
+    let mut truths_full = Vec::new();
+    for &i in &test {
+        truths_full.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
+    }
+    let cells: Vec<(String, Degrade)> = if args.test_a {
+        (1..=4)
+            .flat_map(|spots| (1..=4).map(move |r| (spots, 10.0 * r as f64)))
+            .map(|(spots, radius_mm)| {
+                let m = map.clone();
+                let f: Degrade = Box::new(move |seed| {
+                    BlindSpots {
+                        spots,
+                        radius_mm,
+                        seed,
+                    }
+                    .apply(&m)
+                });
+                (format!("{spots:>3} {radius_mm:>5.0}"), f)
+            })
+            .collect()
+    } else {
+        (1..=7)
+            .map(|k| {
+                let m = map.clone();
+                let fraction = k as f64 / 10.0;
+                let f: Degrade = Box::new(move |seed| Decimation { fraction, seed }.apply(&m));
+                (format!("{:>4.0}%", 100.0 * fraction), f)
+            })
+            .collect()
+    };
+    crate::say!(
+        "{} ({} maps per row; mean over them){}",
+        if args.test_a {
+            "Test A: blind spots"
+        } else {
+            "Test B: removed taxels"
+        },
+        args.patterns,
+        if segmenting {
+            "; p_d: share of hand pixels the masking discards"
+        } else {
+            ""
+        }
+    );
+    crate::say!(
+        "{}",
+        match (args.test_a, segmenting) {
+            (true, false) => "N_s  r(mm)  Accuracy",
+            (false, false) => "    p  Accuracy",
+            (true, true) => "N_s  r(mm)      Acc     mAcc     mIoU    fwIoU",
+            (false, true) => "    p      Acc     mAcc     mIoU    fwIoU      p_d",
+        }
+    );
+    for (name, make) in &cells {
+        let mut sums = [0.0f64; 5];
+        for seed in 0..args.patterns {
+            let degraded = make(seed)?;
+            let mut imager = TactileImager::new(
+                Rasterizer::new(&degraded, Grid::StepMm(1.0))?,
+                Normalisation::ContactMax,
+                true,
+                Some(size),
+            )?;
+            let cols: Vec<usize> = degraded
+                .ids
+                .iter()
+                .map(|id| {
+                    column
+                        .get(id)
+                        .copied()
+                        .context("a degraded map's taxel is not in frames.txt")
+                })
+                .collect::<Result<_>>()?;
+            let mut pressures = vec![0.0f32; cols.len()];
+            let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
+            let (mut kept, mut before) = (0usize, 0usize);
+            for (k, &i) in test.iter().enumerate() {
+                let values = &frames.frames[i].values;
+                for (p, &c) in pressures.iter_mut().zip(&cols) {
+                    *p = values[c];
+                }
+                let img = imager.process(&pressures)?.to_vec();
+                if segmenting {
+                    let (img, truth) = skin_geom::masked_ground_truth(&img, &truths_full[k], 0)?;
+                    before += truths_full[k].iter().filter(|&&l| l > 0).count();
+                    kept += truth.iter().filter(|&&l| l > 0).count();
+                    images.push(img);
+                    truths.push(truth);
+                } else {
+                    images.push(img);
+                    truths.push(Vec::new());
+                }
+            }
+            let s = score(&mut model, &data, &test, &images, &truths)?;
+            if segmenting {
+                let g = s.cm.segmentation_scores(1);
+                for (sum, v) in sums.iter_mut().zip([
+                    g.pixel_accuracy,
+                    g.mean_accuracy,
+                    g.mean_iou,
+                    g.frequency_weighted_iou,
+                    1.0 - kept as f64 / before.max(1) as f64,
+                ]) {
+                    *sum += v;
+                }
+            } else {
+                sums[0] += s.cm.accuracy();
+            }
+        }
+        let n = args.patterns.max(1) as f64;
+        let pct = |v: f64| format!("{:>7.2}%", 100.0 * v / n);
+        if segmenting {
+            let cols = if args.test_a { 4 } else { 5 };
+            let row: Vec<String> = sums[..cols].iter().map(|&v| pct(v)).collect();
+            crate::say!("{name} {}", row.join("  "));
+        } else {
+            crate::say!("{name}  {}", pct(sums[0]));
+        }
+    }
+    Ok(())
+}
+
+/// Test-set indices: samples of the last `fraction` of the subjects (hands only when segmenting).
+fn test_set(data: &Dataset, fraction: f64, hands_only: bool) -> Vec<usize> {
+    let keep = |i: &usize| !hands_only || data.entries[*i].hand;
+    let mut subjects: Vec<u32> = data.entries.iter().map(|e| e.subject).collect();
+    subjects.sort_unstable();
+    subjects.dedup();
+    if fraction <= 0.0 || subjects.len() < 2 {
+        return (0..data.entries.len()).filter(keep).collect();
+    }
+    // The same cut as skin-learn/training/train.py: subjects[round(n * (1 - fraction))] on.
+    let k = ((subjects.len() as f64 * (1.0 - fraction)).round() as usize).min(subjects.len() - 1);
+    let cut = subjects[k];
+    (0..data.entries.len())
+        .filter(|&i| data.entries[i].subject >= cut)
+        .filter(keep)
+        .collect()
+}
+
+fn score(
+    model: &mut Model,
+    data: &Dataset,
+    test: &[usize],
+    images: &[Vec<u8>],
+    truths: &[Vec<u8>],
+) -> Result<Scores> {
+    let mut s = Scores {
+        cm: ConfusionMatrix::new(match model {
+            Model::Classifier(c) => c.classes(),
+            Model::Segmenter(g) => g.classes(),
+        }),
+        by_kind: BTreeMap::new(),
+        hard: [(0, 0); 2],
+        seconds: 0.0,
+        images: images.len(),
+    };
+    let start = Instant::now();
+    for (n, (chunk, idx)) in images.chunks(32).zip(test.chunks(32)).enumerate() {
+        let refs: Vec<&[u8]> = chunk.iter().map(|v| v.as_slice()).collect();
+        match model {
+            Model::Classifier(c) => {
+                for (p, &i) in c.classify_batch(&refs)?.iter().zip(idx) {
+                    let e = &data.entries[i];
+                    let truth = usize::from(!e.hand); // class 0 hand, 1 non-hand
+                    let best = p
+                        .iter()
+                        .enumerate()
+                        .max_by(|a, b| a.1.total_cmp(b.1))
+                        .map_or(0, |(k, _)| k);
+                    s.cm.add(truth, best);
+                    let right = usize::from(best == truth);
+                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
+                    *slot = (slot.0 + right, slot.1 + 1);
+                    for (h, flag) in s.hard.iter_mut().zip([e.partial, e.fingertips]) {
+                        if flag {
+                            *h = (h.0 + right, h.1 + 1);
+                        }
+                    }
+                }
+            }
+            Model::Segmenter(g) => {
+                for (k, labels) in g.segment_batch(&refs)?.iter().enumerate() {
+                    let truth = &truths[n * 32 + k];
+                    let mut one = ConfusionMatrix::new(s.cm.classes());
+                    one.add_image(truth, labels);
+                    let e = &data.entries[idx[k]];
+                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
+                    // Per interaction: pixels right / hand pixels.
+                    let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
+                    let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
+                    *slot = (slot.0 + right as usize, slot.1 + parts as usize);
+                    s.cm.merge(&one);
+                }
+            }
+        }
+    }
+    s.seconds = start.elapsed().as_secs_f64();
+    Ok(s)
+}
+
+fn report(s: &Scores, segmenting: bool) {
+    let ms = 1e3 * s.seconds / s.images.max(1) as f64;
+    if !segmenting {
+        crate::say!(
+            "accuracy {:.2}%  ({ms:.2} ms per image, batches of 32)",
+            100.0 * s.cm.accuracy()
+        );
+        crate::say!("confusion (rows: true class, columns: predicted; % of the row)");
+        crate::say!("{:>10} {:>9} {:>9}", "", "hand", "non_hand");
+        for (t, name) in ["hand", "non_hand"].iter().enumerate() {
+            let n = s.cm.truth_total(t).max(1) as f64;
+            crate::say!(
+                "{name:>10} {:>8.2}% {:>8.2}%",
+                100.0 * s.cm.get(t, 0) as f64 / n,
+                100.0 * s.cm.get(t, 1) as f64 / n
+            );
+        }
+        crate::say!("by interaction / contact:");
+        for (kind, (right, n)) in &s.by_kind {
+            crate::say!(
+                "  {kind:<11} {:>7.2}%  of {n}",
+                100.0 * *right as f64 / (*n).max(1) as f64
+            );
+        }
+        for ((right, n), name) in s.hard.iter().zip(["partly off the skin", "fingertips only"]) {
+            crate::say!(
+                "  {name}: {:.2}% of {n}",
+                100.0 * *right as f64 / (*n).max(1) as f64
+            );
+        }
+        return;
+    }
+    let g = s.cm.segmentation_scores(1);
+    crate::say!("      Acc     mAcc     mIoU    fwIoU  Time (ms)");
+    crate::say!(
+        "{:>8.2}% {:>7.2}% {:>7.2}% {:>7.2}% {:>9.2}",
+        100.0 * g.pixel_accuracy,
+        100.0 * g.mean_accuracy,
+        100.0 * g.mean_iou,
+        100.0 * g.frequency_weighted_iou,
+        ms
+    );
+    crate::say!("confusion over hand-part pixels (rows: true part, columns: predicted; % of the row)");
+    let names: Vec<&str> = Part::ALL.iter().map(|p| p.name()).collect();
+    crate::say!(
+        "{:>8} {}",
+        "",
+        names.iter().map(|n| format!("{:>10}", n)).collect::<String>()
+    );
+    for (t, name) in names.iter().enumerate().take(s.cm.classes()).skip(1) {
+        let n = s.cm.truth_total(t).max(1) as f64;
+        let row: String = (0..s.cm.classes().min(7))
+            .map(|p| format!("{:>9.2}%", 100.0 * s.cm.get(t, p) as f64 / n))
+            .collect();
+        crate::say!("{name:>8} {row}");
+    }
+    crate::say!("IoU per part: {}", {
+        let v: Vec<String> = g
+            .iou
+            .iter()
+            .zip(&names[1..])
+            .map(|(u, n)| u.map_or(format!("{n} -"), |u| format!("{n} {:.2}%", 100.0 * u)))
+            .collect();
+        v.join(", ")
+    });
+    crate::say!("pixel accuracy by interaction:");
+    for (kind, (right, n)) in &s.by_kind {
+        crate::say!(
+            "  {kind:<11} {:>7.2}%  of {n} px",
+            100.0 * *right as f64 / (*n).max(1) as f64
+        );
+    }
+}

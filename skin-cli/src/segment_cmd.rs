@@ -1,0 +1,167 @@
+//! `skin segment`: which hand part pressed where, with an ONNX segmenter (thesis Ch. 4.4).
+
+use anyhow::{Context, Result, bail};
+use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
+use skin_learn::parts::part_contacts;
+use skin_learn::segment::Segmenter;
+use skin_learn::synth::Part;
+use std::path::{Path, PathBuf};
+
+/// Segment tactile images into hand parts (thumb, index, middle, ring, pinkie, palm) with an
+/// ONNX model run by tract on the CPU.
+///
+/// INPUTS are 8-bit grey PNG images of the model's input size (68 x 100), or, with --map,
+/// recordings whose frames are imaged by the real pipeline first (frames with no reading above
+/// --threshold are skipped). Each result is written to DIR as a colour PNG (thumb red, index
+/// green, middle yellow, ring blue, pinkie orange, palm purple; black: no contact) and a line
+/// gives each part's share of the pressed pixels. With --map, a table per frame gives each
+/// part's contact (Fig. 4.9): taxels pressed, mean reading, and the reading-weighted centroid of
+/// those taxels on the 3D link (mm, link frame).
+///
+/// Black input pixels are background whatever the model says. The input scaling comes from the
+/// model card (MODEL.md beside MODEL.onnx) unless given. Run `skin classify` first: a
+/// segmenter labels any contact as hand parts.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// The ONNX segmenter ([N, 1, H, W] in, [N, classes, H, W] out).
+    #[arg(long, value_name = "MODEL.onnx")]
+    model: PathBuf,
+    /// PNG images, or recordings with --map.
+    #[arg(required = true, value_name = "INPUTS")]
+    inputs: Vec<PathBuf>,
+    /// Tactile map (or layout) of the recordings.
+    #[arg(long, value_name = "MAP.json")]
+    map: Option<PathBuf>,
+    /// With --map: readings at or below this count as no contact.
+    #[arg(long, default_value_t = 10.0)]
+    threshold: f32,
+    /// Grey levels as the model expects them (default: from the model card, else 255).
+    #[arg(long, value_enum)]
+    input_scale: Option<crate::classify_cmd::Scale>,
+    /// Where to write the coloured part images.
+    #[arg(short, long, value_name = "DIR", default_value = "segments")]
+    output: PathBuf,
+}
+
+/// Part colours, in label order (background black).
+const COLOURS: [[u8; 3]; 7] = [
+    [0, 0, 0],
+    [230, 25, 75],
+    [60, 180, 75],
+    [255, 225, 25],
+    [0, 130, 200],
+    [245, 130, 48],
+    [145, 30, 180],
+];
+
+pub fn run(args: Args) -> Result<()> {
+    let scale = crate::classify_cmd::input_scale(&args.model, args.input_scale);
+    let mut net = Segmenter::load(&args.model, scale)?;
+    let (h, w) = net.input_size();
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("cannot create {}", args.output.display()))?;
+    crate::say!(
+        "{}: [N, 1, {h}, {w}] -> {} classes per pixel",
+        args.model.display(),
+        net.classes()
+    );
+    match &args.map {
+        None => {
+            for path in &args.inputs {
+                let img = image::open(path)
+                    .with_context(|| format!("cannot read {} as an image", path.display()))?
+                    .into_luma8();
+                let (iw, ih) = img.dimensions();
+                if (ih as usize, iw as usize) != (h, w) {
+                    bail!(
+                        "{}: {ih} x {iw} px, the model takes {h} x {w} (make images of that size with `skin image --size {h}x{w}`)",
+                        path.display()
+                    );
+                }
+                let labels = net.segment(img.as_raw())?;
+                let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("image");
+                let out = args.output.join(format!("{stem}_parts.png"));
+                write_colour(&out, &labels, h, w)?;
+                crate::say!("{}: {}  -> {}", path.display(), shares(&labels), out.display());
+            }
+        }
+        Some(map_path) => {
+            let map = crate::image_cmd::load_map(map_path)?;
+            let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
+                .with_context(|| format!("{}", map_path.display()))?;
+            let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
+            let inputs = crate::image_cmd::load_inputs(&args.inputs, &map, &args.output)?;
+            // The per-part table needs the grid while the imager is busy.
+            let raster = imager.raster().clone();
+            for input in &inputs {
+                std::fs::create_dir_all(&input.dir)
+                    .with_context(|| format!("cannot create {}", input.dir.display()))?;
+            }
+            let quiet = crate::image_cmd::each_touched_frame(
+                &inputs,
+                &mut imager,
+                args.threshold,
+                |input, f, pressures, grey| {
+                    let number = input.rec.frame_numbers[f];
+                    let labels = net.segment(grey)?;
+                    let out = input.dir.join(format!("frame_{number:05}_parts.png"));
+                    write_colour(&out, &labels, h, w)?;
+                    crate::say!(
+                        "{} frame {number} ({:.2} s): {}",
+                        input.dir.display(),
+                        input.rec.frames[f].time,
+                        shares(&labels)
+                    );
+                    crate::say!("  part     taxels  mean reading   centroid x, y, z (mm)");
+                    for pc in part_contacts(&map, &raster, (h, w), &labels, pressures) {
+                        let c = pc.centroid.map_or("-".to_string(), |c| {
+                            format!("{:.1}, {:.1}, {:.1}", 1e3 * c.x, 1e3 * c.y, 1e3 * c.z)
+                        });
+                        crate::say!(
+                            "  {:<8} {:>6}  {:>12.1}   {c}",
+                            pc.part.name(),
+                            pc.taxels,
+                            pc.mean_pressure
+                        );
+                    }
+                    Ok(())
+                },
+            )?;
+            crate::say!("{quiet} frame(s) with no contact above {}", args.threshold);
+        }
+    }
+    Ok(())
+}
+
+/// Each part's share of the pressed pixels, e.g. "palm 52%, index 20%".
+fn shares(labels: &[u8]) -> String {
+    let mut counts = [0usize; 256];
+    for &l in labels {
+        counts[usize::from(l)] += 1;
+    }
+    let pressed: usize = counts[1..].iter().sum();
+    if pressed == 0 {
+        return "no hand part".into();
+    }
+    let v: Vec<String> = counts[1..]
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| **n > 0)
+        .map(|(k, n)| {
+            let name = Part::from_label(k as u8 + 1)
+                .map_or_else(|| format!("class{}", k + 1), |p| p.name().to_string());
+            format!("{name} {:.0}%", 100.0 * *n as f64 / pressed as f64)
+        })
+        .collect();
+    v.join(", ")
+}
+
+fn write_colour(path: &Path, labels: &[u8], h: usize, w: usize) -> Result<()> {
+    let rgb: Vec<u8> = labels
+        .iter()
+        .flat_map(|&l| COLOURS.get(usize::from(l)).copied().unwrap_or([255, 255, 255]))
+        .collect();
+    image::save_buffer(path, &rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,126 @@
+//! `skin synth`: a labelled dataset of synthetic contacts on a layout (thesis Ch. 4.5).
+
+use anyhow::{Context as _, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use skin_learn::dataset::DatasetWriter;
+use skin_learn::synth::{SynthOptions, Synthesizer};
+use std::collections::BTreeMap;
+use std::io::IsTerminal as _;
+use std::path::PathBuf;
+
+/// Generate a labelled dataset of hand and non-hand contacts on a skin layout.
+///
+/// Hands of simulated subjects (hand length 15-22 cm, their own finger spread, bending and
+/// load) grasp, twist, push and pull the link as in the thesis' data collection (Ch. 4.5),
+/// with the variability of Ch. 4.2: cut at the edge of the skin, fingertips only, fingers bent
+/// or lifted, uneven pressure, any rotation and position. Other contacts are objects (balls,
+/// edges, bars, plates, corners, tools) and body parts (forearm, arm, shoulder, torso, back).
+/// Readings get sensor noise, spikes and a dead band, then go through the real image pipeline:
+/// map, 1 mm grid, contact-max grey (eq. 3.1), erosion r=2 and dilation r=4, resize.
+///
+/// Writes DIR/images/*.png (grey, 68 x 100 by default), DIR/masks/*.png (hand parts: 0
+/// background, 1 thumb, 2 index, 3 middle, 4 ring, 5 pinkie, 6 palm), DIR/labels.csv (file,
+/// class, kind, subject, partial, fingertips), DIR/frames.txt (raw readings, one frame per
+/// sample), DIR/taxel_parts.txt and DIR/map.json. Samples are numbered subject by subject; the
+/// same --seed gives the same dataset, whatever the number of threads. Split train and test by
+/// subject, as the thesis does.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Skin layout (JSON, Cyskin, iCub) or tactile map (JSON from `skin flatten`).
+    #[arg(long, value_name = "LAYOUT.json")]
+    layout: PathBuf,
+    /// Number of samples.
+    #[arg(long, value_name = "N")]
+    count: usize,
+    /// Number of subjects the samples are shared among (default: one per 40 samples, as the
+    /// thesis' 90 subjects for 3,530 images).
+    #[arg(long, value_name = "K")]
+    subjects: Option<usize>,
+    /// Fraction of hand samples, 0 to 1.
+    #[arg(long, default_value_t = 0.5)]
+    hand_fraction: f64,
+    /// Seed of the whole dataset.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output image size ROWSxCOLS.
+    #[arg(long, value_name = "ROWSxCOLS", default_value = "68x100", value_parser = crate::image_cmd::parse_size)]
+    size: (usize, usize),
+    /// Output directory (created).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.count == 0 {
+        bail!("--count must be at least 1");
+    }
+    if !(0.0..=1.0).contains(&args.hand_fraction) {
+        bail!(
+            "--hand-fraction must be between 0 and 1, not {}",
+            args.hand_fraction
+        );
+    }
+    let subjects = args
+        .subjects
+        .unwrap_or(args.count.div_ceil(40))
+        .clamp(1, args.count);
+    let map = crate::image_cmd::load_map(&args.layout)?;
+    let options = SynthOptions {
+        image_size: args.size,
+        hand_fraction: args.hand_fraction,
+        ..SynthOptions::default()
+    };
+    let synth = Synthesizer::new(&map, options).with_context(|| format!("{}", args.layout.display()))?;
+    // Sample i belongs to subject i * subjects / count: consecutive, nearly equal shares.
+    let jobs: Vec<(usize, u32, u32)> = (0..args.count)
+        .map(|i| {
+            let s = i * subjects / args.count;
+            let first = (s * args.count).div_ceil(subjects);
+            (i, s as u32, (i - first) as u32)
+        })
+        .collect();
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::new(args.count as u64).with_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} samples, {eta} left")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        )
+    } else {
+        ProgressBar::hidden()
+    };
+    let samples: Vec<_> = jobs
+        .par_iter()
+        .map_init(
+            || synth.clone(),
+            |s, &(i, subject, k)| {
+                bar.inc(1);
+                (i, s.sample(args.seed, subject, k))
+            },
+        )
+        .collect();
+    bar.finish_and_clear();
+
+    let mut writer = DatasetWriter::create(&args.output, &map.ids, &map.to_json(), args.size)?;
+    let mut kinds: BTreeMap<(bool, &str), usize> = BTreeMap::new();
+    let (mut partial, mut tips, mut hands) = (0, 0, 0);
+    for (i, s) in &samples {
+        writer.add(*i, s)?;
+        *kinds.entry((!s.kind.is_hand(), s.kind.name())).or_default() += 1;
+        hands += usize::from(s.kind.is_hand());
+        partial += usize::from(s.partial);
+        tips += usize::from(s.fingertips_only);
+    }
+    writer.finish()?;
+    crate::say!(
+        "{}: {} samples of {subjects} subjects on {} ({} taxels): {hands} hands, {} other contacts; {partial} partly off the skin, {tips} fingertips only",
+        args.output.display(),
+        args.count,
+        map.name,
+        map.ids.len(),
+        args.count - hands
+    );
+    let list: Vec<String> = kinds.iter().map(|((_, k), n)| format!("{k} {n}")).collect();
+    crate::say!("  {}", list.join(", "));
+    Ok(())
+}

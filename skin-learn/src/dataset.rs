@@ -1,0 +1,271 @@
+//! Tactile image datasets on disk: what `skin synth` writes and `skin eval` reads. A user's own
+//! dataset in the same layout works the same way.
+//!
+//! ```text
+//! DIR/labels.csv        file,class,kind,subject,partial,fingertips   (one row per sample)
+//! DIR/images/NAME.png   8-bit grey tactile image (68 x 100 by default)
+//! DIR/masks/NAME.png    8-bit part labels, 0 background, 1 thumb ... 6 palm (hands only)
+//! DIR/frames.txt        the raw readings, one frame per sample in row order (recording format)
+//! DIR/taxel_parts.txt   the part pressing each taxel, same layout as frames.txt
+//! DIR/map.json          the tactile map the images were made on
+//! ```
+//!
+//! `class` is `hand` or `non_hand`; `kind` the interaction (`grasp`, `pull`, ...) or contact
+//! (`ball`, `torso`, ...); `subject` the subject number (split train and test on it);
+//! `partial` 1 when less than 85% of the contact lies on the skin; `fingertips` 1 for a hand
+//! touching with its fingertips only.
+
+use crate::synth::Sample;
+use skin_core::{Frame, Recording, TaxelId};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// A dataset error, naming the file (and line) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// A file could not be read or written.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// A line of labels.csv is malformed.
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One row of labels.csv.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// File name under images/ (and masks/).
+    pub file: String,
+    /// A hand.
+    pub hand: bool,
+    /// Interaction or contact name.
+    pub kind: String,
+    /// Subject number.
+    pub subject: u32,
+    /// Less than 85% of the contact on the skin.
+    pub partial: bool,
+    /// A hand touching with its fingertips only.
+    pub fingertips: bool,
+}
+
+/// A dataset directory and its labels.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    /// The directory.
+    pub dir: PathBuf,
+    /// Its samples, in row order.
+    pub entries: Vec<Entry>,
+}
+
+const HEADER: &str = "file,class,kind,subject,partial,fingertips";
+
+impl Dataset {
+    /// Reads `DIR/labels.csv`.
+    pub fn read(dir: &Path) -> Result<Dataset, DatasetError> {
+        let path = dir.join("labels.csv");
+        let text = std::fs::read_to_string(&path).map_err(|e| io(&path, e))?;
+        let mut lines = text.lines().enumerate();
+        match lines.next() {
+            Some((_, h)) if h.trim() == HEADER => {}
+            other => {
+                return Err(DatasetError::Parse {
+                    path,
+                    line: 1,
+                    message: format!(
+                        "expected the header `{HEADER}`, found `{}`",
+                        other.map_or("", |(_, h)| h)
+                    ),
+                });
+            }
+        }
+        let mut entries = Vec::new();
+        for (i, line) in lines {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let bad = |message: String| DatasetError::Parse {
+                path: path.clone(),
+                line: i + 1,
+                message,
+            };
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            if f.len() != 6 {
+                return Err(bad(format!("{} fields, expected 6 ({HEADER})", f.len())));
+            }
+            let flag = |s: &str, name: &str| match s {
+                "0" => Ok(false),
+                "1" => Ok(true),
+                _ => Err(bad(format!("{name} must be 0 or 1, not `{s}`"))),
+            };
+            entries.push(Entry {
+                file: f[0].to_string(),
+                hand: match f[1] {
+                    "hand" => true,
+                    "non_hand" => false,
+                    c => return Err(bad(format!("class must be hand or non_hand, not `{c}`"))),
+                },
+                kind: f[2].to_string(),
+                subject: f[3]
+                    .parse()
+                    .map_err(|_| bad(format!("subject must be a whole number, not `{}`", f[3])))?,
+                partial: flag(f[4], "partial")?,
+                fingertips: flag(f[5], "fingertips")?,
+            });
+        }
+        Ok(Dataset {
+            dir: dir.to_path_buf(),
+            entries,
+        })
+    }
+
+    /// The grey image of entry `i`: (pixels row-major, rows, cols).
+    pub fn image(&self, i: usize) -> Result<(Vec<u8>, usize, usize), DatasetError> {
+        read_grey(&self.dir.join("images").join(&self.entry(i)?.file))
+    }
+
+    /// The part mask of entry `i` (all background for a contact that is not a hand when the
+    /// dataset has no mask for it).
+    pub fn mask(&self, i: usize) -> Result<(Vec<u8>, usize, usize), DatasetError> {
+        let e = self.entry(i)?;
+        let path = self.dir.join("masks").join(&e.file);
+        if !e.hand && !path.exists() {
+            let (img, r, c) = self.image(i)?;
+            return Ok((vec![0; img.len()], r, c));
+        }
+        read_grey(&path)
+    }
+
+    fn entry(&self, i: usize) -> Result<&Entry, DatasetError> {
+        self.entries.get(i).ok_or_else(|| DatasetError::Io {
+            path: self.dir.join("labels.csv"),
+            message: format!("no sample {i} (the dataset has {})", self.entries.len()),
+        })
+    }
+}
+
+/// Reads an 8-bit grey PNG: (pixels, rows, cols).
+pub fn read_grey(path: &Path) -> Result<(Vec<u8>, usize, usize), DatasetError> {
+    let img = image::open(path).map_err(|e| DatasetError::Io {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    if img.color() != image::ColorType::L8 {
+        return Err(DatasetError::Io {
+            path: path.to_path_buf(),
+            message: format!("expected an 8-bit grey image, found {:?}", img.color()),
+        });
+    }
+    let grey = img.into_luma8();
+    let (w, h) = grey.dimensions();
+    Ok((grey.into_raw(), h as usize, w as usize))
+}
+
+/// Writes a dataset directory sample by sample.
+#[derive(Debug)]
+pub struct DatasetWriter {
+    dir: PathBuf,
+    csv: String,
+    frames: Recording,
+    parts: Recording,
+    size: (usize, usize),
+}
+
+impl DatasetWriter {
+    /// Creates `dir` (and images/, masks/) for images of `size` (rows, cols) over the taxels
+    /// `ids`, and writes the map as `map_json`.
+    pub fn create(
+        dir: &Path,
+        ids: &[TaxelId],
+        map_json: &str,
+        size: (usize, usize),
+    ) -> Result<DatasetWriter, DatasetError> {
+        for sub in ["images", "masks"] {
+            let d = dir.join(sub);
+            std::fs::create_dir_all(&d).map_err(|e| io(&d, e))?;
+        }
+        let map = dir.join("map.json");
+        std::fs::write(&map, map_json).map_err(|e| io(&map, e))?;
+        let empty = Recording {
+            taxel_ids: ids.to_vec(),
+            ..Default::default()
+        };
+        Ok(DatasetWriter {
+            dir: dir.to_path_buf(),
+            csv: format!("{HEADER}\n"),
+            frames: empty.clone(),
+            parts: empty,
+            size,
+        })
+    }
+
+    /// Adds one sample, named by `index`.
+    pub fn add(&mut self, index: usize, s: &Sample) -> Result<(), DatasetError> {
+        let file = format!("{index:06}.png");
+        let (rows, cols) = self.size;
+        let png = |name: &str, pixels: &[u8]| {
+            let path = self.dir.join(name).join(&file);
+            skin_geom::write_png(&path, pixels, rows, cols).map_err(|e| DatasetError::Io {
+                path: path.clone(),
+                message: e.to_string(),
+            })
+        };
+        png("images", &s.image)?;
+        if s.kind.is_hand() {
+            png("masks", &s.mask)?;
+        }
+        let _ = writeln!(
+            self.csv,
+            "{file},{},{},{},{},{}",
+            if s.kind.is_hand() { "hand" } else { "non_hand" },
+            s.kind.name(),
+            s.subject,
+            u8::from(s.partial),
+            u8::from(s.fingertips_only)
+        );
+        let number = index as u64;
+        self.frames.frame_numbers.push(number);
+        self.frames.frames.push(Frame {
+            time: 0.0,
+            values: s.pressures.clone(),
+        });
+        self.parts.frame_numbers.push(number);
+        self.parts.frames.push(Frame {
+            time: 0.0,
+            values: s.taxel_parts.iter().map(|&p| f32::from(p)).collect(),
+        });
+        Ok(())
+    }
+
+    /// Writes labels.csv, frames.txt and taxel_parts.txt.
+    pub fn finish(self) -> Result<(), DatasetError> {
+        let csv = self.dir.join("labels.csv");
+        std::fs::write(&csv, &self.csv).map_err(|e| io(&csv, e))?;
+        for (name, rec) in [("frames.txt", &self.frames), ("taxel_parts.txt", &self.parts)] {
+            let path = self.dir.join(name);
+            skin_core::format::recording::write(&path, rec).map_err(|e| DatasetError::Io {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+}
+
+fn io(path: &Path, e: std::io::Error) -> DatasetError {
+    DatasetError::Io {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}

@@ -1,0 +1,116 @@
+//! What each hand part does, once a tactile image is segmented (thesis Fig. 4.9): how many
+//! taxels it presses, their mean reading, and where it presses on the 3D link.
+//!
+//! Each taxel takes the part of the output pixel its map position falls in; the centroid is the
+//! reading-weighted mean of those taxels' 3D positions, so it lies where the part presses on the
+//! link, not on the flat map.
+
+use crate::synth::Part;
+use nalgebra::Point3;
+use skin_geom::{Rasterizer, TactileMap};
+
+/// One hand part's share of a contact.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartContact {
+    /// The part.
+    pub part: Part,
+    /// Taxels with a positive reading under it.
+    pub taxels: usize,
+    /// Their mean reading, in the frame's units.
+    pub mean_pressure: f32,
+    /// Reading-weighted centroid of their 3D positions, metres in the link frame (`None` when
+    /// the map has no 3D positions).
+    pub centroid: Option<Point3<f64>>,
+}
+
+/// The parts pressing in `labels` (a segmentation of `size` = (rows, cols), the image made from
+/// `pressures` through `raster` on `map`), thumb to palm; parts with no pressed taxel are left
+/// out.
+pub fn part_contacts(
+    map: &TactileMap,
+    raster: &Rasterizer,
+    size: (usize, usize),
+    labels: &[u8],
+    pressures: &[f32],
+) -> Vec<PartContact> {
+    let (rows, cols) = size;
+    let mut sums = [(0usize, 0.0f64, nalgebra::Vector3::zeros()); 7];
+    for (i, (&p, point)) in pressures.iter().zip(&map.points).enumerate() {
+        if !(p > 0.0) || map.zeroed.binary_search(&i).is_ok() {
+            continue;
+        }
+        let Some((r, c)) = raster.pixel_of(*point) else {
+            continue;
+        };
+        let (r, c) = (r * rows / raster.rows().max(1), c * cols / raster.cols().max(1));
+        let Some(&label) = labels.get(r * cols + c) else {
+            continue;
+        };
+        let Some(slot) = sums.get_mut(usize::from(label)) else {
+            continue;
+        };
+        slot.0 += 1;
+        slot.1 += f64::from(p);
+        if let Some(x) = map.positions.get(i) {
+            slot.2 += x.coords * f64::from(p);
+        }
+    }
+    Part::ALL[1..]
+        .iter()
+        .zip(&sums[1..])
+        .filter(|(_, s)| s.0 > 0)
+        .map(|(&part, &(n, sum, moment))| PartContact {
+            part,
+            taxels: n,
+            mean_pressure: (sum / n as f64) as f32,
+            centroid: (map.positions.len() == map.points.len()).then(|| Point3::from(moment / sum)),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+    use super::*;
+    use nalgebra::{Unit, Vector3};
+    use skin_core::{LinkSkin, Taxel, TaxelId};
+    use skin_geom::{FlattenOptions, Grid};
+
+    #[test]
+    fn two_parts_get_their_taxels_and_centroids() {
+        // A flat 20 x 10 patch, 10 mm pitch: left half labelled thumb, right half palm.
+        let taxels = (0..200u32)
+            .map(|i| Taxel {
+                id: TaxelId(i),
+                position: Point3::new((i % 20) as f64 * 0.01, (i / 20) as f64 * 0.01, 0.0),
+                normal: Unit::new_normalize(Vector3::z()),
+            })
+            .collect();
+        let map = TactileMap::flatten(&LinkSkin::new("p", taxels), &FlattenOptions::default()).unwrap();
+        let raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
+        let size = (10, 20);
+        let labels: Vec<u8> = (0..200).map(|k| if k % 20 < 10 { 1 } else { 6 }).collect();
+        // Two pressed taxels under each half (in map coordinates, whatever the flattening did).
+        let mut pressures = vec![0.0f32; 200];
+        let mut expected = [Vec::new(), Vec::new()];
+        for (i, p) in map.points.iter().enumerate() {
+            let (r, c) = raster.pixel_of(*p).unwrap();
+            let (r, c) = (r * 10 / raster.rows(), c * 20 / raster.cols());
+            let half = usize::from(labels[r * 20 + c] == 6);
+            if expected[half].len() < 2 && r > 2 && c % 10 > 2 {
+                pressures[i] = 10.0 * (expected[half].len() + 1) as f32;
+                expected[half].push(i);
+            }
+        }
+        let parts = part_contacts(&map, &raster, size, &labels, &pressures);
+        assert_eq!(parts.len(), 2);
+        for (pc, taxels) in parts.iter().zip(&expected) {
+            assert_eq!(pc.taxels, 2);
+            assert!((pc.mean_pressure - 15.0).abs() < 1e-6);
+            let want =
+                (map.positions[taxels[0]].coords * 10.0 + map.positions[taxels[1]].coords * 20.0) / 30.0;
+            assert!((pc.centroid.unwrap().coords - want).norm() < 1e-12);
+        }
+        assert_eq!((parts[0].part, parts[1].part), (Part::Thumb, Part::Palm));
+    }
+}

@@ -1,0 +1,93 @@
+//! Hand-part segmentation of tactile images with an ONNX model run by tract (feature `onnx`;
+//! thesis Ch. 4.4): which part of the hand (thumb, index, middle, ring, pinkie, palm) pressed
+//! each pixel.
+//!
+//! Any ONNX segmenter whose input is `[N, 1, H, W]` grey and whose output is per-pixel class
+//! scores `[N, classes, H, W]` loads; the class of a pixel is the one with the highest score
+//! (what a softmax would pick). Planning and input scaling are as for
+//! [`crate::classify::Classifier`].
+
+use crate::image_model::ImageModel;
+pub use crate::image_model::{InputScale, ModelError};
+use std::path::Path;
+
+/// A loaded segmenter.
+#[derive(Debug)]
+pub struct Segmenter {
+    net: ImageModel,
+    classes: usize,
+}
+
+impl Segmenter {
+    /// Loads `path` and plans it for one image. The input must be `[N, 1, H, W]` with H and W
+    /// fixed, the output `[N, classes, H, W]`.
+    pub fn load(path: &Path, scale: InputScale) -> Result<Segmenter, ModelError> {
+        let mut net = ImageModel::load(path, scale)?;
+        let (h, w) = (net.height, net.width);
+        let classes = match net.output_shape(1)?.as_slice() {
+            [1, c, oh, ow] if (*oh, *ow) == (h, w) && *c >= 2 && *c <= 256 => *c,
+            other => {
+                return Err(ModelError::Shape {
+                    path: path.into(),
+                    why: format!(
+                        "output {other:?}: expected [N, classes, {h}, {w}] per-pixel class scores (2 to 256 classes)"
+                    ),
+                });
+            }
+        };
+        Ok(Segmenter { net, classes })
+    }
+
+    /// Runs the model's matrix products on `threads` threads (1: on the caller's thread).
+    pub fn with_threads(mut self, threads: usize) -> Result<Segmenter, ModelError> {
+        self.net.set_threads(threads)?;
+        Ok(self)
+    }
+
+    /// Input (and output) height and width, pixels.
+    pub fn input_size(&self) -> (usize, usize) {
+        (self.net.height, self.net.width)
+    }
+
+    /// Number of classes, background included.
+    pub fn classes(&self) -> usize {
+        self.classes
+    }
+
+    /// The class of each pixel of one image (row-major grey levels, H x W).
+    pub fn segment(&mut self, image: &[u8]) -> Result<Vec<u8>, ModelError> {
+        Ok(self.segment_batch(&[image])?.remove(0))
+    }
+
+    /// The class of each pixel of each image, run as one batch. Pixels that are black in the
+    /// input are background (class 0) whatever the model says: nothing pressed there.
+    pub fn segment_batch(&mut self, images: &[&[u8]]) -> Result<Vec<Vec<u8>>, ModelError> {
+        if images.is_empty() {
+            return Ok(Vec::new());
+        }
+        let (classes, pixels) = (self.classes, self.net.height * self.net.width);
+        self.net.run(images, |flat| {
+            images
+                .iter()
+                .zip(flat.chunks(classes * pixels))
+                .map(|(image, scores)| {
+                    (0..pixels)
+                        .map(|p| {
+                            if image[p] == 0 {
+                                return 0;
+                            }
+                            let mut best = (f32::NEG_INFINITY, 0u8);
+                            for c in 0..classes {
+                                let s = scores[c * pixels + p];
+                                if s > best.0 {
+                                    best = (s, c as u8);
+                                }
+                            }
+                            best.1
+                        })
+                        .collect()
+                })
+                .collect()
+        })
+    }
+}

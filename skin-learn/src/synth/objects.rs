@@ -1,0 +1,251 @@
+//! Contacts that are not a hand (thesis Ch. 4.5, Fig. 4.3): objects of different shape, size and
+//! softness, and other body parts (large, diffuse areas). About 35% of the thesis' non-hand
+//! images came from body parts, the rest from objects; the same mix is drawn here.
+
+use super::Placement;
+use super::shapes::{Patch, Shape};
+use nalgebra::{Point2, Rotation2, Vector2};
+use rand::Rng;
+
+/// What touched the skin, when it was not a hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Contact {
+    /// A ball or rounded knob, 2-12 cm across.
+    Ball,
+    /// The edge of a table or a sheet: a long thin line.
+    Edge,
+    /// A bar, tube or handle, 1.5-5 cm wide.
+    Bar,
+    /// A flat plate or box face.
+    Plate,
+    /// The corner of a box: two edges meeting.
+    Corner,
+    /// A tool: a handle with a head (hammer, wrench, screwdriver).
+    Tool,
+    /// A forearm laid on the skin.
+    Forearm,
+    /// An upper arm.
+    Arm,
+    /// A shoulder.
+    Shoulder,
+    /// A torso.
+    Torso,
+    /// A back.
+    Back,
+}
+
+impl Contact {
+    /// Objects, then body parts.
+    pub const ALL: [Contact; 11] = [
+        Contact::Ball,
+        Contact::Edge,
+        Contact::Bar,
+        Contact::Plate,
+        Contact::Corner,
+        Contact::Tool,
+        Contact::Forearm,
+        Contact::Arm,
+        Contact::Shoulder,
+        Contact::Torso,
+        Contact::Back,
+    ];
+
+    /// The name used in dataset files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Contact::Ball => "ball",
+            Contact::Edge => "edge",
+            Contact::Bar => "bar",
+            Contact::Plate => "plate",
+            Contact::Corner => "corner",
+            Contact::Tool => "tool",
+            Contact::Forearm => "forearm",
+            Contact::Arm => "arm",
+            Contact::Shoulder => "shoulder",
+            Contact::Torso => "torso",
+            Contact::Back => "back",
+        }
+    }
+
+    /// A body part rather than an object.
+    pub fn is_body_part(self) -> bool {
+        matches!(
+            self,
+            Contact::Forearm | Contact::Arm | Contact::Shoulder | Contact::Torso | Contact::Back
+        )
+    }
+
+    /// 65% objects, 35% body parts, uniform within each.
+    pub(crate) fn sample<R: Rng>(rng: &mut R) -> Contact {
+        if rng.random_bool(0.35) {
+            Contact::ALL[6 + rng.random_range(0..5)]
+        } else {
+            Contact::ALL[rng.random_range(0..6)]
+        }
+    }
+}
+
+/// The patches of `contact` placed by `at` (all labelled 0: no hand part). `body_scale` sizes
+/// body parts with the subject (1 for a 18.5 cm hand).
+pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, rng: &mut R) -> Vec<Patch> {
+    let cm = 0.01;
+    let x = Vector2::x();
+    let o = Point2::origin();
+    // Softness: a rigid object is a dome (0.5) or flat (0.2), a soft one spreads (0.8-1).
+    let gamma = |rng: &mut R, lo: f64, hi: f64| rng.random_range(lo..hi);
+    let mut patches = match contact {
+        Contact::Ball => {
+            let r = rng.random_range(1.0..6.0) * cm;
+            let squash = rng.random_range(0.85..1.0);
+            vec![Patch::new(
+                Shape::Ellipse {
+                    c: o,
+                    dir: x,
+                    u: r,
+                    v: r * squash,
+                },
+                1.0,
+                gamma(rng, 0.3, 1.0),
+                0,
+            )]
+        }
+        Contact::Edge => {
+            let half = rng.random_range(5.0..25.0) * cm;
+            vec![Patch::new(
+                Shape::Capsule {
+                    a: Point2::new(-half, 0.0),
+                    b: Point2::new(half, 0.0),
+                    r: rng.random_range(0.4..1.2) * cm,
+                },
+                1.0,
+                gamma(rng, 0.3, 0.8),
+                0,
+            )]
+        }
+        Contact::Bar => {
+            let half = rng.random_range(5.0..20.0) * cm;
+            vec![Patch::new(
+                Shape::Capsule {
+                    a: Point2::new(-half, 0.0),
+                    b: Point2::new(half, 0.0),
+                    r: rng.random_range(0.75..2.5) * cm,
+                },
+                1.0,
+                gamma(rng, 0.3, 0.9),
+                0,
+            )]
+        }
+        Contact::Plate => vec![Patch::new(
+            Shape::Rect {
+                c: o,
+                dir: x,
+                u: rng.random_range(2.5..12.0) * cm,
+                v: rng.random_range(2.5..10.0) * cm,
+            },
+            1.0,
+            gamma(rng, 0.1, 0.4),
+            0,
+        )],
+        Contact::Corner => {
+            // Two edges of a box meeting at the origin, at 60-120 degrees; the load peaks at the
+            // corner when the box is tilted onto it.
+            let angle = rng.random_range(60.0f64..120.0).to_radians();
+            let r = rng.random_range(0.4..1.0) * cm;
+            let (la, lb) = (rng.random_range(4.0..15.0) * cm, rng.random_range(4.0..15.0) * cm);
+            let tip = Point2::new(0.0, 0.0);
+            let b = Rotation2::new(angle) * Vector2::x();
+            vec![
+                Patch::new(
+                    Shape::Capsule {
+                        a: tip,
+                        b: tip + x * la,
+                        r,
+                    },
+                    1.0,
+                    0.5,
+                    0,
+                ),
+                Patch::new(
+                    Shape::Capsule {
+                        a: tip,
+                        b: tip + b * lb,
+                        r,
+                    },
+                    1.0,
+                    0.5,
+                    0,
+                ),
+            ]
+        }
+        Contact::Tool => {
+            let half = rng.random_range(6.0..14.0) * cm;
+            let grip = rng.random_range(1.0..1.8) * cm;
+            let head_u = rng.random_range(1.0..3.5) * cm;
+            let head_v = rng.random_range(0.8..5.0) * cm;
+            vec![
+                Patch::new(
+                    Shape::Capsule {
+                        a: Point2::new(-half, 0.0),
+                        b: Point2::new(half, 0.0),
+                        r: grip,
+                    },
+                    rng.random_range(0.5..1.0),
+                    0.5,
+                    0,
+                ),
+                Patch::new(
+                    Shape::Rect {
+                        c: Point2::new(half + head_u, 0.0),
+                        dir: x,
+                        u: head_u,
+                        v: head_v,
+                    },
+                    1.0,
+                    0.3,
+                    0,
+                ),
+            ]
+        }
+        Contact::Forearm | Contact::Arm | Contact::Shoulder | Contact::Torso | Contact::Back => {
+            let (u, v) = match contact {
+                Contact::Forearm => (rng.random_range(9.0..14.0), rng.random_range(2.5..4.5)),
+                Contact::Arm => (rng.random_range(11.0..17.0), rng.random_range(3.5..6.0)),
+                Contact::Shoulder => (rng.random_range(5.0..9.0), rng.random_range(4.0..7.0)),
+                _ => (rng.random_range(12.0..25.0), rng.random_range(9.0..18.0)),
+            };
+            let (u, v) = (u * cm * body_scale, v * cm * body_scale);
+            // Soft tissue over bone: a broad load with a few firmer spots (elbow, ribs, spine).
+            let mut p = vec![Patch::new(
+                Shape::Ellipse { c: o, dir: x, u, v },
+                rng.random_range(0.5..0.8),
+                gamma(rng, 0.6, 1.0),
+                0,
+            )];
+            for _ in 0..rng.random_range(0..3) {
+                let c = Point2::new(rng.random_range(-0.6..0.6) * u, rng.random_range(-0.5..0.5) * v);
+                let s = rng.random_range(0.2..0.45) * v;
+                p.push(Patch::new(
+                    Shape::Ellipse {
+                        c,
+                        dir: x,
+                        u: s * rng.random_range(1.0..2.0),
+                        v: s,
+                    },
+                    1.0,
+                    0.8,
+                    0,
+                ));
+            }
+            p
+        }
+    };
+    // An object seldom presses evenly: tilt its load.
+    let tilt = Vector2::new(rng.random_range(-8.0..8.0), rng.random_range(-8.0..8.0));
+    let rot = Rotation2::new(at.angle);
+    for patch in &mut patches {
+        patch.shape = patch.shape.moved(&rot, at.centre.coords);
+        patch.origin = at.centre;
+        patch.gradient = rot * tilt;
+    }
+    patches
+}

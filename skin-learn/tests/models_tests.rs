@@ -1,0 +1,103 @@
+//! The project's shipped models (fixtures/models, trained by skin-learn/training/train.py on
+//! `skin synth` data) run by tract: their cards are read, the segmenter's per-pixel output is
+//! laid out right (it agrees with fresh ground truth far above chance), and a classifier is
+//! refused as a segmenter.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::card::ModelCard;
+use skin_learn::classify::{Classifier, InputScale, ModelError};
+use skin_learn::metrics::ConfusionMatrix;
+use skin_learn::segment::Segmenter;
+use skin_learn::synth::{SynthOptions, Synthesizer};
+use std::path::{Path, PathBuf};
+
+fn model(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/models")
+        .join(name)
+}
+
+/// The bundled forearm's layout, flattened as `skin synth` does.
+fn forearm() -> TactileMap {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json");
+    let link = skin_core::format::load_link(&path).unwrap();
+    TactileMap::flatten(&link, &FlattenOptions::default()).unwrap()
+}
+
+#[test]
+fn cards_say_how_to_feed_the_models() {
+    for name in ["handsnet.onnx", "handseg.onnx"] {
+        let card = ModelCard::for_model(&model(name)).expect("a card beside every shipped model");
+        assert_eq!(card.unit_scale, Some(true), "{name}");
+    }
+    assert_eq!(
+        ModelCard::for_model(&model("handsnet.onnx")).unwrap().classes,
+        ["hand", "non_hand"]
+    );
+    assert_eq!(
+        ModelCard::for_model(&model("handseg.onnx"))
+            .unwrap()
+            .classes
+            .len(),
+        7
+    );
+}
+
+#[test]
+fn the_segmenter_labels_fresh_hands_far_above_chance() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(
+        &map,
+        SynthOptions {
+            hand_fraction: 1.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    let mut net = Segmenter::load(&model("handseg.onnx"), InputScale::Unit).unwrap();
+    assert_eq!((net.input_size(), net.classes()), ((68, 100), 7));
+    // Subjects the model never saw (the training set used seed 1).
+    let samples: Vec<_> = (0..24).map(|k| synth.sample(77, k / 4, k % 4)).collect();
+    let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
+    let batch = net.segment_batch(&images).unwrap();
+    let mut cm = ConfusionMatrix::new(7);
+    for (s, labels) in samples.iter().zip(&batch) {
+        assert_eq!(
+            labels,
+            &net.segment(&s.image).unwrap(),
+            "batch and single runs differ"
+        );
+        assert!(labels.iter().zip(&s.image).all(|(&l, &g)| l == 0 || g > 0));
+        cm.add_image(&s.mask, labels);
+    }
+    let scores = cm.segmentation_scores(1);
+    // Six parts: chance is about 1/6; a transposed or misread output scores near it.
+    assert!(scores.pixel_accuracy > 0.45, "{scores:?}");
+}
+
+#[test]
+fn the_classifier_tells_fresh_hands_from_other_contacts_above_chance() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let mut net = Classifier::load(&model("handsnet.onnx"), InputScale::Unit).unwrap();
+    let samples: Vec<_> = (0..120).map(|k| synth.sample(78, k / 10, k % 10)).collect();
+    let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
+    let probs = net.classify_batch(&images).unwrap();
+    let right = samples
+        .iter()
+        .zip(&probs)
+        .filter(|(s, p)| (p[0] > p[1]) == s.kind.is_hand())
+        .count();
+    assert!(right >= 72, "{right} of 120 right");
+}
+
+#[test]
+fn a_classifier_is_not_a_segmenter_and_vice_versa() {
+    let err = Segmenter::load(&model("handsnet.onnx"), InputScale::Unit).unwrap_err();
+    assert!(matches!(err, ModelError::Shape { .. }), "{err}");
+    assert!(err.to_string().contains("per-pixel class scores"), "{err}");
+    let err = Classifier::load(&model("handseg.onnx"), InputScale::Unit).unwrap_err();
+    assert!(matches!(err, ModelError::Shape { .. }), "{err}");
+}

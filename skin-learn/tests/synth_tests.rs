@@ -1,0 +1,147 @@
+//! The synthetic contact generator: repeatable, labelled consistently with its images, and
+//! robust to any seed.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use nalgebra::{Point3, Unit, Vector3};
+use proptest::prelude::*;
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::synth::{Kind, Part, SynthOptions, Synthesizer};
+
+/// A half cylinder like a forearm cover (radius 80 mm, 300 mm long), taxels ~10 mm apart.
+fn forearm() -> TactileMap {
+    let mut taxels = Vec::new();
+    for i in 0..30 {
+        for j in 0..25 {
+            let a = std::f64::consts::PI * (j as f64 + 0.5) / 25.0;
+            let n = Vector3::new(a.cos(), 0.0, a.sin());
+            taxels.push(Taxel {
+                id: TaxelId(taxels.len() as u32),
+                position: Point3::new(0.08 * n.x, 0.01 * i as f64, 0.08 * n.z),
+                normal: Unit::new_normalize(n),
+            });
+        }
+    }
+    TactileMap::flatten(&LinkSkin::new("forearm", taxels), &FlattenOptions::default()).unwrap()
+}
+
+#[test]
+fn one_seed_one_sample_and_labels_follow_the_image() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let mut again = synth.clone();
+    let (mut hands, mut with_parts, mut palms) = (0, 0, 0);
+    for k in 0..40 {
+        let s = synth.sample(11, k / 10, k % 10);
+        assert_eq!(
+            s,
+            again.sample(11, k / 10, k % 10),
+            "sample {k} is not repeatable"
+        );
+        assert_eq!(s.pressures.len(), map.ids.len());
+        assert!(
+            s.pressures
+                .iter()
+                .all(|p| p.is_finite() && *p >= 0.0 && p.fract() == 0.0)
+        );
+        // Every labelled taxel reads something; every mask label sits on a lit pixel.
+        for (p, part) in s.pressures.iter().zip(&s.taxel_parts) {
+            assert!(*part == 0 || *p > 0.0);
+        }
+        assert!(s.mask.iter().zip(&s.image).all(|(&l, &g)| l == 0 || g > 0));
+        match s.kind {
+            Kind::Hand(_) => {
+                hands += 1;
+                with_parts += usize::from(s.mask.iter().any(|&l| l > 0));
+                palms += usize::from(s.taxel_parts.contains(&(Part::Palm as u8)));
+                assert!(!s.fingertips_only || !s.taxel_parts.contains(&(Part::Palm as u8)));
+            }
+            Kind::Other(_) => {
+                assert!(
+                    s.taxel_parts.iter().all(|&p| p == 0),
+                    "a non-hand contact with hand parts"
+                );
+                assert!(s.mask.iter().all(|&l| l == 0));
+                assert!(!s.fingertips_only);
+            }
+        }
+        assert!(s.image.iter().any(|&g| g > 0), "sample {k}: nothing on the skin");
+    }
+    assert!(
+        hands >= 10 && with_parts * 10 >= hands * 9,
+        "{with_parts} of {hands}"
+    );
+    assert!(
+        palms * 2 >= hands,
+        "the palm shows in most hand contacts: {palms} of {hands}"
+    );
+    assert_ne!(synth.sample(11, 0, 0), synth.sample(12, 0, 0));
+}
+
+#[test]
+fn subjects_have_adult_hands_and_keep_them() {
+    let mut lengths = Vec::new();
+    for s in 0..300 {
+        let a = Synthesizer::subject(4, s);
+        assert_eq!(a, Synthesizer::subject(4, s));
+        assert!((0.15..=0.22).contains(&a.hand_length), "{}", a.hand_length);
+        lengths.push(a.hand_length);
+    }
+    let mean = lengths.iter().sum::<f64>() / lengths.len() as f64;
+    // Table 4.2: 15 to 22 cm, mean 18 cm.
+    assert!((0.175..0.195).contains(&mean), "mean hand length {mean}");
+    let right = (0..300)
+        .filter(|&s| Synthesizer::subject(4, s).right_handed)
+        .count();
+    assert!(
+        (190..=270).contains(&right),
+        "{right} of 300 right-handed (78% expected)"
+    );
+}
+
+#[test]
+fn all_interactions_and_contacts_are_drawn() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let mut seen = std::collections::HashSet::new();
+    for k in 0..400 {
+        seen.insert(synth.sample(2, k / 40, k % 40).kind.name());
+    }
+    for name in [
+        "grasp",
+        "twist_cw",
+        "twist_ccw",
+        "push_left",
+        "push_right",
+        "push_away",
+        "pull",
+        "ball",
+        "edge",
+        "bar",
+        "plate",
+        "corner",
+        "tool",
+        "forearm",
+        "arm",
+        "shoulder",
+        "torso",
+        "back",
+    ] {
+        assert!(seen.contains(name), "{name} never drawn in 400 samples");
+        assert_eq!(Kind::from_name(name).map(|k| k.name()), Some(name));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    #[test]
+    fn any_seed_gives_a_valid_sample(seed in any::<u64>(), subject in any::<u32>(), index in any::<u32>()) {
+        let map = forearm();
+        let mut synth = Synthesizer::new(&map, SynthOptions { image_size: (34, 50), ..SynthOptions::default() }).unwrap();
+        let s = synth.sample(seed, subject, index);
+        prop_assert_eq!(s.image.len(), 34 * 50);
+        prop_assert_eq!(s.mask.len(), 34 * 50);
+        prop_assert!(s.mask.iter().all(|&l| l <= 6));
+    }
+}
