@@ -21,26 +21,33 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// The ONNX model.
-    #[arg(long, value_name = "MODEL.onnx")]
-    model: PathBuf,
-    /// PNG images, or recordings with --map.
-    #[arg(required = true, value_name = "INPUTS")]
-    inputs: Vec<PathBuf>,
-    /// Tactile map (or layout) of the recordings: classify their frames.
-    #[arg(long, value_name = "MAP.json")]
-    map: Option<PathBuf>,
-    /// With --map: readings at or below this count as no contact.
-    #[arg(long, default_value_t = 10.0)]
-    threshold: f32,
-    /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1). Default: what the
-    /// model card (MODEL.md beside MODEL.onnx) says, else 255.
-    #[arg(long, value_enum)]
-    input_scale: Option<Scale>,
+    #[command(flatten)]
+    run: ModelInputs,
     /// Class names, in the model's output order, comma separated (default: from the model card,
     /// else class0, class1, ...).
     #[arg(long, value_delimiter = ',')]
     labels: Vec<String>,
+}
+
+/// The model and what it runs on, for `skin classify` and `skin segment`.
+#[derive(clap::Args)]
+pub(crate) struct ModelInputs {
+    /// The ONNX model.
+    #[arg(long, value_name = "MODEL.onnx")]
+    pub(crate) model: PathBuf,
+    /// PNG images, or recordings with --map.
+    #[arg(required = true, value_name = "INPUTS")]
+    pub(crate) inputs: Vec<PathBuf>,
+    /// Tactile map (or layout) of the recordings: run the model on their touched frames.
+    #[arg(long, value_name = "MAP.json")]
+    pub(crate) map: Option<PathBuf>,
+    /// With --map: readings at or below this count as no contact.
+    #[arg(long, default_value_t = 10.0)]
+    pub(crate) threshold: f32,
+    /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1). Default: what the
+    /// model card (MODEL.md beside MODEL.onnx) says, else 255.
+    #[arg(long, value_enum)]
+    pub(crate) input_scale: Option<Scale>,
 }
 
 /// How the model expects grey levels.
@@ -67,11 +74,11 @@ pub(crate) fn input_scale(model: &std::path::Path, given: Option<Scale>) -> Inpu
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let scale = input_scale(&args.model, args.input_scale);
-    let mut net = Classifier::load(&args.model, scale)?;
+    let scale = input_scale(&args.run.model, args.run.input_scale);
+    let mut net = Classifier::load(&args.run.model, scale)?;
     let (h, w) = net.input_size();
     let classes = net.classes();
-    let card = ModelCard::for_model(&args.model)
+    let card = ModelCard::for_model(&args.run.model)
         .map(|c| c.classes)
         .unwrap_or_default();
     let labels: Vec<String> = if args.labels.is_empty() && card.len() == classes {
@@ -84,12 +91,12 @@ pub fn run(args: Args) -> Result<()> {
         bail!(
             "--labels names {} classes, {} gives {classes}",
             args.labels.len(),
-            args.model.display()
+            args.run.model.display()
         );
     };
     crate::say!(
         "{}: [N, 1, {h}, {w}] -> {classes} classes ({})",
-        args.model.display(),
+        args.run.model.display(),
         labels.join(", ")
     );
     let mut counts = vec![0usize; classes];
@@ -103,9 +110,9 @@ pub fn run(args: Args) -> Result<()> {
         let probs: Vec<String> = labels.iter().zip(p).map(|(l, v)| format!("{l} {v:.3}")).collect();
         crate::say!("{name}: {}  -> {}", probs.join("  "), labels[best]);
     };
-    match &args.map {
+    match &args.run.map {
         None => {
-            for path in &args.inputs {
+            for path in &args.run.inputs {
                 let img = image::open(path)
                     .with_context(|| format!("cannot read {} as an image", path.display()))?
                     .into_luma8();
@@ -125,11 +132,11 @@ pub fn run(args: Args) -> Result<()> {
             let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::image_cmd::load_inputs(&args.inputs, &map, std::path::Path::new("."))?;
+            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
             let quiet = crate::image_cmd::each_touched_frame(
                 &inputs,
                 &mut imager,
-                args.threshold,
+                args.run.threshold,
                 |input, f, _, grey| {
                     let name = format!(
                         "{} frame {} ({:.2} s)",
@@ -142,7 +149,7 @@ pub fn run(args: Args) -> Result<()> {
                     Ok(())
                 },
             )?;
-            crate::say!("{quiet} frame(s) with no contact above {}", args.threshold);
+            crate::say!("{quiet} frame(s) with no contact above {}", args.run.threshold);
         }
     }
     let summary: Vec<String> = labels

@@ -24,21 +24,8 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// The ONNX segmenter ([N, 1, H, W] in, [N, classes, H, W] out).
-    #[arg(long, value_name = "MODEL.onnx")]
-    model: PathBuf,
-    /// PNG images, or recordings with --map.
-    #[arg(required = true, value_name = "INPUTS")]
-    inputs: Vec<PathBuf>,
-    /// Tactile map (or layout) of the recordings.
-    #[arg(long, value_name = "MAP.json")]
-    map: Option<PathBuf>,
-    /// With --map: readings at or below this count as no contact.
-    #[arg(long, default_value_t = 10.0)]
-    threshold: f32,
-    /// Grey levels as the model expects them (default: from the model card, else 255).
-    #[arg(long, value_enum)]
-    input_scale: Option<crate::classify_cmd::Scale>,
+    #[command(flatten)]
+    run: crate::classify_cmd::ModelInputs,
     /// Where to write the coloured part images.
     #[arg(short, long, value_name = "DIR", default_value = "segments")]
     output: PathBuf,
@@ -56,19 +43,19 @@ const COLOURS: [[u8; 3]; 7] = [
 ];
 
 pub fn run(args: Args) -> Result<()> {
-    let scale = crate::classify_cmd::input_scale(&args.model, args.input_scale);
-    let mut net = Segmenter::load(&args.model, scale)?;
+    let scale = crate::classify_cmd::input_scale(&args.run.model, args.run.input_scale);
+    let mut net = Segmenter::load(&args.run.model, scale)?;
     let (h, w) = net.input_size();
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create {}", args.output.display()))?;
     crate::say!(
         "{}: [N, 1, {h}, {w}] -> {} classes per pixel",
-        args.model.display(),
+        args.run.model.display(),
         net.classes()
     );
-    match &args.map {
+    match &args.run.map {
         None => {
-            for path in &args.inputs {
+            for path in &args.run.inputs {
                 let img = image::open(path)
                     .with_context(|| format!("cannot read {} as an image", path.display()))?
                     .into_luma8();
@@ -91,7 +78,7 @@ pub fn run(args: Args) -> Result<()> {
             let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::image_cmd::load_inputs(&args.inputs, &map, &args.output)?;
+            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, &args.output)?;
             // The per-part table needs the grid while the imager is busy.
             let raster = imager.raster().clone();
             for input in &inputs {
@@ -101,7 +88,7 @@ pub fn run(args: Args) -> Result<()> {
             let quiet = crate::image_cmd::each_touched_frame(
                 &inputs,
                 &mut imager,
-                args.threshold,
+                args.run.threshold,
                 |input, f, pressures, grey| {
                     let number = input.rec.frame_numbers[f];
                     let labels = net.segment(grey)?;
@@ -128,7 +115,7 @@ pub fn run(args: Args) -> Result<()> {
                     Ok(())
                 },
             )?;
-            crate::say!("{quiet} frame(s) with no contact above {}", args.threshold);
+            crate::say!("{quiet} frame(s) with no contact above {}", args.run.threshold);
         }
     }
     Ok(())
