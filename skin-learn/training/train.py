@@ -210,8 +210,9 @@ def main():
 
     x, y, test, rows, cut, n_subjects = load(a.dataset, a.task, a.test_fraction)
     if a.smoke:
-        x, y, test = x[:48], y[:48], torch.zeros(48, dtype=torch.bool)
-        test[-16:] = True
+        n = min(48, len(x))
+        x, y, test = x[:n], y[:n], torch.zeros(n, dtype=torch.bool)
+        test[-max(1, n // 3):] = True
         epochs = 1
     xtr, ytr, xte, yte = x[~test], y[~test], x[test], y[test]
     _, _, rows_px, cols_px = x.shape
