@@ -18,6 +18,7 @@ machine. `--smoke` runs one tiny epoch and checks the export (what CI runs when 
 
 import argparse
 import csv
+import math
 import os
 import random
 import sys
@@ -119,7 +120,9 @@ def load(dataset, task, test_fraction):
         rows = [r for r in rows if r["class"] == "hand"]
     subjects = sorted({int(r["subject"]) for r in rows})
     # The last 30% of the subjects are the test set: people the model never saw.
-    cut = subjects[int(round(len(subjects) * (1 - test_fraction)))] if len(subjects) > 1 else None
+    # Rounded half up, as `skin eval` does, so both cut at the same subject.
+    k = min(len(subjects) - 1, int(math.floor(len(subjects) * (1 - test_fraction) + 0.5)))
+    cut = subjects[k] if len(subjects) > 1 else None
     images, targets, is_test = [], [], []
     for r in rows:
         img = np.asarray(Image.open(os.path.join(dataset, "images", r["file"])), dtype=np.uint8)
