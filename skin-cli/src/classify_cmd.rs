@@ -61,6 +61,21 @@ pub(crate) enum Scale {
     Unit,
 }
 
+/// A grey PNG of the model's input size (rows, cols), as row-major pixels.
+pub(crate) fn read_model_image(path: &std::path::Path, (h, w): (usize, usize)) -> Result<Vec<u8>> {
+    let img = image::open(path)
+        .with_context(|| format!("cannot read {} as an image", path.display()))?
+        .into_luma8();
+    let (iw, ih) = img.dimensions();
+    if (ih as usize, iw as usize) != (h, w) {
+        bail!(
+            "{}: {ih} x {iw} px, the model takes {h} x {w} (make images of that size with `skin image --size {h}x{w}`)",
+            path.display()
+        );
+    }
+    Ok(img.into_raw())
+}
+
 /// The input scaling: as given, else as the model card says, else 0..255 (the MATLAB HandsNet).
 pub(crate) fn input_scale(model: &std::path::Path, given: Option<Scale>) -> InputScale {
     match given {
@@ -113,17 +128,8 @@ pub fn run(args: Args) -> Result<()> {
     match &args.run.map {
         None => {
             for path in &args.run.inputs {
-                let img = image::open(path)
-                    .with_context(|| format!("cannot read {} as an image", path.display()))?
-                    .into_luma8();
-                let (iw, ih) = img.dimensions();
-                if (ih as usize, iw as usize) != (h, w) {
-                    bail!(
-                        "{}: {ih} x {iw} px, the model takes {h} x {w} (make images of that size with `skin image --size {h}x{w}`)",
-                        path.display()
-                    );
-                }
-                let p = net.classify(img.as_raw())?;
+                let img = read_model_image(path, (h, w))?;
+                let p = net.classify(&img)?;
                 report(&path.display().to_string(), &p, &mut counts);
             }
         }

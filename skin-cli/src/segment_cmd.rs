@@ -1,6 +1,6 @@
 //! `skin segment`: which hand part pressed where, with an ONNX segmenter (thesis Ch. 4.4).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
 use skin_learn::parts::part_contacts;
 use skin_learn::segment::Segmenter;
@@ -56,17 +56,8 @@ pub fn run(args: Args) -> Result<()> {
     match &args.run.map {
         None => {
             for path in &args.run.inputs {
-                let img = image::open(path)
-                    .with_context(|| format!("cannot read {} as an image", path.display()))?
-                    .into_luma8();
-                let (iw, ih) = img.dimensions();
-                if (ih as usize, iw as usize) != (h, w) {
-                    bail!(
-                        "{}: {ih} x {iw} px, the model takes {h} x {w} (make images of that size with `skin image --size {h}x{w}`)",
-                        path.display()
-                    );
-                }
-                let labels = net.segment(img.as_raw())?;
+                let img = crate::classify_cmd::read_model_image(path, (h, w))?;
+                let labels = net.segment(&img)?;
                 let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("image");
                 let out = args.output.join(format!("{stem}_parts.png"));
                 write_colour(&out, &labels, h, w)?;
