@@ -323,6 +323,66 @@ impl Sinks {
     }
 }
 
+/// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) through the
+/// assembler and hands every assembled frame to `each`, until Ctrl-C, `duration` seconds, or
+/// `each` returns false. Interface outages go to standard error (standard output carries the
+/// run's events).
+pub(crate) fn run_frames(
+    map: &BusMap,
+    names: &[String],
+    master: bool,
+    duration: Option<f64>,
+    each: &mut dyn FnMut(&AssembledFrame) -> bool,
+) -> Result<()> {
+    if let Some(d) = duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration must be a positive number of seconds, not {d}");
+    }
+    let names: Vec<String> = if names.is_empty() {
+        map.buses.iter().map(|b| b.interface.clone()).collect()
+    } else {
+        names.to_vec()
+    };
+    let period = Duration::from_millis(50);
+    let options = LiveOptions {
+        sync_period: master.then_some(period),
+        ..LiveOptions::default()
+    };
+    let ports = open_ports(&names)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed)).context("cannot catch Ctrl-C")?;
+    }
+    let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
+    let acq = Acquisition::start(ports, options);
+    let interfaces = acq.interfaces().to_vec();
+    let mut assembler = Assembler::for_map(map, &interfaces, period.as_micros() as u64);
+    let mut go = true;
+    while go && !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
+        match acq.recv(Duration::from_millis(50)) {
+            Some(LiveEvent::Frame(f)) => assembler.push(&f, &mut |a| {
+                if go {
+                    go = each(a);
+                }
+            }),
+            Some(LiveEvent::Down { bus, error }) => {
+                eprintln!("{}: {error}; reopening", interfaces[usize::from(bus)]);
+            }
+            Some(LiveEvent::Reopened { bus }) => eprintln!("{}: open again", interfaces[usize::from(bus)]),
+            None => {}
+        }
+    }
+    acq.stop();
+    assembler.finish(&mut |a| {
+        if go {
+            go = each(a);
+        }
+    });
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test

@@ -9,7 +9,8 @@
 //! contacts, `skin probe-sim` simulates such contacts; `skin reach` and `skin phri` run the
 //! control experiments in simulation; `skin synth` generates labelled hand and non-hand
 //! contacts; `skin classify` tells hand touches from others with an ONNX model, `skin segment`
-//! labels the hand parts, `skin eval` scores either on a dataset. Run `skin help <command>` for details.
+//! labels the hand parts, `skin eval` scores either on a dataset; `skin run` does it all at once,
+//! from CAN traffic (a log or a live bus) to touch decisions. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
@@ -24,6 +25,8 @@ mod live_cmd;
 mod phri_cmd;
 mod reach_cmd;
 mod replay;
+#[cfg(feature = "onnx")]
+mod run_cmd;
 #[cfg(feature = "onnx")]
 mod segment_cmd;
 mod stitch_cmd;
@@ -69,6 +72,8 @@ enum Command {
     Segment(segment_cmd::Args),
     #[cfg(feature = "onnx")]
     Eval(eval_cmd::Args),
+    #[cfg(feature = "onnx")]
+    Run(run_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -93,6 +98,8 @@ fn main() -> ExitCode {
         Command::Segment(args) => segment_cmd::run(args),
         #[cfg(feature = "onnx")]
         Command::Eval(args) => eval_cmd::run(args),
+        #[cfg(feature = "onnx")]
+        Command::Run(args) => run_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,7 +9,8 @@
 //! - [`SkinLayout`]: the skins of all links of a robot;
 //! - [`Frame`] and [`Recording`]: synchronous snapshots of one value per taxel, in layout order;
 //! - [`Baseline`]: raw readings to pressures, per-taxel noise thresholds, drift tracking, and the
-//!   dead or stuck taxels found while learning it.
+//!   dead or stuck taxels found while learning it;
+//! - [`ContactFinder`] and [`Contact`]: the connected patches of pressed taxels in a frame.
 //!
 //! File formats live in [`format`]: the project's own JSON layout, Cyskin calibration JSON (read and
 //! write), iCub `positions/*.txt` taxel files, and Cyskin raw recordings (read and write).
@@ -35,6 +36,7 @@
 //! whatever the sensor reports (raw capacitance counts for Cyskin) unless a crate says otherwise.
 
 mod baseline;
+mod contact;
 mod error;
 pub mod format;
 mod frame;
@@ -42,6 +44,7 @@ mod layout;
 mod taxel;
 
 pub use baseline::{Baseline, BaselineOptions, Polarity, TaxelHealth};
+pub use contact::{Contact, ContactFinder};
 pub use error::{Error, Result};
 pub use frame::{Frame, Recording};
 pub use layout::{LinkSkin, SkinLayout};

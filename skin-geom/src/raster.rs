@@ -704,6 +704,15 @@ impl TactileImager {
         }
     }
 
+    /// The grey image [`Self::process`] last returned (black before the first frame).
+    pub fn last_output(&self) -> &[u8] {
+        if self.resizer.is_some() {
+            &self.resized
+        } else {
+            &self.grey
+        }
+    }
+
     /// The pressure image K of the last processed frame (real pressures, before grey conversion).
     pub fn pressure_image(&self) -> &[f32] {
         &self.pressure

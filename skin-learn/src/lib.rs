@@ -10,6 +10,8 @@
 //! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
 //!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
+//! - `touch` (feature `onnx`): the per-frame path of a whole skin, from pressures to contacts,
+//!   touches and their hand / non-hand decisions and hand parts.
 //! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.
 
 pub mod calibration;
@@ -24,3 +26,5 @@ pub mod parts;
 #[cfg(feature = "onnx")]
 pub mod segment;
 pub mod synth;
+#[cfg(feature = "onnx")]
+pub mod touch;

@@ -1,0 +1,1098 @@
+//! `skin run`: the whole pipeline, from CAN traffic to touch decisions, offline or live.
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Deserialize;
+use serde_json::json;
+use skin_can::candump::CandumpLog;
+use skin_can::{AssembledFrame, Assembler, BusMap};
+use skin_core::{Baseline, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
+use skin_geom::TactileMap;
+use skin_learn::card::ModelCard;
+use skin_learn::classify::Classifier;
+use skin_learn::segment::Segmenter;
+use skin_learn::touch::{Decision, Footprint, TouchEvent, TouchOptions, TouchPipeline};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Run the whole pipeline on a recording or a live bus: frames, contacts, tactile images,
+/// hand / non-hand decisions and hand parts, per link.
+///
+/// CONFIG is a TOML file naming the skin and the models (paths relative to it):
+///
+///     layout = "layout.json"          # the skin (all links of a skin-layout/1 file)
+///     busmap = "busmap.toml"          # which taxel each CAN slot carries
+///     classifier = "handsnet.onnx"    # optional; class names and input scale from its card
+///     segmenter = "handseg.onnx"      # optional: hand parts of touches classified as hands
+///     image_size = "68x100"           # the models' input; default 68x100
+///     cache = ".skin-cache"           # tactile maps, made on first use; default as shown
+///     truth = "session.tsv"           # optional: the scripted touches, to score the run
+///     [baseline]
+///     frames = 20                     # untouched frames at the start that learn offsets
+///     polarity = "rising"             # "falling" for iCub (255 = no load)
+///     [touch]
+///     threshold = 5.0                 # counts above the baseline that press a taxel
+///     min_taxels = 2
+///     decide_frames = 3               # frames of contact before the first decision
+///     release_frames = 2              # frames without contact that end a touch
+///     [gate]                          # optional: what the robot should do
+///     hand = "comply"
+///     non_hand = "stop"
+///
+/// Per frame: CAN frames -> assembled frame (bus map) -> baseline -> contacts (connected
+/// pressed taxels) -> touches -> tactile image of the touch at its fullest -> classifier (and
+/// segmenter for hands). A module missing from a frame keeps its last readings and is reported.
+///
+/// Offline (--log): writes OUT/events.jsonl (one JSON object a line: appeared, classified,
+/// released, gate, incomplete; times in s, centroids in m in the link frame, areas in cm²,
+/// pressures in counts), OUT/touches/*.png (the image each decision was made on), with --frames
+/// OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary. The output folder appears
+/// whole or not at all. Live (--can): events go to standard output as they happen; Ctrl-C or
+/// --duration ends the run and prints the summary.
+#[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Configuration (TOML).
+    #[arg(value_name = "CONFIG.toml")]
+    config: PathBuf,
+    /// Offline: a candump log of the skin's CAN traffic.
+    #[arg(
+        long,
+        value_name = "LOG",
+        conflicts_with = "can",
+        required_unless_present = "can"
+    )]
+    log: Option<PathBuf>,
+    /// Live: SocketCAN interfaces, comma-separated (Linux).
+    #[arg(long, value_delimiter = ',', value_name = "can0,can1")]
+    can: Vec<String>,
+    /// Live: send the skin16 sync every 50 ms (when no other node is bus master).
+    #[arg(long, requires = "can")]
+    master: bool,
+    /// Live: stop after this many seconds (default: at Ctrl-C).
+    #[arg(long, value_name = "S", requires = "can")]
+    duration: Option<f64>,
+    /// Output folder (offline: required; live: optional).
+    #[arg(short, long, value_name = "DIR", required_unless_present = "can")]
+    output: Option<PathBuf>,
+    /// Also write the tactile image of every frame with contact.
+    #[arg(long)]
+    frames: bool,
+    /// Print the time spent per stage.
+    #[arg(long)]
+    timings: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Config {
+    layout: PathBuf,
+    busmap: PathBuf,
+    classifier: Option<PathBuf>,
+    segmenter: Option<PathBuf>,
+    image_size: Option<String>,
+    cache: Option<PathBuf>,
+    truth: Option<PathBuf>,
+    #[serde(default)]
+    baseline: BaselineConfig,
+    #[serde(default)]
+    touch: TouchConfig,
+    gate: Option<GateConfig>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct BaselineConfig {
+    frames: usize,
+    polarity: String,
+}
+
+impl Default for BaselineConfig {
+    fn default() -> Self {
+        BaselineConfig {
+            frames: 20,
+            polarity: "rising".into(),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct TouchConfig {
+    threshold: f32,
+    min_taxels: usize,
+    decide_frames: usize,
+    release_frames: usize,
+    reclassify_growth: f32,
+}
+
+impl Default for TouchConfig {
+    fn default() -> Self {
+        let d = TouchOptions::default();
+        TouchConfig {
+            threshold: 5.0,
+            min_taxels: d.min_taxels,
+            decide_frames: d.decide_frames,
+            release_frames: d.release_frames,
+            reclassify_growth: d.reclassify_growth,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GateConfig {
+    hand: Option<String>,
+    non_hand: Option<String>,
+}
+
+/// Everything the per-frame path needs, built once.
+struct Setup {
+    config_path: PathBuf,
+    links: Vec<LinkSkin>,
+    busmap: BusMap,
+    /// Bus-map slot -> (link, taxel index in the link).
+    slots: Vec<Option<(usize, usize)>>,
+    pipeline: TouchPipeline,
+    classes: Vec<String>,
+    truth: Option<Vec<Scripted>>,
+    baseline: BaselineConfig,
+    gate: Option<GateConfig>,
+}
+
+/// A touch of the script (`truth`).
+struct Scripted {
+    start: f64,
+    end: f64,
+    class: String,
+    kind: String,
+}
+
+/// A finished touch, for the summary.
+struct Done {
+    link: usize,
+    touch: u64,
+    start: f64,
+    end: f64,
+    peak: Footprint,
+    decision: Option<Decision>,
+}
+
+/// Per-frame state: baselines, last readings, outputs.
+struct Session {
+    raw: Vec<Vec<f32>>,
+    pressures: Vec<Vec<f32>>,
+    idle: Vec<Vec<Vec<f32>>>,
+    baselines: Vec<Baseline>,
+    health: Vec<TaxelHealth>,
+    events: Vec<TouchEvent>,
+    open: std::collections::HashMap<u64, f64>,
+    done: Vec<Done>,
+    out: Output,
+    t0_us: Option<u64>,
+    frames: u64,
+    incomplete: u64,
+    gate: Option<String>,
+    stage: Stages,
+}
+
+#[derive(Default)]
+struct Stages {
+    assemble: Duration,
+    baseline: Duration,
+    output: Duration,
+}
+
+/// Where events and images go.
+struct Output {
+    /// Final folder and the temporary one being written.
+    dir: Option<(PathBuf, PathBuf)>,
+    events: Option<std::io::BufWriter<std::fs::File>>,
+    stdout: bool,
+    frames: bool,
+    line: String,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut setup = load(&args.config)?;
+    let output = Output::new(args.output.as_deref(), args.log.is_none(), args.frames)?;
+    let mut session = Session::new(&setup, output);
+    let result = match &args.log {
+        Some(log) => offline(&mut setup, &mut session, log, args.quiet),
+        None => live(&mut setup, &mut session, &args),
+    };
+    let result = result.and_then(|span| {
+        let summary = summary(&setup, &session, span);
+        crate::say!("{summary}");
+        if args.timings {
+            crate::say!("{}", timings(&setup, &session, span));
+        }
+        session.out.finish(&summary)
+    });
+    if result.is_err() {
+        session.out.abandon();
+    }
+    result
+}
+
+/// Reads and checks the configuration and everything it names; builds the maps and models.
+fn load(config_path: &Path) -> Result<Setup> {
+    let text = std::fs::read_to_string(config_path)
+        .with_context(|| format!("cannot read {}", config_path.display()))?;
+    let config: Config = toml::from_str(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: {}",
+            config_path.display(),
+            e.to_string().trim_end().replace('\n', " ")
+        )
+    })?;
+    let base = config_path.parent().unwrap_or(Path::new("."));
+    let resolve = |field: &str, p: &Path| -> Result<PathBuf> {
+        let full = base.join(p);
+        if !full.is_file() {
+            bail!(
+                "{}: {field} = \"{}\": no such file ({})",
+                config_path.display(),
+                p.display(),
+                full.display()
+            );
+        }
+        Ok(full)
+    };
+    let layout_path = resolve("layout", &config.layout)?;
+    let busmap_path = resolve("busmap", &config.busmap)?;
+    let classifier_path = config
+        .classifier
+        .as_deref()
+        .map(|p| resolve("classifier", p))
+        .transpose()?;
+    let segmenter_path = config
+        .segmenter
+        .as_deref()
+        .map(|p| resolve("segmenter", p))
+        .transpose()?;
+    let truth_path = config.truth.as_deref().map(|p| resolve("truth", p)).transpose()?;
+    match config.baseline.polarity.as_str() {
+        "rising" | "falling" => {}
+        other => bail!(
+            "{}: [baseline] polarity = \"{other}\": expected \"rising\" (Cyskin) or \"falling\" (iCub)",
+            config_path.display()
+        ),
+    }
+    if config.baseline.frames < 2 {
+        bail!(
+            "{}: [baseline] frames = {}: at least 2 untouched frames are needed to measure noise",
+            config_path.display(),
+            config.baseline.frames
+        );
+    }
+    let t = &config.touch;
+    if !(t.threshold.is_finite() && t.threshold >= 0.0) {
+        bail!(
+            "{}: [touch] threshold = {}: expected counts >= 0",
+            config_path.display(),
+            t.threshold
+        );
+    }
+    let size = match &config.image_size {
+        Some(s) => crate::image_cmd::parse_size(s)
+            .map_err(|e| anyhow::anyhow!("{}: image_size: {e}", config_path.display()))?,
+        None => (68, 100),
+    };
+
+    let links = read_links(&layout_path)?;
+    let busmap = BusMap::read(&busmap_path)?;
+    let mut where_is = std::collections::HashMap::new();
+    for (l, link) in links.iter().enumerate() {
+        for (i, t) in link.taxels.iter().enumerate() {
+            where_is.insert(t.id, (l, i));
+        }
+    }
+    let ids = busmap.taxel_ids();
+    if let Some(id) = ids.iter().find(|id| !where_is.contains_key(id)) {
+        bail!(
+            "{}: taxel {id} is not in the layout {}; is the bus map for this skin?",
+            busmap_path.display(),
+            layout_path.display()
+        );
+    }
+    let slots: Vec<_> = ids.iter().map(|id| where_is.get(id).copied()).collect();
+
+    let cache = base.join(
+        config
+            .cache
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(".skin-cache")),
+    );
+    let maps = links
+        .iter()
+        .map(|l| cached_map(&layout_path, &cache, l))
+        .collect::<Result<Vec<_>>>()?;
+
+    let mut classes = vec!["hand".to_string(), "non_hand".to_string()];
+    let classifier = match &classifier_path {
+        Some(p) => {
+            let net = Classifier::load(p, crate::classify_cmd::input_scale(p, None))?;
+            check_size(p, net.input_size(), size, config_path)?;
+            if let Some(card) = ModelCard::for_model(p).filter(|c| c.classes.len() == net.classes()) {
+                classes = card.classes;
+            } else if net.classes() != 2 {
+                bail!(
+                    "{}: {} classes and no model card naming them ({})",
+                    p.display(),
+                    net.classes(),
+                    ModelCard::path_for(p).display()
+                );
+            }
+            Some((net, p.clone()))
+        }
+        None => None,
+    };
+    let segmenter = match &segmenter_path {
+        Some(p) => {
+            let net = Segmenter::load(p, crate::classify_cmd::input_scale(p, None))?;
+            check_size(p, net.input_size(), size, config_path)?;
+            Some((net, p.clone()))
+        }
+        None => None,
+    };
+    let options = TouchOptions {
+        threshold: t.threshold,
+        min_taxels: t.min_taxels,
+        decide_frames: t.decide_frames,
+        release_frames: t.release_frames,
+        reclassify_growth: t.reclassify_growth,
+        classes: classes.clone(),
+        ..TouchOptions::default()
+    };
+    let pipeline = TouchPipeline::new(maps, classifier, segmenter, options)?;
+    let truth = truth_path.as_deref().map(read_truth).transpose()?;
+    Ok(Setup {
+        config_path: config_path.to_owned(),
+        links,
+        busmap,
+        slots,
+        pipeline,
+        classes,
+        truth,
+        baseline: BaselineConfig {
+            frames: config.baseline.frames,
+            polarity: config.baseline.polarity,
+        },
+        gate: config.gate,
+    })
+}
+
+fn check_size(model: &Path, got: (usize, usize), want: (usize, usize), config: &Path) -> Result<()> {
+    if got != want {
+        bail!(
+            "{}: takes {} x {} images; {} makes {} x {} (image_size): a model for another image size",
+            model.display(),
+            got.0,
+            got.1,
+            config.display(),
+            want.0,
+            want.1
+        );
+    }
+    Ok(())
+}
+
+/// All links of a skin-layout/1 file, or the one link of any other layout file.
+fn read_links(path: &Path) -> Result<Vec<LinkSkin>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if text.contains("skin-layout/") {
+        let layout = skin_core::format::native::read_layout(path)?;
+        if layout.links.is_empty() {
+            bail!("{}: the layout has no link", path.display());
+        }
+        return Ok(layout.links);
+    }
+    Ok(vec![crate::flatten::load_input(path)?])
+}
+
+/// The tactile map of `link`, from the cache, or flattened and cached. The cache key is a hash
+/// of the layout file and the link name, so an edited layout gets a new map.
+fn cached_map(layout: &Path, cache: &Path, link: &LinkSkin) -> Result<TactileMap> {
+    let bytes = std::fs::read(layout).with_context(|| format!("cannot read {}", layout.display()))?;
+    // FNV-1a: stable across runs and machines, unlike std's hasher.
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes.iter().chain(link.name.as_bytes()) {
+        h = (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    let safe: String = link
+        .name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let path = cache.join(format!("{safe}-{h:016x}.map.json"));
+    if path.is_file() {
+        if let Ok(map) = TactileMap::read(&path) {
+            return Ok(map);
+        }
+    }
+    let map = TactileMap::flatten(link, &skin_geom::FlattenOptions::default())
+        .with_context(|| format!("{}: link {}", layout.display(), link.name))?;
+    crate::write_atomic(&path, map.to_json().as_bytes())?;
+    Ok(map)
+}
+
+/// The script: `touch<TAB>start<TAB>end<TAB>class<TAB>kind...`, `#` comments.
+fn read_truth(path: &Path) -> Result<Vec<Scripted>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        if line.trim().is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = line.split('\t').collect();
+        let num = |i: usize, what: &str| -> Result<f64> {
+            f.get(i)
+                .and_then(|s| s.trim().parse::<f64>().ok())
+                .with_context(|| {
+                    format!(
+                        "{} line {}: {what} is not a number of seconds",
+                        path.display(),
+                        n + 1
+                    )
+                })
+        };
+        let class = f
+            .get(3)
+            .map(|s| s.trim().to_string())
+            .with_context(|| format!("{} line {}: no class (4th field)", path.display(), n + 1))?;
+        out.push(Scripted {
+            start: num(1, "start")?,
+            end: num(2, "end")?,
+            class,
+            kind: f.get(4).map_or(String::new(), |s| s.trim().to_string()),
+        });
+    }
+    Ok(out)
+}
+
+/// Offline: the log through the assembler and the pipeline. Returns the log's span, seconds.
+fn offline(setup: &mut Setup, session: &mut Session, log_path: &Path, quiet: bool) -> Result<f64> {
+    let log = CandumpLog::read(log_path)?;
+    let on_map: Vec<&str> = setup.busmap.buses.iter().map(|b| b.interface.as_str()).collect();
+    if !on_map.iter().any(|i| log.interfaces.iter().any(|l| l == i)) {
+        bail!(
+            "{}: none of the bus map's interfaces ({}) is in the log (it has {}); is it a log of this skin?",
+            log_path.display(),
+            on_map.join(", "),
+            log.interfaces.join(", ")
+        );
+    }
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(log.frames.len() as u64).with_style(
+            ProgressStyle::with_template("{bar:40} {percent}% of the CAN frames, eta {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        )
+    };
+    let mut assembler = Assembler::for_map(&setup.busmap, &log.interfaces, skin_can::DEFAULT_WINDOW_US);
+    let mut error: Option<anyhow::Error> = None;
+    let started = Instant::now();
+    let mut inside = Duration::ZERO;
+    for (k, frame) in log.frames.iter().enumerate() {
+        assembler.push(frame, &mut |a| {
+            if error.is_none() {
+                let t = Instant::now();
+                if let Err(e) = session.frame(setup, a) {
+                    error = Some(e);
+                }
+                inside += t.elapsed();
+            }
+        });
+        if error.is_some() {
+            break;
+        }
+        if k % 4096 == 0 {
+            bar.set_position(k as u64);
+        }
+    }
+    assembler.finish(&mut |a| {
+        if error.is_none()
+            && let Err(e) = session.frame(setup, a)
+        {
+            error = Some(e);
+        }
+    });
+    bar.finish_and_clear();
+    session.stage.assemble += started.elapsed().saturating_sub(inside);
+    if let Some(e) = error {
+        return Err(e);
+    }
+    let s = assembler.stats();
+    let data = s.frames
+        * setup
+            .busmap
+            .buses
+            .iter()
+            .map(|b| b.modules.len() as u64)
+            .sum::<u64>();
+    if s.frames == 0 || s.unknown_module > data.max(1) {
+        let malformed: u64 = s.malformed.iter().map(|(_, n)| n).sum();
+        bail!(
+            "{}: {} skin frames from {} CAN frames ({} from modules the bus map lacks, {malformed} malformed for {}, {} not skin data); is it a log of this skin and bus map?",
+            log_path.display(),
+            s.frames,
+            log.frames.len(),
+            s.unknown_module,
+            setup.busmap.format.name(),
+            s.ignored
+        );
+    }
+    session.end(setup)?;
+    let span = match (log.frames.first(), log.frames.last()) {
+        (Some(a), Some(b)) => b.time_us.saturating_sub(a.time_us) as f64 * 1e-6,
+        _ => 0.0,
+    };
+    Ok(span)
+}
+
+/// Live: SocketCAN through the same per-frame path until Ctrl-C or --duration.
+fn live(setup: &mut Setup, session: &mut Session, args: &Args) -> Result<f64> {
+    let started = Instant::now();
+    let mut error: Option<anyhow::Error> = None;
+    let busmap = setup.busmap.clone();
+    crate::live_cmd::run_frames(&busmap, &args.can, args.master, args.duration, &mut |a| {
+        if error.is_none()
+            && let Err(e) = session.frame(setup, a)
+        {
+            error = Some(e);
+        }
+        error.is_none()
+    })?;
+    if let Some(e) = error {
+        return Err(e);
+    }
+    session.end(setup)?;
+    Ok(started.elapsed().as_secs_f64())
+}
+
+impl Output {
+    fn new(dir: Option<&Path>, live: bool, frames: bool) -> Result<Output> {
+        let dir = match dir {
+            Some(d) => {
+                let name = d.file_name().and_then(|n| n.to_str()).unwrap_or("run");
+                let parent = d
+                    .parent()
+                    .filter(|p| !p.as_os_str().is_empty())
+                    .unwrap_or(Path::new("."));
+                let tmp = parent.join(format!(".{name}.partial"));
+                if tmp.exists() {
+                    std::fs::remove_dir_all(&tmp)
+                        .with_context(|| format!("cannot clear {}", tmp.display()))?;
+                }
+                std::fs::create_dir_all(tmp.join("touches"))
+                    .with_context(|| format!("cannot create {}", tmp.display()))?;
+                Some((d.to_owned(), tmp))
+            }
+            None => None,
+        };
+        let events = match &dir {
+            Some((_, tmp)) => {
+                let path = tmp.join("events.jsonl");
+                let file = std::fs::File::create(&path)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+                Some(std::io::BufWriter::new(file))
+            }
+            None => None,
+        };
+        Ok(Output {
+            dir,
+            events,
+            stdout: live,
+            frames,
+            line: String::with_capacity(256),
+        })
+    }
+
+    fn event(&mut self, value: &serde_json::Value) -> Result<()> {
+        self.line.clear();
+        let _ = write!(self.line, "{value}");
+        self.line.push('\n');
+        if let Some(out) = &mut self.events {
+            out.write_all(self.line.as_bytes())
+                .context("cannot write events.jsonl")?;
+        }
+        if self.stdout {
+            let _ = std::io::stdout().write_all(self.line.as_bytes());
+        }
+        Ok(())
+    }
+
+    fn png(&self, relative: &str, grey: &[u8], (rows, cols): (usize, usize)) -> Result<()> {
+        let Some((_, tmp)) = &self.dir else {
+            return Ok(());
+        };
+        let path = tmp.join(relative);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+        }
+        let png = skin_geom::encode_png(grey, rows, cols)?;
+        std::fs::write(&path, png).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Moves the finished folder into place (replacing an older run's).
+    fn finish(&mut self, summary: &str) -> Result<()> {
+        if let Some(mut events) = self.events.take() {
+            events.flush().context("cannot write events.jsonl")?;
+        }
+        if let Some((dir, tmp)) = self.dir.take() {
+            std::fs::write(tmp.join("summary.txt"), summary)
+                .with_context(|| format!("cannot write {}", tmp.join("summary.txt").display()))?;
+            if dir.exists() {
+                std::fs::remove_dir_all(&dir).with_context(|| format!("cannot replace {}", dir.display()))?;
+            }
+            std::fs::rename(&tmp, &dir).with_context(|| format!("cannot write {}", dir.display()))?;
+            crate::say!("wrote {}", dir.display());
+        }
+        Ok(())
+    }
+
+    /// Removes the half-written folder of a failed run.
+    fn abandon(&mut self) {
+        self.events = None;
+        if let Some((_, tmp)) = self.dir.take() {
+            let _ = std::fs::remove_dir_all(tmp);
+        }
+    }
+}
+
+impl Session {
+    fn new(setup: &Setup, out: Output) -> Session {
+        let n = |l: &LinkSkin| l.taxels.len();
+        Session {
+            raw: setup.links.iter().map(|l| vec![0.0; n(l)]).collect(),
+            pressures: setup.links.iter().map(|l| vec![0.0; n(l)]).collect(),
+            idle: vec![Vec::new(); setup.links.len()],
+            baselines: Vec::new(),
+            health: Vec::new(),
+            events: Vec::new(),
+            open: std::collections::HashMap::new(),
+            done: Vec::new(),
+            out,
+            t0_us: None,
+            frames: 0,
+            incomplete: 0,
+            gate: None,
+            stage: Stages::default(),
+        }
+    }
+
+    /// One assembled frame through the whole path.
+    fn frame(&mut self, setup: &mut Setup, a: &AssembledFrame) -> Result<()> {
+        let t0 = *self.t0_us.get_or_insert(a.time_us);
+        let time = a.time_us.saturating_sub(t0) as f64 * 1e-6;
+        let started = Instant::now();
+        self.frames += 1;
+        // A missing module keeps its last readings (reported below), so a lost CAN frame does
+        // not look like a release.
+        for (slot, value) in setup.slots.iter().zip(&a.values) {
+            if let (Some((l, i)), Some(v)) = (slot, value) {
+                self.raw[*l][*i] = f32::from(*v);
+            }
+        }
+        if !a.is_complete() {
+            self.incomplete += 1;
+            let missing: Vec<_> = a
+                .missing
+                .iter()
+                .map(|m| json!({"bus": setup.busmap.buses[usize::from(m.bus)].interface, "address": m.address}))
+                .collect();
+            self.out
+                .event(&json!({"event": "incomplete", "time": round(time, 3), "missing": missing}))?;
+        }
+        if self.baselines.is_empty() {
+            if !a.is_complete() {
+                return Ok(());
+            }
+            for (l, raw) in self.raw.iter().enumerate() {
+                self.idle[l].push(raw.clone());
+            }
+            if self.idle[0].len() >= setup.baseline.frames {
+                self.learn_baseline(setup)?;
+            }
+            self.stage.baseline += started.elapsed();
+            return Ok(());
+        }
+        for ((b, raw), p) in self.baselines.iter_mut().zip(&self.raw).zip(&mut self.pressures) {
+            b.apply(raw, p)
+                .map_err(|e| anyhow::anyhow!("frame at {time:.3} s: {e}"))?;
+        }
+        self.stage.baseline += started.elapsed();
+        self.events.clear();
+        setup.pipeline.process(time, &self.pressures, &mut self.events)?;
+        let t = Instant::now();
+        self.emit(setup)?;
+        if self.out.frames {
+            for (l, p) in self.pressures.iter().enumerate() {
+                if setup.pipeline.touching(l) {
+                    let name = &setup.links[l].name;
+                    let (grey, size) = setup.pipeline.frame_image(l, p)?;
+                    self.out
+                        .png(&format!("frames/{name}/frame_{:05}.png", a.cycle), grey, size)?;
+                }
+            }
+        }
+        self.stage.output += t.elapsed();
+        Ok(())
+    }
+
+    fn learn_baseline(&mut self, setup: &Setup) -> Result<()> {
+        let polarity = if setup.baseline.polarity == "falling" {
+            Polarity::Falling
+        } else {
+            Polarity::Rising
+        };
+        let options = BaselineOptions {
+            polarity,
+            ..BaselineOptions::default()
+        };
+        for frames in &self.idle {
+            let (b, health) =
+                Baseline::from_idle(frames.iter().map(Vec::as_slice), &options, &setup.config_path)?;
+            self.baselines.push(b);
+            self.health.push(health);
+        }
+        self.idle.clear();
+        Ok(())
+    }
+
+    /// Writes the pipeline's events.
+    fn emit(&mut self, setup: &Setup) -> Result<()> {
+        let events = std::mem::take(&mut self.events);
+        for e in &events {
+            let link_name = |l: usize| setup.links[l].name.as_str();
+            match e {
+                TouchEvent::Appeared {
+                    link,
+                    touch,
+                    time,
+                    footprint,
+                } => {
+                    self.open.insert(*touch, *time);
+                    let mut v = footprint_json(footprint);
+                    v["event"] = json!("appeared");
+                    v["time"] = json!(round(*time, 3));
+                    v["link"] = json!(link_name(*link));
+                    v["touch"] = json!(touch);
+                    self.out.event(&v)?;
+                }
+                TouchEvent::Classified {
+                    link,
+                    touch,
+                    time,
+                    decision,
+                    revised,
+                } => {
+                    let mut v = decision_json(decision, &setup.classes);
+                    v["event"] = json!("classified");
+                    v["time"] = json!(round(*time, 3));
+                    v["link"] = json!(link_name(*link));
+                    v["touch"] = json!(touch);
+                    v["revised"] = json!(revised);
+                    if let Some((grey, size)) = setup.pipeline.last_image(*link) {
+                        self.out.png(
+                            &format!(
+                                "touches/touch_{touch:03}_{}.png",
+                                class_name(&setup.classes, decision.class)
+                            ),
+                            grey,
+                            size,
+                        )?;
+                    }
+                    self.out.event(&v)?;
+                }
+                TouchEvent::Released {
+                    link,
+                    touch,
+                    time,
+                    duration,
+                    frames,
+                    peak,
+                    decision,
+                } => {
+                    let start = self.open.remove(touch).unwrap_or(*time - *duration);
+                    let mut v = json!({
+                        "event": "released",
+                        "time": round(*time, 3),
+                        "link": link_name(*link),
+                        "touch": touch,
+                        "duration": round(*duration, 3),
+                        "frames": frames,
+                        "peak": footprint_json(peak),
+                    });
+                    if let Some(d) = decision {
+                        v["class"] = json!(class_name(&setup.classes, d.class));
+                        v["probability"] = json!(round(f64::from(d.probability), 4));
+                    }
+                    self.out.event(&v)?;
+                    self.done.push(Done {
+                        link: *link,
+                        touch: *touch,
+                        start,
+                        end: *time,
+                        peak: *peak,
+                        decision: decision.clone(),
+                    });
+                }
+            }
+            if let TouchEvent::Classified { time, .. } | TouchEvent::Released { time, .. } = e {
+                self.update_gate(setup, *time)?;
+            }
+        }
+        self.events = events;
+        Ok(())
+    }
+
+    /// The gate: the action of the most severe touch in progress ("stop" before anything).
+    fn update_gate(&mut self, setup: &Setup, time: f64) -> Result<()> {
+        let Some(gate) = &setup.gate else {
+            return Ok(());
+        };
+        let action = setup.pipeline.open_classes().fold(None::<String>, |acc, class| {
+            let name = class_name(&setup.classes, class);
+            let a = match name {
+                "hand" => gate.hand.clone(),
+                _ => gate.non_hand.clone(),
+            };
+            match (acc, a) {
+                (Some(x), _) if x == "stop" => Some(x),
+                (_, Some(a)) => Some(a),
+                (acc, None) => acc,
+            }
+        });
+        let action = action.unwrap_or_else(|| "resume".into());
+        if self.gate.as_deref() != Some(action.as_str()) {
+            self.out
+                .event(&json!({"event": "gate", "time": round(time, 3), "action": action}))?;
+            self.gate = Some(action);
+        }
+        Ok(())
+    }
+
+    /// The end of the input: open touches are released.
+    fn end(&mut self, setup: &mut Setup) -> Result<()> {
+        if self.baselines.is_empty() {
+            bail!(
+                "the input ended after {} frame(s), before the {} complete untouched frames the baseline needs",
+                self.frames,
+                setup.baseline.frames
+            );
+        }
+        let t = self.done.last().map_or(0.0, |d| d.end);
+        self.events.clear();
+        setup.pipeline.finish(t, &mut self.events)?;
+        self.emit(setup)
+    }
+}
+
+fn round(x: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (x * k).round() / k
+}
+
+fn class_name(classes: &[String], k: usize) -> &str {
+    classes.get(k).map_or("?", String::as_str)
+}
+
+fn footprint_json(f: &Footprint) -> serde_json::Value {
+    json!({
+        "contacts": f.contacts,
+        "taxels": f.taxels,
+        "area_cm2": round(f.area_cm2, 2),
+        "mean_pressure": round(f64::from(f.mean_pressure), 1),
+        "centroid": [round(f.centroid.x, 4), round(f.centroid.y, 4), round(f.centroid.z, 4)],
+    })
+}
+
+fn decision_json(d: &Decision, classes: &[String]) -> serde_json::Value {
+    let mut v = json!({
+        "class": class_name(classes, d.class),
+        "probability": round(f64::from(d.probability), 4),
+    });
+    if !d.parts.is_empty() {
+        v["parts"] = d
+            .parts
+            .iter()
+            .map(|p| {
+                let mut o = json!({
+                    "part": p.part.name(),
+                    "taxels": p.taxels,
+                    "mean_pressure": round(f64::from(p.mean_pressure), 1),
+                });
+                if let Some(c) = p.centroid {
+                    o["centroid"] = json!([round(c.x, 4), round(c.y, 4), round(c.z, 4)]);
+                }
+                o
+            })
+            .collect();
+    }
+    v
+}
+
+/// The summary: the run, the touches, and the score against the script.
+fn summary(setup: &Setup, s: &Session, span: f64) -> String {
+    let mut out = String::new();
+    let taxels: usize = setup.links.iter().map(|l| l.taxels.len()).sum();
+    let _ = writeln!(
+        out,
+        "{} frames ({} incomplete) of {} taxels on {} link(s) over {:.2} s; baseline from the first {} frames",
+        s.frames,
+        s.incomplete,
+        taxels,
+        setup.links.len(),
+        span,
+        setup.baseline.frames
+    );
+    for (l, h) in s.health.iter().enumerate() {
+        if !h.dead.is_empty() || !h.stuck.is_empty() {
+            let ids = |v: &[usize]| {
+                v.iter()
+                    .map(|&i| setup.links[l].taxels[i].id.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let _ = writeln!(
+                out,
+                "link {}: taxels that cannot be trusted: dead [{}], stuck [{}]",
+                setup.links[l].name,
+                ids(&h.dead),
+                ids(&h.stuck)
+            );
+        }
+    }
+    let _ = writeln!(out, "{} touch(es):", s.done.len());
+    let _ = writeln!(
+        out,
+        "  touch  link        start s   end s  class        prob  taxels  area cm2  mean  parts"
+    );
+    for d in &s.done {
+        let (class, prob, parts) = match &d.decision {
+            Some(dec) => (
+                class_name(&setup.classes, dec.class).to_string(),
+                format!("{:.3}", dec.probability),
+                dec.parts
+                    .iter()
+                    .map(|p| format!("{} {}", p.part.name(), p.taxels))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            ),
+            None => ("-".into(), "-".into(), String::new()),
+        };
+        let _ = writeln!(
+            out,
+            "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {}",
+            d.touch,
+            setup.links[d.link].name,
+            d.start,
+            d.end,
+            class,
+            prob,
+            d.peak.taxels,
+            d.peak.area_cm2,
+            d.peak.mean_pressure,
+            parts
+        );
+    }
+    if let Some(script) = &setup.truth {
+        let mut found = 0;
+        let mut right = 0;
+        let mut matched = vec![false; s.done.len()];
+        let mut misses = Vec::new();
+        for (k, t) in script.iter().enumerate() {
+            // The detected touch overlapping the scripted one the longest.
+            let best = s
+                .done
+                .iter()
+                .enumerate()
+                .map(|(j, d)| (j, d.end.min(t.end) - d.start.max(t.start)))
+                .filter(|(_, overlap)| *overlap >= 0.0)
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            match best {
+                Some((j, _)) => {
+                    found += 1;
+                    matched[j] = true;
+                    let got = s.done[j]
+                        .decision
+                        .as_ref()
+                        .map_or("-", |d| class_name(&setup.classes, d.class));
+                    if got == t.class {
+                        right += 1;
+                    } else {
+                        misses.push(format!(
+                            "scripted touch {k} ({} {}) taken for {got}",
+                            t.class, t.kind
+                        ));
+                    }
+                }
+                None => misses.push(format!("scripted touch {k} ({} {}) not found", t.class, t.kind)),
+            }
+        }
+        let extra = matched.iter().filter(|m| !**m).count();
+        let _ = writeln!(
+            out,
+            "script: {found} of {} scripted touches found, {right} with the right class ({:.1}%); {extra} touch(es) not in the script",
+            script.len(),
+            100.0 * right as f64 / script.len().max(1) as f64
+        );
+        for m in misses {
+            let _ = writeln!(out, "  {m}");
+        }
+    }
+    out.trim_end().to_string()
+}
+
+/// The per-stage timing report.
+fn timings(setup: &Setup, s: &Session, span: f64) -> String {
+    let t = setup.pipeline.times();
+    let frames = t.frames.max(1) as f64;
+    let us = |d: Duration| d.as_secs_f64() * 1e6;
+    let wall = s.stage.assemble + s.stage.baseline + t.total + s.stage.output;
+    let mut out = String::from("time per frame (mean over all frames), stage by stage:\n");
+    let rows = [
+        ("CAN decode + assembly", s.stage.assemble),
+        ("baseline", s.stage.baseline),
+        ("contacts", t.contacts),
+        ("tactile images", t.image),
+        ("classifier", t.classify),
+        ("segmenter + parts", t.segment),
+        ("events and images out", s.stage.output),
+    ];
+    for (name, d) in rows {
+        let _ = writeln!(out, "  {name:<24} {:>9.1} us", us(d) / frames);
+    }
+    let _ = writeln!(
+        out,
+        "  {:<24} {:>9.1} us  (slowest frame of the pipeline: {:.2} ms; {} classifier and {} segmenter runs)",
+        "all",
+        us(wall) / frames,
+        t.worst_frame.as_secs_f64() * 1e3,
+        t.runs.0,
+        t.runs.1
+    );
+    if span > 0.0 && wall > Duration::ZERO {
+        let _ = write!(
+            out,
+            "  {:.0}x real time ({span:.2} s of input in {:.3} s)",
+            span / wall.as_secs_f64(),
+            wall.as_secs_f64()
+        );
+    }
+    out.trim_end().to_string()
+}

@@ -1,0 +1,211 @@
+//! `skin run` end to end on the fixture session: every scripted touch found and classified, the
+//! outputs written whole, and one clear line (and nothing written) for each kind of bad input.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn log() -> String {
+    root()
+        .join("fixtures/session/session.candump.log")
+        .display()
+        .to_string()
+}
+
+/// A configuration in `dir` naming the fixtures by absolute path, with `extra` lines appended
+/// and the `replace` (key, line) pairs swapped in.
+fn config(dir: &Path, replace: &[(&str, &str)], extra: &str) -> String {
+    let r = root();
+    let mut lines = vec![
+        format!("layout = {:?}", r.join("fixtures/forearm/layout.json")),
+        format!("busmap = {:?}", r.join("fixtures/forearm/busmap.toml")),
+        format!("classifier = {:?}", r.join("fixtures/models/handsnet.onnx")),
+        format!("segmenter = {:?}", r.join("fixtures/models/handseg.onnx")),
+        format!("truth = {:?}", r.join("fixtures/session/session.tsv")),
+        "cache = \"cache\"".to_string(),
+    ];
+    for (key, line) in replace {
+        lines.retain(|l| !l.starts_with(&format!("{key} =")));
+        lines.insert(0, line.to_string());
+    }
+    let text = format!(
+        "{}\n{extra}\n[gate]\nhand = \"comply\"\nnon_hand = \"stop\"\n",
+        lines.join("\n")
+    );
+    let path = dir.join("run.toml");
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+/// (found, right, scripted) from the summary's script line.
+fn score(stdout: &str) -> (usize, usize, usize) {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("script: "))
+        .unwrap_or_else(|| panic!("no script line in\n{stdout}"));
+    let n: Vec<usize> = line
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|s| !s.is_empty())
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    (n[0], n[2], n[1])
+}
+
+#[test]
+fn the_fixture_session_finds_every_scripted_touch_and_classifies_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[], "");
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "run",
+        &cfg,
+        "--log",
+        &log(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--timings",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let (found, right, scripted) = score(&stdout);
+    assert_eq!(scripted, 20);
+    assert_eq!(found, 20, "{stdout}");
+    assert!(
+        right * 100 >= 95 * scripted,
+        "{right} of {scripted} right:\n{stdout}"
+    );
+    assert!(stdout.contains("0 touch(es) not in the script"), "{stdout}");
+    assert!(stdout.contains("x real time"), "--timings: {stdout}");
+
+    // The events: one appeared, one released per touch, classified in between, gate actions.
+    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
+    let parsed: Vec<serde_json::Value> = events.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let count = |kind: &str| parsed.iter().filter(|e| e["event"] == kind).count();
+    assert_eq!(count("appeared"), 20);
+    assert_eq!(count("released"), 20);
+    assert!(count("classified") >= 20);
+    assert!(count("gate") >= 2);
+    assert_eq!(count("incomplete"), 0, "the fixture log has no lost frames");
+    let hand = parsed
+        .iter()
+        .find(|e| e["event"] == "classified" && e["class"] == "hand")
+        .unwrap();
+    assert!(
+        hand["parts"].as_array().is_some_and(|p| !p.is_empty()),
+        "hands get their parts: {hand}"
+    );
+    // Touches are scripted one at a time: released before the next appears.
+    let mut open = 0i32;
+    for e in &parsed {
+        open += match e["event"].as_str() {
+            Some("appeared") => 1,
+            Some("released") => -1,
+            _ => 0,
+        };
+        assert!((0..=1).contains(&open));
+    }
+    // The images the decisions were made on, and the summary.
+    let pngs = std::fs::read_dir(out.join("touches")).unwrap().count();
+    assert!(pngs >= 20, "{pngs} decision images");
+    assert!(
+        std::fs::read_to_string(out.join("summary.txt"))
+            .unwrap()
+            .contains("script: ")
+    );
+    // The map was cached on first use.
+    let cached = std::fs::read_dir(dir.path().join("cache")).unwrap().count();
+    assert_eq!(cached, 1);
+}
+
+#[test]
+fn frames_option_writes_an_image_per_touched_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(
+        dir.path(),
+        &[("segmenter", "# no segmenter"), ("classifier", "# no classifier")],
+        "",
+    );
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "run",
+        &cfg,
+        "--log",
+        &log(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--frames",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // Without a classifier the touches are still found, with no class.
+    let (found, right, _) = score(&stdout);
+    assert_eq!((found, right), (20, 0), "{stdout}");
+    let frames = std::fs::read_dir(out.join("frames/forearm")).unwrap().count();
+    // 20 touches of 1 s at 20 Hz, minus the frames of the ramps below the threshold.
+    assert!((300..=420).contains(&frames), "{frames} frame images");
+}
+
+/// Runs a bad configuration: one line on stderr containing `expect`, exit 1, no output folder.
+fn refused(cfg: &str, log: &str, expect: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = skin(&["run", cfg, "--log", log, "-o", out.to_str().unwrap(), "-q"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
+    for e in expect {
+        assert!(stderr.contains(e), "{e:?} not in {stderr}");
+    }
+    assert!(!out.exists(), "nothing written");
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert!(leftovers.is_empty(), "nothing half-written: {leftovers:?}");
+}
+
+#[test]
+fn a_config_naming_a_missing_file_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[("classifier", "classifier = \"nowhere.onnx\"")], "");
+    refused(&cfg, &log(), &["classifier = \"nowhere.onnx\"", "no such file"]);
+    let cfg = config(dir.path(), &[], "colour = \"blue\"");
+    refused(&cfg, &log(), &["run.toml", "colour"]);
+}
+
+#[test]
+fn a_log_of_another_bus_map_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[], "");
+    let icub = root().join("fixtures/forearm/touches.icub8.log");
+    refused(&cfg, icub.to_str().unwrap(), &["touches.icub8.log", "bus map"]);
+}
+
+#[test]
+fn a_model_for_another_image_size_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[], "image_size = \"64x96\"");
+    refused(&cfg, &log(), &["handsnet.onnx", "68 x 100", "64 x 96"]);
+}

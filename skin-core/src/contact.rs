@@ -1,0 +1,283 @@
+//! Contacts: the connected patches of pressed taxels in one frame.
+//!
+//! Two pressed taxels belong to the same contact when an edge of the skin's triangle mesh joins
+//! them (the mesh of the tactile map, so neighbours are neighbours on the skin, not across a
+//! gap). Each contact gets its taxels, its pressure-weighted centroid and mean normal in the link
+//! frame, and its mean and peak pressure. [`ContactFinder`] builds the neighbour lists once; a
+//! call to [`ContactFinder::find`] then reuses its buffers and allocates nothing once it has seen
+//! as many contacts, as large, as the frame holds.
+
+use crate::{Error, Result};
+use nalgebra::{Point3, Unit, Vector3};
+use std::path::Path;
+
+/// One patch of pressed, connected taxels.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Contact {
+    /// Layout indices of its taxels, ascending.
+    pub taxels: Vec<usize>,
+    /// Pressure-weighted mean of their positions, metres in the link frame.
+    pub centroid: Point3<f64>,
+    /// Pressure-weighted mean of their normals, normalised (the outward normal under the contact).
+    pub normal: Option<Unit<Vector3<f64>>>,
+    /// Mean pressure over its taxels, in the frame's units.
+    pub mean_pressure: f32,
+    /// Largest pressure, in the frame's units.
+    pub peak_pressure: f32,
+}
+
+/// Finds the contacts of a link's frames; built once per link.
+#[derive(Debug, Clone)]
+pub struct ContactFinder {
+    positions: Vec<Point3<f64>>,
+    normals: Vec<Vector3<f64>>,
+    /// Neighbours of taxel i: `neighbours[start[i]..start[i + 1]]` (compressed rows).
+    start: Vec<usize>,
+    neighbours: Vec<usize>,
+    /// Per-taxel visit mark of the current frame (`frame` when visited).
+    seen: Vec<u32>,
+    frame: u32,
+    stack: Vec<usize>,
+    contacts: Vec<Contact>,
+}
+
+impl ContactFinder {
+    /// A finder over taxels at `positions` (metres) with outward `normals` (same length, or
+    /// empty), joined by the edges of `faces` (indices into `positions`). `source` names the
+    /// mesh in errors.
+    pub fn new(
+        positions: &[Point3<f64>],
+        normals: &[Vector3<f64>],
+        faces: &[[usize; 3]],
+        source: &Path,
+    ) -> Result<ContactFinder> {
+        let n = positions.len();
+        if !normals.is_empty() && normals.len() != n {
+            return Err(Error::invalid(
+                source,
+                "normals",
+                format!("{} normals for {n} taxels", normals.len()),
+            ));
+        }
+        let mut lists: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (f, face) in faces.iter().enumerate() {
+            if let Some(&bad) = face.iter().find(|&&v| v >= n) {
+                return Err(Error::invalid(
+                    source,
+                    format!("face {f}"),
+                    format!("taxel index {bad}, the skin has {n} taxels"),
+                ));
+            }
+            for k in 0..3 {
+                let (a, b) = (face[k], face[(k + 1) % 3]);
+                lists[a].push(b);
+                lists[b].push(a);
+            }
+        }
+        let mut start = Vec::with_capacity(n + 1);
+        let mut neighbours = Vec::new();
+        start.push(0);
+        for mut list in lists {
+            list.sort_unstable();
+            list.dedup();
+            neighbours.extend(list);
+            start.push(neighbours.len());
+        }
+        Ok(ContactFinder {
+            positions: positions.to_vec(),
+            normals: normals.to_vec(),
+            start,
+            neighbours,
+            seen: vec![0; n],
+            frame: 0,
+            stack: Vec::with_capacity(n),
+            contacts: Vec::new(),
+        })
+    }
+
+    /// Number of taxels the finder expects per frame.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// True for a skin without taxels.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// The contacts of one frame of `pressures` (one per taxel, layout order): taxels above
+    /// `threshold` joined by mesh edges, patches of fewer than `min_taxels` left out (a lone
+    /// noisy taxel is not a touch). Largest total pressure first.
+    pub fn find(&mut self, pressures: &[f32], threshold: f32, min_taxels: usize) -> Result<&[Contact]> {
+        if pressures.len() != self.positions.len() {
+            return Err(Error::invalid(
+                Path::new("frame"),
+                "pressures",
+                format!(
+                    "{} readings, the skin has {} taxels",
+                    pressures.len(),
+                    self.positions.len()
+                ),
+            ));
+        }
+        self.frame = self.frame.wrapping_add(1);
+        if self.frame == 0 {
+            self.seen.fill(0);
+            self.frame = 1;
+        }
+        let mut count = 0;
+        for seed in 0..pressures.len() {
+            if self.seen[seed] == self.frame || !(pressures[seed] > threshold) {
+                continue;
+            }
+            if count == self.contacts.len() {
+                self.contacts.push(Contact::default());
+            }
+            let contact = &mut self.contacts[count];
+            contact.taxels.clear();
+            self.seen[seed] = self.frame;
+            self.stack.clear();
+            self.stack.push(seed);
+            while let Some(i) = self.stack.pop() {
+                contact.taxels.push(i);
+                for &j in &self.neighbours[self.start[i]..self.start[i + 1]] {
+                    if self.seen[j] != self.frame && pressures[j] > threshold {
+                        self.seen[j] = self.frame;
+                        self.stack.push(j);
+                    }
+                }
+            }
+            if contact.taxels.len() < min_taxels.max(1) {
+                continue;
+            }
+            contact.taxels.sort_unstable();
+            let (mut sum, mut peak) = (0.0f64, 0.0f32);
+            let mut moment = Vector3::zeros();
+            let mut normal = Vector3::zeros();
+            for &i in &contact.taxels {
+                let p = pressures[i];
+                sum += f64::from(p);
+                peak = peak.max(p);
+                moment += self.positions[i].coords * f64::from(p);
+                if let Some(n) = self.normals.get(i) {
+                    normal += n * f64::from(p);
+                }
+            }
+            contact.centroid = Point3::from(moment / sum);
+            contact.normal = Unit::try_new(normal, 1e-12);
+            contact.mean_pressure = (sum / contact.taxels.len() as f64) as f32;
+            contact.peak_pressure = peak;
+            count += 1;
+        }
+        let contacts = &mut self.contacts[..count];
+        contacts.sort_unstable_by(|a, b| {
+            let total = |c: &Contact| c.mean_pressure as f64 * c.taxels.len() as f64;
+            total(b).total_cmp(&total(a))
+        });
+        Ok(&self.contacts[..count])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A strip of `n` x 2 taxels, 8 mm apart, triangulated.
+    fn strip(n: usize) -> (Vec<Point3<f64>>, Vec<[usize; 3]>) {
+        let mut p = Vec::new();
+        for i in 0..n {
+            p.push(Point3::new(0.008 * i as f64, 0.0, 0.0));
+            p.push(Point3::new(0.008 * i as f64, 0.008, 0.0));
+        }
+        let mut f = Vec::new();
+        for i in 0..n - 1 {
+            let (a, b, c, d) = (2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3);
+            f.push([a, c, b]);
+            f.push([b, c, d]);
+        }
+        (p, f)
+    }
+
+    #[test]
+    fn two_separate_patches_are_two_contacts_with_weighted_centroids() {
+        let (p, f) = strip(10);
+        let mut finder = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+        let mut pressure = vec![0.0f32; 20];
+        // Columns 0-1 pressed (3 taxels), column 7 pressed (2 taxels, harder).
+        pressure[0] = 10.0;
+        pressure[1] = 30.0;
+        pressure[2] = 10.0;
+        pressure[14] = 100.0;
+        pressure[15] = 100.0;
+        let c = finder.find(&pressure, 5.0, 1).unwrap();
+        assert_eq!(c.len(), 2);
+        // Largest total first: 200 > 50.
+        assert_eq!(c[0].taxels, vec![14, 15]);
+        assert!((c[0].centroid - Point3::new(0.056, 0.004, 0.0)).norm() < 1e-12);
+        assert_eq!(c[1].taxels, vec![0, 1, 2]);
+        // (10 * (0,0) + 30 * (0,8) + 10 * (8,0)) / 50 mm
+        assert!((c[1].centroid - Point3::new(0.0016, 0.0048, 0.0)).norm() < 1e-12);
+        assert!((c[1].mean_pressure - 50.0 / 3.0).abs() < 1e-5);
+        assert_eq!(c[1].peak_pressure, 30.0);
+    }
+
+    #[test]
+    fn threshold_and_minimum_size_drop_noise() {
+        let (p, f) = strip(10);
+        let mut finder = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+        let mut pressure = vec![3.0f32; 20];
+        pressure[9] = 50.0;
+        assert_eq!(finder.find(&pressure, 5.0, 1).unwrap().len(), 1);
+        assert_eq!(finder.find(&pressure, 5.0, 2).unwrap().len(), 0);
+        assert_eq!(finder.find(&pressure, 2.0, 2).unwrap().len(), 1, "all 20 joined");
+    }
+
+    #[test]
+    fn wrong_frame_length_and_bad_faces_are_errors() {
+        let (p, f) = strip(3);
+        let mut finder = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+        let e = finder.find(&[1.0; 5], 0.0, 1).unwrap_err().to_string();
+        assert!(e.contains("5 readings") && e.contains("6 taxels"), "{e}");
+        let e = ContactFinder::new(&p, &[], &[[0, 1, 9]], Path::new("m.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("m.json") && e.contains("face 0") && e.contains('9'),
+            "{e}"
+        );
+    }
+
+    proptest! {
+        /// Every pressed taxel of a kept contact is above threshold, no taxel is in two
+        /// contacts, and no mesh edge joins two different contacts.
+        #[test]
+        fn contacts_are_maximal_connected_components(
+            values in proptest::collection::vec(0.0f32..10.0, 40),
+            threshold in 0.0f32..10.0,
+        ) {
+            let (p, f) = strip(20);
+            let mut finder = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+            let contacts = finder.find(&values, threshold, 1).unwrap().to_vec();
+            let mut owner = vec![usize::MAX; 40];
+            for (k, c) in contacts.iter().enumerate() {
+                for &i in &c.taxels {
+                    prop_assert!(values[i] > threshold);
+                    prop_assert_eq!(owner[i], usize::MAX);
+                    owner[i] = k;
+                }
+            }
+            let pressed = values.iter().filter(|&&v| v > threshold).count();
+            prop_assert_eq!(owner.iter().filter(|&&o| o != usize::MAX).count(), pressed);
+            for face in &f {
+                for e in 0..3 {
+                    let (a, b) = (face[e], face[(e + 1) % 3]);
+                    if owner[a] != usize::MAX && owner[b] != usize::MAX {
+                        prop_assert_eq!(owner[a], owner[b]);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,593 @@
+//! Touches, frame by frame (feature `onnx`): the per-frame path from pressures to decisions.
+//!
+//! For every link, each frame's pressures (after the baseline) go through [`ContactFinder`]; a
+//! touch begins with the first frame holding a contact and ends after
+//! [`TouchOptions::release_frames`] frames without one. While it lasts, the frame of largest total
+//! pressure so far is kept; after [`TouchOptions::decide_frames`] frames of contact that frame is
+//! imaged (map -> 1 mm grid -> contact-max grey -> erosion/dilation -> model size, thesis Ch. 4.5)
+//! and classified, and a hand is segmented into its parts (Fig. 4.9). The touch is classified
+//! again whenever its total pressure has grown by [`TouchOptions::reclassify_growth`] since the
+//! image last classified, so the final decision is that of the touch at its fullest, at a bounded
+//! cost: a touch costs a few model runs, not one per frame.
+//!
+//! Frames without contact cost one contact search per link. The buffers are sized when the
+//! pipeline is built; a frame allocates only when a model runs or an event is emitted.
+
+use crate::classify::Classifier;
+use crate::image_model::ModelError;
+use crate::parts::{PartContact, part_contacts};
+use crate::segment::Segmenter;
+use nalgebra::Point3;
+use skin_core::ContactFinder;
+use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What can go wrong building or running a [`TouchPipeline`].
+#[derive(Debug, thiserror::Error)]
+pub enum TouchError {
+    /// A model failed to run or does not fit.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// A link's map cannot be imaged.
+    #[error("link {link}: {source}")]
+    Map {
+        /// The link.
+        link: String,
+        /// Why.
+        source: skin_geom::Error,
+    },
+    /// A link's mesh is not usable for contact search.
+    #[error("link {link}: {source}")]
+    Mesh {
+        /// The link.
+        link: String,
+        /// Why.
+        source: skin_core::Error,
+    },
+    /// The classifier and the segmenter take images of different sizes.
+    #[error("{classifier} takes {a:?} images, {segmenter} takes {b:?}: they must agree")]
+    Sizes {
+        /// The classifier's file.
+        classifier: PathBuf,
+        /// The segmenter's file.
+        segmenter: PathBuf,
+        /// Classifier input (rows, cols).
+        a: (usize, usize),
+        /// Segmenter input (rows, cols).
+        b: (usize, usize),
+    },
+    /// A frame does not have one pressure slice per link, or one pressure per taxel.
+    #[error("frame at {time} s: {why}")]
+    Frame {
+        /// Frame time, seconds.
+        time: f64,
+        /// What is wrong.
+        why: String,
+    },
+}
+
+/// Thresholds and timing of touch tracking.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TouchOptions {
+    /// A taxel is pressed above this pressure (frame units, after the baseline).
+    pub threshold: f32,
+    /// Patches of fewer taxels are noise, not contacts.
+    pub min_taxels: usize,
+    /// Frames of contact before the first decision (3 = 150 ms at 20 Hz: past the first
+    /// brush of the touch, well within the thesis' 70 ms + acquisition).
+    pub decide_frames: usize,
+    /// Frames without contact that end a touch.
+    pub release_frames: usize,
+    /// Classify again when the touch's total pressure exceeds this multiple of the image last
+    /// classified.
+    pub reclassify_growth: f32,
+    /// Image grid step on the map, millimetres (thesis: 1 mm).
+    pub step_mm: f64,
+    /// Class names of the classifier's outputs, in order; the class named `hand` is segmented.
+    pub classes: Vec<String>,
+}
+
+impl Default for TouchOptions {
+    fn default() -> Self {
+        TouchOptions {
+            threshold: 10.0,
+            min_taxels: 2,
+            decide_frames: 3,
+            release_frames: 2,
+            reclassify_growth: 1.25,
+            step_mm: 1.0,
+            classes: vec!["hand".into(), "non_hand".into()],
+        }
+    }
+}
+
+/// Where and how hard a link is pressed in one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    /// Separate contacts.
+    pub contacts: usize,
+    /// Pressed taxels.
+    pub taxels: usize,
+    /// Area: pressed taxels times the skin area per taxel, cm².
+    pub area_cm2: f64,
+    /// Mean pressure over the pressed taxels (frame units).
+    pub mean_pressure: f32,
+    /// Pressure-weighted centroid of the pressed taxels, metres in the link frame.
+    pub centroid: Point3<f64>,
+}
+
+/// A decision on a touch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Decision {
+    /// Index of the most probable class.
+    pub class: usize,
+    /// Its probability.
+    pub probability: f32,
+    /// The hand parts pressing, when the class is `hand` and a segmenter is loaded.
+    pub parts: Vec<PartContact>,
+}
+
+/// What happened on a link.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TouchEvent {
+    /// A touch began.
+    Appeared {
+        /// Link index.
+        link: usize,
+        /// Touch number, unique over the run.
+        touch: u64,
+        /// Frame time, seconds.
+        time: f64,
+        /// The first frame's footprint.
+        footprint: Footprint,
+    },
+    /// A touch was classified (`revised`: again, with another class than before).
+    Classified {
+        /// Link index.
+        link: usize,
+        /// Touch number.
+        touch: u64,
+        /// Frame time, seconds.
+        time: f64,
+        /// The decision.
+        decision: Decision,
+        /// The class changed since the touch's last decision.
+        revised: bool,
+    },
+    /// A touch ended.
+    Released {
+        /// Link index.
+        link: usize,
+        /// Touch number.
+        touch: u64,
+        /// Time of its last frame of contact, seconds.
+        time: f64,
+        /// From first to last frame of contact, seconds.
+        duration: f64,
+        /// Frames of contact.
+        frames: usize,
+        /// The footprint at its largest total pressure.
+        peak: Footprint,
+        /// The final decision (none without a classifier).
+        decision: Option<Decision>,
+    },
+}
+
+/// Time spent in each stage, summed over the frames processed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StageTimes {
+    /// Frames processed.
+    pub frames: u64,
+    /// Contact search (all links).
+    pub contacts: Duration,
+    /// Tactile images (of the frames classified).
+    pub image: Duration,
+    /// Classifier runs.
+    pub classify: Duration,
+    /// Segmenter runs and per-part contacts.
+    pub segment: Duration,
+    /// Model runs: classifications, segmentations.
+    pub runs: (u64, u64),
+    /// The slowest frame, whole path.
+    pub worst_frame: Duration,
+    /// All frames, whole path.
+    pub total: Duration,
+}
+
+struct Touch {
+    id: u64,
+    start: f64,
+    last: f64,
+    frames: usize,
+    quiet: usize,
+    peak_total: f64,
+    peak: Footprint,
+    classified_total: f64,
+    decision: Option<Decision>,
+}
+
+struct Link {
+    name: String,
+    map: TactileMap,
+    finder: ContactFinder,
+    imager: TactileImager,
+    area_per_taxel_cm2: f64,
+    /// Pressures of the touch's fullest frame so far, thresholded.
+    peak_pressures: Vec<f32>,
+    /// Thresholded pressures of a frame imaged for output.
+    scratch: Vec<f32>,
+    touch: Option<Touch>,
+}
+
+/// The per-frame path of a whole skin: contacts, touches, images, decisions.
+pub struct TouchPipeline {
+    links: Vec<Link>,
+    classifier: Option<(Classifier, PathBuf)>,
+    segmenter: Option<(Segmenter, PathBuf)>,
+    options: TouchOptions,
+    hand: Option<usize>,
+    next_touch: u64,
+    times: StageTimes,
+}
+
+impl std::fmt::Debug for TouchPipeline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TouchPipeline")
+            .field("links", &self.links.iter().map(|l| &l.name).collect::<Vec<_>>())
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}
+
+impl TouchPipeline {
+    /// A pipeline over the tactile maps of a skin's links, with optional models (each with the
+    /// file it came from, for errors). Images are made at the models' input size (68 x 100
+    /// without a model).
+    pub fn new(
+        maps: Vec<TactileMap>,
+        classifier: Option<(Classifier, PathBuf)>,
+        segmenter: Option<(Segmenter, PathBuf)>,
+        options: TouchOptions,
+    ) -> Result<TouchPipeline, TouchError> {
+        let size = match (&classifier, &segmenter) {
+            (Some((c, cp)), Some((s, sp))) if c.input_size() != s.input_size() => {
+                return Err(TouchError::Sizes {
+                    classifier: cp.clone(),
+                    segmenter: sp.clone(),
+                    a: c.input_size(),
+                    b: s.input_size(),
+                });
+            }
+            (Some((c, _)), _) => c.input_size(),
+            (None, Some((s, _))) => s.input_size(),
+            (None, None) => (68, 100),
+        };
+        let mut links = Vec::with_capacity(maps.len());
+        for map in maps {
+            let name = map.name.clone();
+            let normals: Vec<_> = Vec::new();
+            let finder = ContactFinder::new(&map.positions, &normals, &map.faces, Path::new(&name)).map_err(
+                |source| TouchError::Mesh {
+                    link: name.clone(),
+                    source,
+                },
+            )?;
+            let raster =
+                Rasterizer::new(&map, Grid::StepMm(options.step_mm)).map_err(|source| TouchError::Map {
+                    link: name.clone(),
+                    source,
+                })?;
+            let imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(size)).map_err(
+                |source| TouchError::Map {
+                    link: name.clone(),
+                    source,
+                },
+            )?;
+            let area: f64 = map
+                .faces
+                .iter()
+                .filter_map(|f| {
+                    let p = |i: usize| map.positions.get(i);
+                    Some((p(f[1])? - p(f[0])?).cross(&(p(f[2])? - p(f[0])?)).norm() / 2.0)
+                })
+                .sum();
+            let n = map.ids.len();
+            links.push(Link {
+                area_per_taxel_cm2: area * 1e4 / n.max(1) as f64,
+                peak_pressures: vec![0.0; n],
+                scratch: vec![0.0; n],
+                name,
+                map,
+                finder,
+                imager,
+                touch: None,
+            });
+        }
+        let hand = options.classes.iter().position(|c| c == "hand");
+        Ok(TouchPipeline {
+            links,
+            classifier,
+            segmenter,
+            options,
+            hand,
+            next_touch: 0,
+            times: StageTimes::default(),
+        })
+    }
+
+    /// Link names, in the order frames give their pressures.
+    pub fn link_names(&self) -> impl Iterator<Item = &str> {
+        self.links.iter().map(|l| l.name.as_str())
+    }
+
+    /// The tactile image last classified on `link` (model size, row-major grey), and its size.
+    pub fn last_image(&self, link: usize) -> Option<(&[u8], (usize, usize))> {
+        let l = self.links.get(link)?;
+        Some((l.imager.last_output(), l.imager.output_size()))
+    }
+
+    /// The tactile image of `pressures` on `link` (readings at or below the threshold count as
+    /// none), at model size: what `--frames` writes. Not used by the decisions.
+    pub fn frame_image(
+        &mut self,
+        link: usize,
+        pressures: &[f32],
+    ) -> Result<(&[u8], (usize, usize)), TouchError> {
+        let threshold = self.options.threshold;
+        let Some(l) = self.links.get_mut(link) else {
+            return Err(TouchError::Frame {
+                time: 0.0,
+                why: format!("no link {link}"),
+            });
+        };
+        for (dst, &p) in l.scratch.iter_mut().zip(pressures) {
+            *dst = if p > threshold { p } else { 0.0 };
+        }
+        let size = l.imager.output_size();
+        let grey = l.imager.process(&l.scratch).map_err(|source| TouchError::Map {
+            link: l.name.clone(),
+            source,
+        })?;
+        Ok((grey, size))
+    }
+
+    /// A touch is in progress on `link`.
+    pub fn touching(&self, link: usize) -> bool {
+        self.links.get(link).is_some_and(|l| l.touch.is_some())
+    }
+
+    /// The classes of the touches in progress that have been decided.
+    pub fn open_classes(&self) -> impl Iterator<Item = usize> + '_ {
+        self.links
+            .iter()
+            .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| d.class))
+    }
+
+    /// Time per stage so far.
+    pub fn times(&self) -> &StageTimes {
+        &self.times
+    }
+
+    /// Processes one frame: `pressures[link]` holds one pressure per taxel of that link's map
+    /// (after the baseline), at `time` seconds. Events go to `events`.
+    pub fn process(
+        &mut self,
+        time: f64,
+        pressures: &[impl AsRef<[f32]>],
+        events: &mut Vec<TouchEvent>,
+    ) -> Result<(), TouchError> {
+        let started = Instant::now();
+        if pressures.len() != self.links.len() {
+            return Err(TouchError::Frame {
+                time,
+                why: format!(
+                    "{} links' pressures, the skin has {} links",
+                    pressures.len(),
+                    self.links.len()
+                ),
+            });
+        }
+        for (k, p) in pressures.iter().enumerate() {
+            self.link_frame(k, time, p.as_ref(), events)?;
+        }
+        let spent = started.elapsed();
+        self.times.frames += 1;
+        self.times.total += spent;
+        self.times.worst_frame = self.times.worst_frame.max(spent);
+        Ok(())
+    }
+
+    /// Ends every touch still open (the end of a recording), as of `time`.
+    pub fn finish(&mut self, time: f64, events: &mut Vec<TouchEvent>) -> Result<(), TouchError> {
+        for k in 0..self.links.len() {
+            if self.links[k].touch.is_some() {
+                self.release(k, time, events)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn link_frame(
+        &mut self,
+        k: usize,
+        time: f64,
+        pressures: &[f32],
+        events: &mut Vec<TouchEvent>,
+    ) -> Result<(), TouchError> {
+        let t0 = Instant::now();
+        let o = &self.options;
+        let link = &mut self.links[k];
+        let contacts = link
+            .finder
+            .find(pressures, o.threshold, o.min_taxels)
+            .map_err(|e| TouchError::Frame {
+                time,
+                why: format!("link {}: {e}", link.name),
+            })?;
+        let mut footprint = Footprint {
+            contacts: contacts.len(),
+            taxels: 0,
+            area_cm2: 0.0,
+            mean_pressure: 0.0,
+            centroid: Point3::origin(),
+        };
+        let mut total = 0.0f64;
+        let mut moment = nalgebra::Vector3::zeros();
+        for c in contacts {
+            let sum = f64::from(c.mean_pressure) * c.taxels.len() as f64;
+            footprint.taxels += c.taxels.len();
+            total += sum;
+            moment += c.centroid.coords * sum;
+        }
+        self.times.contacts += t0.elapsed();
+        if footprint.taxels == 0 {
+            if let Some(t) = &mut link.touch {
+                t.quiet += 1;
+                if t.quiet >= o.release_frames.max(1) {
+                    self.release(k, time, events)?;
+                }
+            }
+            return Ok(());
+        }
+        footprint.area_cm2 = footprint.taxels as f64 * link.area_per_taxel_cm2;
+        footprint.mean_pressure = (total / footprint.taxels as f64) as f32;
+        footprint.centroid = Point3::from(moment / total);
+        let touch = match &mut link.touch {
+            Some(t) => t,
+            None => {
+                let id = self.next_touch;
+                self.next_touch += 1;
+                events.push(TouchEvent::Appeared {
+                    link: k,
+                    touch: id,
+                    time,
+                    footprint,
+                });
+                link.touch.insert(Touch {
+                    id,
+                    start: time,
+                    last: time,
+                    frames: 0,
+                    quiet: 0,
+                    peak_total: 0.0,
+                    peak: footprint,
+                    classified_total: 0.0,
+                    decision: None,
+                })
+            }
+        };
+        touch.frames += 1;
+        touch.quiet = 0;
+        touch.last = time;
+        if total > touch.peak_total {
+            touch.peak_total = total;
+            touch.peak = footprint;
+            let threshold = o.threshold;
+            // Only the contacts' taxels: noise elsewhere must not shape the image.
+            link.peak_pressures.fill(0.0);
+            for c in contacts {
+                for &i in &c.taxels {
+                    link.peak_pressures[i] = pressures[i].max(threshold);
+                }
+            }
+        }
+        let due = if touch.decision.is_none() {
+            touch.frames >= o.decide_frames.max(1)
+        } else {
+            touch.peak_total > touch.classified_total * f64::from(o.reclassify_growth.max(1.0))
+        };
+        if due {
+            self.decide(k, time, events)?;
+        }
+        Ok(())
+    }
+
+    /// Classifies (and segments) the fullest frame of link `k`'s touch.
+    fn decide(&mut self, k: usize, time: f64, events: &mut Vec<TouchEvent>) -> Result<(), TouchError> {
+        let Some((classifier, _)) = &mut self.classifier else {
+            return Ok(());
+        };
+        let link = &mut self.links[k];
+        let Some(touch) = &mut link.touch else {
+            return Ok(());
+        };
+        let t0 = Instant::now();
+        let image = link
+            .imager
+            .process(&link.peak_pressures)
+            .map_err(|source| TouchError::Map {
+                link: link.name.clone(),
+                source,
+            })?;
+        let t1 = Instant::now();
+        let probabilities = classifier.classify(image)?;
+        let t2 = Instant::now();
+        self.times.image += t1 - t0;
+        self.times.classify += t2 - t1;
+        self.times.runs.0 += 1;
+        let (class, probability) =
+            probabilities
+                .iter()
+                .copied()
+                .enumerate()
+                .fold(
+                    (0, f32::NEG_INFINITY),
+                    |best, (c, p)| if p > best.1 { (c, p) } else { best },
+                );
+        let mut parts = Vec::new();
+        if Some(class) == self.hand
+            && let Some((segmenter, _)) = &mut self.segmenter
+        {
+            let labels = segmenter.segment(image)?;
+            parts = part_contacts(
+                &link.map,
+                link.imager.raster(),
+                link.imager.output_size(),
+                &labels,
+                &link.peak_pressures,
+            );
+            self.times.segment += t2.elapsed();
+            self.times.runs.1 += 1;
+        }
+        let revised = touch.decision.as_ref().is_some_and(|d| d.class != class);
+        let first = touch.decision.is_none();
+        touch.classified_total = touch.peak_total;
+        let decision = Decision {
+            class,
+            probability,
+            parts,
+        };
+        if first || revised {
+            events.push(TouchEvent::Classified {
+                link: k,
+                touch: touch.id,
+                time,
+                decision: decision.clone(),
+                revised,
+            });
+        }
+        touch.decision = Some(decision);
+        Ok(())
+    }
+
+    fn release(&mut self, k: usize, time: f64, events: &mut Vec<TouchEvent>) -> Result<(), TouchError> {
+        // A touch too short to have been decided is decided on its fullest frame now.
+        let undecided = self.links[k].touch.as_ref().is_some_and(|t| t.decision.is_none());
+        if undecided {
+            self.decide(k, time, events)?;
+        }
+        if let Some(t) = self.links[k].touch.take() {
+            events.push(TouchEvent::Released {
+                link: k,
+                touch: t.id,
+                time: t.last,
+                duration: t.last - t.start,
+                frames: t.frames,
+                peak: t.peak,
+                decision: t.decision,
+            });
+        }
+        Ok(())
+    }
+}
