@@ -356,11 +356,32 @@ pub(crate) fn run_frames(
         ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed)).context("cannot catch Ctrl-C")?;
     }
     let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
+    pump_frames(
+        ports,
+        options,
+        map,
+        period,
+        || stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d),
+        each,
+    );
+    Ok(())
+}
+
+/// The loop of [`run_frames`]: CAN frames from `ports` -> assembled frames -> `each`, until
+/// `done` or `each` says stop.
+fn pump_frames<P: CanPort>(
+    ports: Vec<P>,
+    options: LiveOptions,
+    map: &BusMap,
+    period: Duration,
+    mut done: impl FnMut() -> bool,
+    each: &mut dyn FnMut(&AssembledFrame) -> bool,
+) {
     let acq = Acquisition::start(ports, options);
     let interfaces = acq.interfaces().to_vec();
     let mut assembler = Assembler::for_map(map, &interfaces, period.as_micros() as u64);
     let mut go = true;
-    while go && !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
+    while go && !done() {
         match acq.recv(Duration::from_millis(50)) {
             Some(LiveEvent::Frame(f)) => assembler.push(&f, &mut |a| {
                 if go {
@@ -380,7 +401,6 @@ pub(crate) fn run_frames(
             go = each(a);
         }
     });
-    Ok(())
 }
 
 #[cfg(test)]
@@ -476,5 +496,46 @@ mod tests {
         })
         .unwrap();
         assert_eq!(std::fs::read_to_string(replayed).unwrap(), live_csv);
+    }
+
+    #[test]
+    fn live_frames_reach_the_run_callback_until_it_says_stop() {
+        let map = BusMap::parse(
+            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
+            Path::new("m.toml"),
+        )
+        .unwrap();
+        let period = Duration::from_millis(2);
+        let options = LiveOptions {
+            sync_period: Some(period),
+            ..LiveOptions::default()
+        };
+        let bus = Bus {
+            name: "can0".into(),
+            modules: vec![2],
+            queue: VecDeque::new(),
+        };
+        let mut seen = Vec::new();
+        let mut turns = 0;
+        pump_frames(
+            vec![bus],
+            options,
+            &map,
+            period,
+            || {
+                turns += 1;
+                turns > 100_000
+            },
+            &mut |a| {
+                seen.push((a.cycle, a.is_complete(), a.values[0]));
+                seen.len() < 5
+            },
+        );
+        assert_eq!(seen.len(), 5, "stopped by the callback, not by the turn limit");
+        for (cycle, complete, first) in &seen {
+            assert!(complete);
+            // The mock modules answer sync k with readings k + slot.
+            assert_eq!(*first, Some((*cycle % 256) as u16), "{seen:?}");
+        }
     }
 }

@@ -11,7 +11,8 @@
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
 //!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
 //! - `touch` (feature `onnx`): the per-frame path of a whole skin, from pressures to contacts,
-//!   touches and their hand / non-hand decisions and hand parts.
+//!   touches and their hand / non-hand decisions and hand parts (what `skin run` drives; a
+//!   complete example: `examples/examples/classify_touch.rs`).
 //! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.
 
 pub mod calibration;

@@ -1,0 +1,243 @@
+//! The whole per-frame path of the thesis' full arm, as `skin run` drives it: 3,495 taxels on
+//! three links (half-cylinder covers, 8 mm pitch, 1,165 taxels each), 318 Cyskin modules on four
+//! skin16 buses. One cycle = its CAN frames decoded and assembled, the frame split into links,
+//! the baseline applied, contacts searched on every link, and touches tracked; a frame that
+//! decides a touch also images it and runs the shipped HandsNet.
+//!
+//! - `no contact`: a cycle of an untouched arm (what offline replay mostly costs);
+//! - `decision`: the cycle whose frame holds a hand on the middle link and decides it
+//!   (decide_frames = 1): frame -> decision latency.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Point3, Unit, Vector3};
+use skin_can::candump::CanFrame;
+use skin_can::decode::skin16::{encode_module, encode_sync};
+use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
+use skin_core::{Baseline, BaselineOptions, LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::classify::{Classifier, InputScale};
+use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+const PER_LINK: usize = 1165;
+
+/// Link `k`: a half cylinder (radius 80 mm) of taxels on an 8 mm lattice, ids in modules of 11.
+fn link(k: usize) -> LinkSkin {
+    let (radius, pitch, around) = (0.08, 0.008, 31);
+    let taxels = (0..PER_LINK)
+        .map(|i| {
+            let (row, col) = (i / around, i % around);
+            let phi = (col as f64 + 0.5 * (row % 2) as f64) * pitch / radius - 1.2;
+            let n = Vector3::new(phi.sin(), 0.0, phi.cos());
+            let module = (k * 110 + i / 11 + 1) as u32;
+            Taxel {
+                id: TaxelId(module << 4 | (i % 11) as u32),
+                position: Point3::new(radius * n.x, row as f64 * pitch * 0.866, radius * n.z),
+                normal: Unit::new_normalize(n),
+            }
+        })
+        .collect();
+    LinkSkin::new(format!("link{k}"), taxels)
+}
+
+struct Arm {
+    links: Vec<LinkSkin>,
+    map: BusMap,
+    interfaces: Vec<String>,
+    /// Bus-map slot -> (link, taxel).
+    slots: Vec<(usize, usize)>,
+}
+
+impl Arm {
+    /// The CAN frames of cycle `n` carrying `raw[link][taxel]`.
+    fn cycle(&self, n: u64, raw: &[Vec<u16>]) -> Vec<CanFrame> {
+        let t0 = 1_000_000 + n * 50_000;
+        let mut frames = Vec::new();
+        let ids = self.map.taxel_ids();
+        let mut slot = 0;
+        for (b, bus) in self.map.buses.iter().enumerate() {
+            frames.push(encode_sync(n as u8, t0, b as u16));
+            for (m, module) in bus.modules.iter().enumerate() {
+                let mut readings = [0u16; 12];
+                for (c, &t) in module.taxels.iter().enumerate() {
+                    if t >= 0 {
+                        debug_assert_eq!(ids[slot].0 as i64, t);
+                        let (l, i) = self.slots[slot];
+                        readings[c] = raw[l][i];
+                        slot += 1;
+                    }
+                }
+                frames.extend(encode_module(
+                    m as u32,
+                    &readings,
+                    t0 + 100 * (m as u64 + 1),
+                    b as u16,
+                ));
+            }
+        }
+        frames
+    }
+}
+
+/// What `skin run` does with each assembled frame.
+struct PerFrame {
+    raw: Vec<Vec<f32>>,
+    pressures: Vec<Vec<f32>>,
+    baselines: Vec<Baseline>,
+    pipeline: TouchPipeline,
+    events: Vec<skin_learn::touch::TouchEvent>,
+}
+
+impl PerFrame {
+    fn frame(&mut self, slots: &[(usize, usize)], a: &AssembledFrame) {
+        for (&(l, i), v) in slots.iter().zip(&a.values) {
+            if let Some(v) = v {
+                self.raw[l][i] = f32::from(*v);
+            }
+        }
+        for ((b, raw), p) in self.baselines.iter_mut().zip(&self.raw).zip(&mut self.pressures) {
+            b.apply(raw, p).unwrap();
+        }
+        self.events.clear();
+        let time = a.time_us as f64 * 1e-6;
+        self.pipeline
+            .process(time, &self.pressures, &mut self.events)
+            .unwrap();
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let links: Vec<LinkSkin> = (0..3).map(link).collect();
+    let ids: Vec<TaxelId> = links.iter().flat_map(|l| l.ids()).collect();
+    assert_eq!(ids.len(), 3495);
+    let map = BusMap::for_taxels(&ids, WireFormat::Skin16, 4).unwrap();
+    let interfaces: Vec<String> = map.buses.iter().map(|b| b.interface.clone()).collect();
+    let where_is: std::collections::HashMap<TaxelId, (usize, usize)> = links
+        .iter()
+        .enumerate()
+        .flat_map(|(l, link)| link.taxels.iter().enumerate().map(move |(i, t)| (t.id, (l, i))))
+        .collect();
+    let slots = map.taxel_ids().iter().map(|id| where_is[id]).collect();
+    let arm = Arm {
+        links,
+        map,
+        interfaces,
+        slots,
+    };
+    let maps: Vec<TactileMap> = arm
+        .links
+        .iter()
+        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
+        .collect();
+    // A whole hand on the middle link, from the synthetic-data generator.
+    let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
+    let hand = (0..)
+        .map(|i| synth.sample(3, i, i))
+        .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
+        .unwrap();
+    let offset = 300u16;
+    let quiet: Vec<Vec<u16>> = arm.links.iter().map(|l| vec![offset; l.taxels.len()]).collect();
+    let mut touched = quiet.clone();
+    let index: std::collections::HashMap<TaxelId, usize> = arm.links[1]
+        .taxels
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (t.id, i))
+        .collect();
+    for (id, p) in maps[1].ids.iter().zip(&hand.pressures) {
+        touched[1][index[id]] = offset + p.round() as u16;
+    }
+
+    let model = root.join("fixtures/models/handsnet.onnx");
+    let classifier = Classifier::load(&model, InputScale::Unit).unwrap();
+    let options = TouchOptions {
+        decide_frames: 1,
+        release_frames: 1,
+        threshold: 5.0,
+        ..TouchOptions::default()
+    };
+    let idle: Vec<Vec<f32>> = quiet
+        .iter()
+        .map(|r| r.iter().map(|&v| f32::from(v)).collect())
+        .collect();
+    let baselines = idle
+        .iter()
+        .map(|r| {
+            Baseline::from_idle(
+                [r.as_slice(), r.as_slice()],
+                &BaselineOptions::default(),
+                Path::new("idle"),
+            )
+            .unwrap()
+            .0
+        })
+        .collect();
+    let mut path = PerFrame {
+        raw: idle.clone(),
+        pressures: idle.iter().map(|r| vec![0.0; r.len()]).collect(),
+        baselines,
+        pipeline: TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap(),
+        events: Vec::new(),
+    };
+    let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
+    let mut n = 0u64;
+    let mut push = |frames: &[CanFrame], path: &mut PerFrame| {
+        for f in frames {
+            assembler.push(f, &mut |a| path.frame(&arm.slots, a));
+        }
+    };
+    // The CAN frames of 256 cycles (the sync counter's period), touched and quiet.
+    let quiet_cycles: Vec<Vec<CanFrame>> = (0..256).map(|k| arm.cycle(k, &quiet)).collect();
+    let touched_cycles: Vec<Vec<CanFrame>> = (0..256).map(|k| arm.cycle(k, &touched)).collect();
+    let can_frames = quiet_cycles[0].len();
+
+    let mut group = c.benchmark_group(format!(
+        "full arm ({} taxels, 3 links, 4 buses, {can_frames} CAN frames a cycle)",
+        ids.len()
+    ));
+    group.bench_function("no contact", |b| {
+        b.iter_custom(|iters| {
+            let start = Instant::now();
+            for _ in 0..iters {
+                push(&quiet_cycles[(n % 256) as usize], &mut path);
+                n += 1;
+            }
+            start.elapsed()
+        })
+    });
+    group.bench_function("decision", |b| {
+        b.iter_custom(|iters| {
+            let mut spent = Duration::ZERO;
+            for _ in 0..iters {
+                // This cycle's frame is assembled when the next cycle's sync arrives: push the
+                // touched cycle, then time the next one, whose first frame delivers the touch.
+                push(&touched_cycles[(n % 256) as usize], &mut path);
+                n += 1;
+                let runs = path.pipeline.times().runs.0;
+                let start = Instant::now();
+                push(&quiet_cycles[(n % 256) as usize], &mut path);
+                spent += start.elapsed();
+                n += 1;
+                assert_eq!(
+                    path.pipeline.times().runs.0,
+                    runs + 1,
+                    "one decision per touched frame"
+                );
+            }
+            spent
+        })
+    });
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(30);
+    targets = bench
+}
+criterion_main!(benches);
