@@ -28,6 +28,8 @@ mod replay;
 #[cfg(feature = "onnx")]
 mod run_cmd;
 #[cfg(feature = "onnx")]
+mod run_stitch;
+#[cfg(feature = "onnx")]
 mod segment_cmd;
 mod stitch_cmd;
 mod synth_cmd;

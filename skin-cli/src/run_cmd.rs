@@ -40,13 +40,19 @@ use std::time::{Duration, Instant};
 ///     [gate]                          # optional: what the robot should do
 ///     hand = "comply"
 ///     non_hand = "stop"
+///     [stitch]                        # optional: links stitched across joints (Ch. 6)
+///     poses = "poses.json"            # skin-poses/1: every link's pose over time
 ///
 /// Per frame: CAN frames -> assembled frame (bus map) -> baseline -> contacts (connected
 /// pressed taxels) -> touches -> tactile image of the touch at its fullest -> classifier (and
 /// segmenter for hands). A module missing from a frame keeps its last readings and is reported.
 ///
+/// With [stitch], the maps are stitched at each posture and contacts are also searched over the
+/// whole chain: a contact crossing a joint gives an across_joint event, and --frames writes
+/// stitched images too.
+///
 /// Offline (--log): writes OUT/events.jsonl (one JSON object a line: appeared, classified,
-/// released, gate, incomplete; times in s, centroids in m in the link frame, areas in cm²,
+/// released, across_joint, gate, incomplete; times in s, centroids in m in the link frame, areas in cm²,
 /// pressures in counts), OUT/touches/*.png (the image each decision was made on), with --frames
 /// OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary. The output folder appears
 /// whole or not at all. Live (--can): events go to standard output as they happen; Ctrl-C or
@@ -103,6 +109,14 @@ struct Config {
     #[serde(default)]
     touch: TouchConfig,
     gate: Option<GateConfig>,
+    stitch: Option<StitchConfig>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StitchConfig {
+    /// Link poses over time (skin-poses/1), links in the layout's order.
+    poses: PathBuf,
 }
 
 #[derive(Deserialize)]
@@ -163,6 +177,10 @@ struct Setup {
     truth: Option<Vec<Scripted>>,
     baseline: BaselineConfig,
     gate: Option<GateConfig>,
+    /// Contacts across joints and stitched images, when the config has `[stitch]`.
+    stitching: Option<crate::run_stitch::Stitching>,
+    threshold: f32,
+    min_taxels: usize,
 }
 
 /// A touch of the script (`truth`).
@@ -198,6 +216,8 @@ struct Session {
     frames: u64,
     incomplete: u64,
     gate: Option<String>,
+    /// Contacts that spanned a joint (each counted once, when it began).
+    across: u64,
     stage: Stages,
 }
 
@@ -277,6 +297,11 @@ fn load(config_path: &Path) -> Result<Setup> {
         .map(|p| resolve("segmenter", p))
         .transpose()?;
     let truth_path = config.truth.as_deref().map(|p| resolve("truth", p)).transpose()?;
+    let poses_path = config
+        .stitch
+        .as_ref()
+        .map(|s| resolve("[stitch] poses", &s.poses))
+        .transpose()?;
     match config.baseline.polarity.as_str() {
         "rising" | "falling" => {}
         other => bail!(
@@ -333,6 +358,21 @@ fn load(config_path: &Path) -> Result<Setup> {
         .iter()
         .map(|l| cached_map(&layout_path, &cache, l))
         .collect::<Result<Vec<_>>>()?;
+    for (map, link) in maps.iter().zip(&links) {
+        // Frames reach the pipeline in layout order: the map must keep it.
+        if map.ids != link.ids() {
+            bail!(
+                "{}: the cached map of link {} does not list its taxels in layout order; delete {}",
+                config_path.display(),
+                link.name,
+                cache.display()
+            );
+        }
+    }
+    let stitching = match &poses_path {
+        Some(p) => Some(crate::run_stitch::Stitching::new(p, &maps)?),
+        None => None,
+    };
 
     let mut classes = vec!["hand".to_string(), "non_hand".to_string()];
     let classifier = match &classifier_path {
@@ -385,6 +425,9 @@ fn load(config_path: &Path) -> Result<Setup> {
             polarity: config.baseline.polarity,
         },
         gate: config.gate,
+        stitching,
+        threshold: t.threshold,
+        min_taxels: t.min_taxels,
     })
 }
 
@@ -690,6 +733,7 @@ impl Session {
             frames: 0,
             incomplete: 0,
             gate: None,
+            across: 0,
             stage: Stages::default(),
         }
     }
@@ -749,7 +793,41 @@ impl Session {
                 }
             }
         }
+        self.across_joints(setup, time, a.cycle)?;
         self.stage.output += t.elapsed();
+        Ok(())
+    }
+
+    /// Contacts across joints (an event when one begins and when none is left) and stitched
+    /// images, when the config stitches the links.
+    fn across_joints(&mut self, setup: &mut Setup, time: f64, cycle: u64) -> Result<()> {
+        let Some(st) = &mut setup.stitching else {
+            return Ok(());
+        };
+        st.load(&self.pressures, setup.threshold);
+        let spans = st.spanning(time, setup.min_taxels)?;
+        if !spans.is_empty() && !st.joined {
+            self.across += 1;
+            for s in &spans {
+                let links: Vec<&str> = s.links.iter().map(|&l| setup.links[l].name.as_str()).collect();
+                self.out.event(&json!({
+                    "event": "across_joint",
+                    "time": round(time, 3),
+                    "links": links,
+                    "taxels": s.taxels,
+                    "centroid": s.centroid.map(|x| round(x, 4)),
+                }))?;
+            }
+        } else if spans.is_empty() && st.joined {
+            self.out
+                .event(&json!({"event": "across_joint_end", "time": round(time, 3)}))?;
+        }
+        st.joined = !spans.is_empty();
+        if self.out.frames && (0..setup.links.len()).any(|l| setup.pipeline.touching(l)) {
+            let (grey, size) = st.image(time)?;
+            self.out
+                .png(&format!("frames/stitched/frame_{cycle:05}.png"), grey, size)?;
+        }
         Ok(())
     }
 
@@ -976,6 +1054,9 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
                 ids(&h.stuck)
             );
         }
+    }
+    if setup.stitching.is_some() {
+        let _ = writeln!(out, "contacts across joints (stitched maps): {}", s.across);
     }
     let _ = writeln!(out, "{} touch(es):", s.done.len());
     let _ = writeln!(

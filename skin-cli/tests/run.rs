@@ -209,3 +209,84 @@ fn a_model_for_another_image_size_is_one_line() {
     let cfg = config(dir.path(), &[], "image_size = \"64x96\"");
     refused(&cfg, &log(), &["handsnet.onnx", "68 x 100", "64 x 96"]);
 }
+
+#[test]
+fn stitched_links_report_a_contact_across_the_joint_at_every_posture() {
+    let dir = tempfile::tempdir().unwrap();
+    let arm = root().join("fixtures/arm");
+    let cfg = dir.path().join("arm.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "layout = {:?}\nbusmap = {:?}\ncache = \"cache\"\n[baseline]\nframes = 8\n[touch]\nthreshold = 10.0\n[stitch]\nposes = {:?}\n",
+            arm.join("layout.json"),
+            arm.join("busmap.toml"),
+            arm.join("poses.json")
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let log = arm.join("touch.candump.log");
+    let o = skin(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--frames",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("contacts across joints (stitched maps): 3"),
+        "{stdout}"
+    );
+    // The palm presses both links at once, at each of the three wrist rolls.
+    assert!(stdout.contains("6 touch(es)"), "{stdout}");
+    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
+    let across: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "across_joint")
+        .collect();
+    assert_eq!(across.len(), 3);
+    for e in &across {
+        assert_eq!(e["links"], serde_json::json!(["forearm", "wrist"]));
+        // The palm's centre sits over the joint, 0.35 m along the forearm.
+        let y = e["centroid"][1].as_f64().unwrap();
+        assert!((y - 0.353).abs() < 0.01, "{e}");
+    }
+    assert!(std::fs::read_dir(out.join("frames/stitched")).unwrap().count() >= 50);
+
+    // Poses naming other links than the layout's: one line.
+    let bad = dir.path().join("poses.json");
+    let poses = std::fs::read_to_string(arm.join("poses.json")).unwrap();
+    std::fs::write(&bad, poses.replace("\"wrist\"", "\"hand\"")).unwrap();
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(
+        &cfg,
+        text.replace(arm.join("poses.json").to_str().unwrap(), bad.to_str().unwrap()),
+    )
+    .unwrap();
+    let o = skin(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr.contains("poses.json") && stderr.contains("hand"),
+        "{stderr}"
+    );
+}
