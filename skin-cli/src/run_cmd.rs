@@ -213,6 +213,8 @@ struct Session {
     done: Vec<Done>,
     out: Output,
     t0_us: Option<u64>,
+    /// Time of the latest frame, seconds from the first.
+    last_time: f64,
     frames: u64,
     incomplete: u64,
     gate: Option<String>,
@@ -730,6 +732,7 @@ impl Session {
             done: Vec::new(),
             out,
             t0_us: None,
+            last_time: 0.0,
             frames: 0,
             incomplete: 0,
             gate: None,
@@ -744,6 +747,7 @@ impl Session {
         let time = a.time_us.saturating_sub(t0) as f64 * 1e-6;
         let started = Instant::now();
         self.frames += 1;
+        self.last_time = time;
         // A missing module keeps its last readings (reported below), so a lost CAN frame does
         // not look like a release.
         for (slot, value) in setup.slots.iter().zip(&a.values) {
@@ -973,9 +977,8 @@ impl Session {
                 setup.baseline.frames
             );
         }
-        let t = self.done.last().map_or(0.0, |d| d.end);
         self.events.clear();
-        setup.pipeline.finish(t, &mut self.events)?;
+        setup.pipeline.finish(self.last_time, &mut self.events)?;
         self.emit(setup)
     }
 }

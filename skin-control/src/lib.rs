@@ -6,6 +6,7 @@
 //!
 //! - [`task_stack`]: the task-priority solver with activations (thesis App. D), with damped and
 //!   activation-aware regularised pseudo-inverses, so tasks fade in and out continuously.
+//!   Example: `examples/examples/task_stack.rs`.
 //!
 //! - [`contact_tasks`]: the skin's tasks of Ch. 8.4, contact-force minimisation per link
 //!   (Eq. 8.13-8.17) with its activation, and reaching in the null space of the end-effector's
@@ -19,7 +20,8 @@
 //!   interaction experiment, Ch. 9.3).
 //! - `sim` (feature `sim`): a headless, deterministic world (skin-covered capsule links, padded
 //!   obstacles, the spring contact model of Eq. 8.1) and the thesis' experiments in it: reaching
-//!   through clutter (Ch. 8.5) and physical interaction (Ch. 9.3).
+//!   through clutter (Ch. 8.5) and physical interaction (Ch. 9.3). Example:
+//!   `examples/examples/reach_through_clutter.rs`.
 
 pub mod approach_press;
 pub mod contact_tasks;

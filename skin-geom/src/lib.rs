@@ -10,10 +10,11 @@
 //!
 //! - [`SkinMesh`] ([`mesh`]): triangles over the taxels, given or triangulated in a [`Chart`].
 //! - [`TactileMap`]: one 2D point per taxel from least-squares conformal maps ([`flatten`]), with a
-//!   [`DistortionReport`].
+//!   [`DistortionReport`]. Example: `examples/examples/flatten_link.rs`.
 //! - [`Rasterizer`] ([`raster`]): the grid on the map, with per-pixel taxel triples and
 //!   barycentric weights precomputed; renders a frame with no allocation. [`TactileImager`] adds
-//!   grey conversion (eq. 3.1), erosion / dilation and resizing for classifiers.
+//!   grey conversion (eq. 3.1), erosion / dilation and resizing for classifiers. Example:
+//!   `examples/examples/tactile_images.rs`.
 //! - [`Stitcher`] ([`stitch`], Ch. 6): the maps of a chain of links placed every control cycle so
 //!   that the skin across each joint keeps its 3D lengths (Eq. 6.6, argmin's BFGS, anytime), and
 //!   [`StitchedRasterizer`]: one tactile image over all of them. Example:

@@ -1,8 +1,10 @@
 //! The whole per-frame path of the thesis' full arm, as `skin run` drives it: 3,495 taxels on
 //! three links (half-cylinder covers, 8 mm pitch, 1,165 taxels each), 318 Cyskin modules on four
-//! skin16 buses. One cycle = its CAN frames decoded and assembled, the frame split into links,
-//! the baseline applied, contacts searched on every link, and touches tracked; a frame that
-//! decides a touch also images it and runs the shipped HandsNet.
+//! skin16 buses, the links end to end and stitched at their joints (thesis Ch. 6). One cycle =
+//! its CAN frames decoded and assembled, the frame split into links, the baseline applied,
+//! contacts searched on every link and over the stitched chain (the links' meshes joined by the
+//! bridge triangles across the joints, as `skin run` with `[stitch]` does), and touches
+//! tracked; a frame that decides a touch also images it and runs the shipped HandsNet.
 //!
 //! - `no contact`: a cycle of an untouched arm (what offline replay mostly costs);
 //! - `decision`: the cycle whose frame holds a hand on the middle link and decides it
@@ -11,12 +13,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Point3, Unit, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, Unit, Vector3};
 use skin_can::candump::CanFrame;
 use skin_can::decode::skin16::{encode_module, encode_sync};
 use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
-use skin_core::{Baseline, BaselineOptions, LinkSkin, Taxel, TaxelId};
-use skin_geom::{FlattenOptions, TactileMap};
+use skin_core::{Baseline, BaselineOptions, ContactFinder, LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
@@ -90,6 +92,10 @@ struct PerFrame {
     baselines: Vec<Baseline>,
     pipeline: TouchPipeline,
     events: Vec<skin_learn::touch::TouchEvent>,
+    /// Contact search over the stitched chain, and its concatenated frame.
+    chain: ContactFinder,
+    all: Vec<f32>,
+    spanning: usize,
 }
 
 impl PerFrame {
@@ -107,6 +113,14 @@ impl PerFrame {
         self.pipeline
             .process(time, &self.pressures, &mut self.events)
             .unwrap();
+        let mut o = 0;
+        for p in &self.pressures {
+            for (dst, &v) in self.all[o..o + p.len()].iter_mut().zip(p) {
+                *dst = if v > 5.0 { v } else { 0.0 };
+            }
+            o += p.len();
+        }
+        self.spanning = self.chain.find(&self.all, 0.0, 2).unwrap().len();
     }
 }
 
@@ -134,6 +148,28 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
         .collect();
+    // End to end along y, 6 mm apart, stitched once (a posture held, as in `skin run`).
+    let poses: Vec<Isometry3<f64>> = (0..3)
+        .map(|k| Translation3::new(0.0, k as f64 * 0.2623, 0.0).into())
+        .collect();
+    let stitched = Stitcher::new(maps.clone(), &poses, StitchOptions::default())
+        .unwrap()
+        .reset(&poses)
+        .unwrap();
+    assert!(stitched.bridges.len() > 20, "{} bridges", stitched.bridges.len());
+    let offsets = [0, PER_LINK, 2 * PER_LINK];
+    let positions: Vec<Point3<f64>> = maps
+        .iter()
+        .zip(&poses)
+        .flat_map(|(m, pose)| m.positions.iter().map(move |x| pose * x))
+        .collect();
+    let faces: Vec<[usize; 3]> = maps
+        .iter()
+        .zip(offsets)
+        .flat_map(|(m, o)| m.faces.iter().map(move |f| f.map(|i| o + i)))
+        .chain(stitched.bridges.iter().map(|b| b.map(|(l, i)| offsets[l] + i)))
+        .collect();
+    let chain = ContactFinder::new(&positions, &[], &faces, Path::new("arm")).unwrap();
     // A whole hand on the middle link, from the synthetic-data generator.
     let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
     let hand = (0..)
@@ -183,6 +219,9 @@ fn bench(c: &mut Criterion) {
         baselines,
         pipeline: TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap(),
         events: Vec::new(),
+        chain,
+        all: vec![0.0; ids.len()],
+        spanning: 0,
     };
     let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
     let mut n = 0u64;

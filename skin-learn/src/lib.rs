@@ -2,7 +2,8 @@
 //!
 //! - [`calibration`]: where each taxel sits, fitted from a probe pressing the skin (thesis Ch. 7):
 //!   probe datasets and their CSV form, the per-taxel Gaussian fit, a probe simulator, and the
-//!   error metrics and convergence curve of the thesis.
+//!   error metrics and convergence curve of the thesis. Example:
+//!   `examples/examples/calibrate_patch.rs`.
 //! - `classify` (feature `onnx`): tactile image classification (hand / non-hand, HandsNet,
 //!   Ch. 4.3) with any ONNX classifier of grey images, run by tract; `segment` (feature `onnx`):
 //!   hand-part segmentation (Ch. 4.4) the same way. [`card`]: the model card beside a model.
