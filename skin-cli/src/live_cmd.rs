@@ -445,16 +445,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_recorded_session_replays_to_the_frames_it_assembled_live() {
-        let map = BusMap::parse(
-            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
-            Path::new("m.toml"),
-        )
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let (log, csv) = (dir.path().join("s.log"), dir.path().join("live.csv"));
-        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false).unwrap();
+    /// A 2 ms sync sent by us, and a bus whose module 2 answers it.
+    fn master_and_module_2() -> (Duration, LiveOptions, Bus) {
         let period = Duration::from_millis(2);
         let options = LiveOptions {
             sync_period: Some(period),
@@ -465,6 +457,20 @@ mod tests {
             modules: vec![2],
             queue: VecDeque::new(),
         };
+        (period, options, bus)
+    }
+
+    #[test]
+    fn a_recorded_session_replays_to_the_frames_it_assembled_live() {
+        let map = BusMap::parse(
+            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
+            Path::new("m.toml"),
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let (log, csv) = (dir.path().join("s.log"), dir.path().join("live.csv"));
+        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false).unwrap();
+        let (period, options, bus) = master_and_module_2();
         let mut calls = 0;
         // Stop after a number of loop turns, not a time: the test must not depend on speed.
         let summary = run(vec![bus], options, &map, period, &mut sinks, || {
@@ -505,16 +511,7 @@ mod tests {
             Path::new("m.toml"),
         )
         .unwrap();
-        let period = Duration::from_millis(2);
-        let options = LiveOptions {
-            sync_period: Some(period),
-            ..LiveOptions::default()
-        };
-        let bus = Bus {
-            name: "can0".into(),
-            modules: vec![2],
-            queue: VecDeque::new(),
-        };
+        let (period, options, bus) = master_and_module_2();
         let mut seen = Vec::new();
         let mut turns = 0;
         pump_frames(

@@ -52,6 +52,20 @@ fn config(dir: &Path, replace: &[(&str, &str)], extra: &str) -> String {
     path.display().to_string()
 }
 
+/// Runs `skin run CONFIG --log LOG -o OUT -q EXTRA...`, which must succeed; its stdout.
+fn run_ok(cfg: &str, log: &str, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec!["run", cfg, "--log", log, "-o", out.to_str().unwrap(), "-q"];
+    args.extend_from_slice(extra);
+    let o = skin(&args);
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
 /// (found, right, scripted) from the summary's script line.
 fn score(stdout: &str) -> (usize, usize, usize) {
     let line = stdout
@@ -71,22 +85,7 @@ fn the_fixture_session_finds_every_scripted_touch_and_classifies_them() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = config(dir.path(), &[], "");
     let out = dir.path().join("out");
-    let o = skin(&[
-        "run",
-        &cfg,
-        "--log",
-        &log(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--timings",
-    ]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = run_ok(&cfg, &log(), &out, &["--timings"]);
     let (found, right, scripted) = score(&stdout);
     assert_eq!(scripted, 20);
     assert_eq!(found, 20, "{stdout}");
@@ -146,22 +145,7 @@ fn frames_option_writes_an_image_per_touched_frame() {
         "",
     );
     let out = dir.path().join("out");
-    let o = skin(&[
-        "run",
-        &cfg,
-        "--log",
-        &log(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--frames",
-    ]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = run_ok(&cfg, &log(), &out, &["--frames"]);
     // Without a classifier the touches are still found, with no class.
     let (found, right, _) = score(&stdout);
     assert_eq!((found, right), (20, 0), "{stdout}");
@@ -227,22 +211,7 @@ fn stitched_links_report_a_contact_across_the_joint_at_every_posture() {
     .unwrap();
     let out = dir.path().join("out");
     let log = arm.join("touch.candump.log");
-    let o = skin(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--log",
-        log.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--frames",
-    ]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = run_ok(cfg.to_str().unwrap(), log.to_str().unwrap(), &out, &["--frames"]);
     assert!(
         stdout.contains("contacts across joints (stitched maps): 3"),
         "{stdout}"

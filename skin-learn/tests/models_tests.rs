@@ -5,26 +5,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-use skin_geom::{FlattenOptions, TactileMap};
+mod support;
+use support::{forearm, model};
+
 use skin_learn::card::ModelCard;
 use skin_learn::classify::{Classifier, InputScale, ModelError};
 use skin_learn::metrics::ConfusionMatrix;
 use skin_learn::segment::Segmenter;
 use skin_learn::synth::{SynthOptions, Synthesizer};
-use std::path::{Path, PathBuf};
-
-fn model(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../fixtures/models")
-        .join(name)
-}
-
-/// The bundled forearm's layout, flattened as `skin synth` does.
-fn forearm() -> TactileMap {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json");
-    let link = skin_core::format::load_link(&path).unwrap();
-    TactileMap::flatten(&link, &FlattenOptions::default()).unwrap()
-}
 
 #[test]
 fn cards_say_how_to_feed_the_models() {

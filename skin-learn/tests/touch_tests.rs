@@ -3,24 +3,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-use skin_geom::{FlattenOptions, TactileMap};
+mod support;
+use support::{forearm, model};
+
+use skin_geom::TactileMap;
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::segment::Segmenter;
 use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchEvent, TouchOptions, TouchPipeline};
-use std::path::{Path, PathBuf};
-
-fn model(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../fixtures/models")
-        .join(name)
-}
-
-fn forearm() -> TactileMap {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json");
-    let link = skin_core::format::load_link(&path).unwrap();
-    TactileMap::flatten(&link, &FlattenOptions::default()).unwrap()
-}
 
 /// A whole-hand grasp wholly on the skin, in map order.
 fn hand(map: &TactileMap) -> Vec<f32> {
