@@ -1061,12 +1061,40 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
     if setup.stitching.is_some() {
         let _ = writeln!(out, "contacts across joints (stitched maps): {}", s.across);
     }
+    // Each scripted touch's detected touch: the one overlapping it the longest.
+    let matches: Vec<Option<usize>> = setup.truth.as_ref().map_or(Vec::new(), |script| {
+        script
+            .iter()
+            .map(|t| {
+                s.done
+                    .iter()
+                    .enumerate()
+                    .map(|(j, d)| (j, d.end.min(t.end) - d.start.max(t.start)))
+                    .filter(|(_, overlap)| *overlap >= 0.0)
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(j, _)| j)
+            })
+            .collect()
+    });
+    let mut scripted = vec![String::new(); s.done.len()];
+    if let Some(script) = &setup.truth {
+        for (t, m) in script.iter().zip(&matches) {
+            if let Some(j) = m {
+                scripted[*j] = format!("{} {}", t.class, t.kind);
+            }
+        }
+    }
     let _ = writeln!(out, "{} touch(es):", s.done.len());
     let _ = writeln!(
         out,
-        "  touch  link        start s   end s  class        prob  taxels  area cm2  mean  parts"
+        "  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}parts",
+        if setup.truth.is_some() {
+            "script               "
+        } else {
+            ""
+        }
     );
-    for d in &s.done {
+    for (d, script) in s.done.iter().zip(&scripted) {
         let (class, prob, parts) = match &d.decision {
             Some(dec) => (
                 class_name(&setup.classes, dec.class).to_string(),
@@ -1079,9 +1107,20 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
             ),
             None => ("-".into(), "-".into(), String::new()),
         };
-        let _ = writeln!(
-            out,
-            "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {}",
+        let script = if setup.truth.is_some() {
+            format!(
+                "{:<21}",
+                if script.is_empty() {
+                    "(not scripted)"
+                } else {
+                    script
+                }
+            )
+        } else {
+            String::new()
+        };
+        let row = format!(
+            "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {script}{parts}",
             d.touch,
             setup.links[d.link].name,
             d.start,
@@ -1091,28 +1130,16 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
             d.peak.taxels,
             d.peak.area_cm2,
             d.peak.mean_pressure,
-            parts
         );
+        let _ = writeln!(out, "{}", row.trim_end());
     }
     if let Some(script) = &setup.truth {
-        let mut found = 0;
         let mut right = 0;
-        let mut matched = vec![false; s.done.len()];
         let mut misses = Vec::new();
-        for (k, t) in script.iter().enumerate() {
-            // The detected touch overlapping the scripted one the longest.
-            let best = s
-                .done
-                .iter()
-                .enumerate()
-                .map(|(j, d)| (j, d.end.min(t.end) - d.start.max(t.start)))
-                .filter(|(_, overlap)| *overlap >= 0.0)
-                .max_by(|a, b| a.1.total_cmp(&b.1));
-            match best {
-                Some((j, _)) => {
-                    found += 1;
-                    matched[j] = true;
-                    let got = s.done[j]
+        for (k, (t, m)) in script.iter().zip(&matches).enumerate() {
+            match m {
+                Some(j) => {
+                    let got = s.done[*j]
                         .decision
                         .as_ref()
                         .map_or("-", |d| class_name(&setup.classes, d.class));
@@ -1128,7 +1155,8 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
                 None => misses.push(format!("scripted touch {k} ({} {}) not found", t.class, t.kind)),
             }
         }
-        let extra = matched.iter().filter(|m| !**m).count();
+        let found = matches.iter().filter(|m| m.is_some()).count();
+        let extra = scripted.iter().filter(|m| m.is_empty()).count();
         let _ = writeln!(
             out,
             "script: {found} of {} scripted touches found, {right} with the right class ({:.1}%); {extra} touch(es) not in the script",
