@@ -37,6 +37,7 @@ use std::time::{Duration, Instant};
 ///     min_taxels = 2
 ///     decide_frames = 3               # frames of contact before the first decision
 ///     release_frames = 2              # frames without contact that end a touch
+///     reclassify_growth = 1.25        # classify again when the touch grows by this factor
 ///     [gate]                          # optional: what the robot should do
 ///     hand = "comply"
 ///     non_hand = "stop"
@@ -52,11 +53,11 @@ use std::time::{Duration, Instant};
 /// stitched images too.
 ///
 /// Offline (--log): writes OUT/events.jsonl (one JSON object a line: appeared, classified,
-/// released, across_joint, gate, incomplete; times in s, centroids in m in the link frame, areas in cm²,
-/// pressures in counts), OUT/touches/*.png (the image each decision was made on), with --frames
-/// OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary. The output folder appears
-/// whole or not at all. Live (--can): events go to standard output as they happen; Ctrl-C or
-/// --duration ends the run and prints the summary.
+/// released, across_joint, gate, incomplete; times in s, centroids in m in the link frame,
+/// areas in cm², pressures in counts), OUT/touches/*.png (the image each decision was made
+/// on), with --frames OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary.
+/// The output folder appears whole or not at all. Live (--can): events go to standard
+/// output as they happen; Ctrl-C or --duration ends the run and prints the summary.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
