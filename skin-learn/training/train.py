@@ -77,7 +77,10 @@ class HandsNet(nn.Module):
 
 class HandSeg(nn.Module):
     """A compact encoder-decoder with skip connections (a small U-Net): 68 x 100 in, 7 part
-    scores per pixel out. Two 2x2 poolings, so the input sides must be multiples of 4."""
+    scores per pixel out. Two 2x2 poolings, so the input sides must be multiples of 4. At the
+    bottleneck, a residual block of dilated convolutions (dilation 2, 4, 8) lets every pixel
+    see the whole hand: which finger is which depends on where the thumb and palm are, tens of
+    pixels away, and the thesis' SegNet gets that reach from five poolings."""
 
     def __init__(self, width=16):
         super().__init__()
@@ -96,6 +99,10 @@ class HandSeg(nn.Module):
         self.conv1 = double(1, w)
         self.conv2 = double(w, 2 * w)
         self.conv3 = double(2 * w, 4 * w)
+        self.context = nn.Sequential(*[
+            nn.Sequential(nn.Conv2d(4 * w, 4 * w, 3, padding=d, dilation=d), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True))
+            for d in (2, 4, 8)
+        ])
         self.up2 = nn.ConvTranspose2d(4 * w, 2 * w, 2, stride=2)
         self.dec2 = double(4 * w, 2 * w)
         self.up1 = nn.ConvTranspose2d(2 * w, w, 2, stride=2)
@@ -106,6 +113,7 @@ class HandSeg(nn.Module):
         e1 = self.conv1(x)
         e2 = self.conv2(F.max_pool2d(e1, 2))
         e3 = self.conv3(F.max_pool2d(e2, 2))
+        e3 = e3 + self.context(e3)
         d2 = self.dec2(torch.cat([self.up2(e3), e2], 1))
         d1 = self.dec1(torch.cat([self.up1(d2), e1], 1))
         return self.head(d1)
