@@ -259,3 +259,44 @@ fn stitched_links_report_a_contact_across_the_joint_at_every_posture() {
         "{stderr}"
     );
 }
+
+#[test]
+fn frames_with_a_module_missing_are_reported_and_the_touches_still_found() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[], "");
+    // Module 5 (CAN ids 0x214-0x216) goes silent from 5.0 s to 7.0 s of the session.
+    let text = std::fs::read_to_string(log()).unwrap();
+    let mut dropped = 0;
+    let cut: String = text
+        .lines()
+        .filter(|l| {
+            let t: f64 = l[1..18].parse().unwrap();
+            let silent = (1_700_000_005.0..1_700_000_007.0).contains(&t)
+                && [" can0 214#", " can0 215#", " can0 216#"]
+                    .iter()
+                    .any(|id| l.contains(id));
+            dropped += usize::from(silent);
+            !silent
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_eq!(dropped, 3 * 40);
+    let cut_log = dir.path().join("cut.log");
+    std::fs::write(&cut_log, cut).unwrap();
+    let out = dir.path().join("out");
+    let stdout = run_ok(&cfg, cut_log.to_str().unwrap(), &out, &[]);
+    assert!(stdout.contains("620 frames (40 incomplete)"), "{stdout}");
+    let (found, _, _) = score(&stdout);
+    assert_eq!(found, 20, "a lost module is not a release: {stdout}");
+    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
+    let incomplete: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "incomplete")
+        .collect();
+    assert_eq!(incomplete.len(), 40);
+    assert_eq!(
+        incomplete[0]["missing"],
+        serde_json::json!([{"bus": "can0", "address": 5}])
+    );
+}
