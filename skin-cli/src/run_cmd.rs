@@ -351,6 +351,9 @@ fn load(config_path: &Path) -> Result<Setup> {
     }
     let slots: Vec<_> = ids.iter().map(|id| where_is.get(id).copied()).collect();
 
+    let layout_bytes =
+        std::fs::read(&layout_path).with_context(|| format!("cannot read {}", layout_path.display()))?;
+    let layout_hash = fnv1a(0xcbf2_9ce4_8422_2325, &layout_bytes);
     let cache = base.join(
         config
             .cache
@@ -359,7 +362,7 @@ fn load(config_path: &Path) -> Result<Setup> {
     );
     let maps = links
         .iter()
-        .map(|l| cached_map(&layout_path, &cache, l))
+        .map(|l| cached_map(&layout_path, layout_hash, &cache, l))
         .collect::<Result<Vec<_>>>()?;
     for (map, link) in maps.iter().zip(&links) {
         // Frames reach the pipeline in layout order: the map must keep it.
@@ -373,7 +376,7 @@ fn load(config_path: &Path) -> Result<Setup> {
         }
     }
     let stitching = match &poses_path {
-        Some(p) => Some(crate::run_stitch::Stitching::new(p, &maps)?),
+        Some(p) => Some(crate::run_stitch::Stitching::new(p, &layout_path, &maps)?),
         None => None,
     };
 
@@ -462,15 +465,17 @@ fn read_links(path: &Path) -> Result<Vec<LinkSkin>> {
     Ok(vec![crate::flatten::load_input(path)?])
 }
 
+/// FNV-1a of `bytes` continued from `h`: stable across runs and machines, unlike std's hasher.
+fn fnv1a(h: u64, bytes: &[u8]) -> u64 {
+    bytes
+        .iter()
+        .fold(h, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3))
+}
+
 /// The tactile map of `link`, from the cache, or flattened and cached. The cache key is a hash
 /// of the layout file and the link name, so an edited layout gets a new map.
-fn cached_map(layout: &Path, cache: &Path, link: &LinkSkin) -> Result<TactileMap> {
-    let bytes = std::fs::read(layout).with_context(|| format!("cannot read {}", layout.display()))?;
-    // FNV-1a: stable across runs and machines, unlike std's hasher.
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes.iter().chain(link.name.as_bytes()) {
-        h = (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3);
-    }
+fn cached_map(layout: &Path, layout_hash: u64, cache: &Path, link: &LinkSkin) -> Result<TactileMap> {
+    let h = fnv1a(layout_hash, link.name.as_bytes());
     let safe: String = link
         .name
         .chars()

@@ -39,19 +39,11 @@ pub(crate) struct Stitching {
 }
 
 impl Stitching {
-    /// Reads `poses` and stitches `maps` (chain order, as the layout lists its links) at each of
+    /// Reads `poses` and stitches `maps` (chain order, as `layout` lists its links) at each of
     /// its postures.
-    pub(crate) fn new(poses: &Path, maps: &[TactileMap]) -> Result<Stitching> {
-        let postures = Postures::read(poses)?;
+    pub(crate) fn new(poses: &Path, layout: &Path, maps: &[TactileMap]) -> Result<Stitching> {
         let names: Vec<&str> = maps.iter().map(|m| m.name.as_str()).collect();
-        if postures.links != names {
-            bail!(
-                "{}: links {:?}, but the layout has {:?} (same names, same order)",
-                poses.display(),
-                postures.links,
-                names
-            );
-        }
+        let postures = crate::stitch_cmd::read_postures(poses, layout, &names)?;
         let Some(reference) = postures.postures.get(postures.postures.len() / 2) else {
             bail!("{}: no posture", poses.display());
         };

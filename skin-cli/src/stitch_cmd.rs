@@ -63,17 +63,8 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let layout = native::read_layout(&args.layout)?;
-    let postures = Postures::read(&args.poses)?;
     let names: Vec<&str> = layout.links.iter().map(|l| l.name.as_str()).collect();
-    if postures.links != names {
-        bail!(
-            "{}: links {:?}, but the layout {} has {:?} (same names, same order)",
-            args.poses.display(),
-            postures.links,
-            args.layout.display(),
-            names
-        );
-    }
+    let postures = read_postures(&args.poses, &args.layout, &names)?;
     let maps: Vec<TactileMap> = layout
         .links
         .iter()
@@ -199,6 +190,25 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Reads the postures of `poses`, which must name the links of `layout` (`names`), in order.
+pub(crate) fn read_postures(
+    poses: &std::path::Path,
+    layout: &std::path::Path,
+    names: &[&str],
+) -> Result<Postures> {
+    let postures = Postures::read(poses)?;
+    if postures.links != names {
+        bail!(
+            "{}: links {:?}, but the layout {} has {:?} (same names, same order)",
+            poses.display(),
+            postures.links,
+            layout.display(),
+            names
+        );
+    }
+    Ok(postures)
 }
 
 /// The worst relative difference between the 3D length and the stitched 2D length over
