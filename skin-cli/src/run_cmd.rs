@@ -694,8 +694,7 @@ impl Output {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
         }
-        let png = skin_geom::encode_png(grey, rows, cols)?;
-        std::fs::write(&path, png).with_context(|| format!("cannot write {}", path.display()))
+        Ok(skin_geom::write_png(&path, grey, rows, cols)?)
     }
 
     /// Moves the finished folder into place (replacing an older run's).
