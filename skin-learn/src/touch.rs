@@ -266,13 +266,14 @@ impl TouchPipeline {
         let mut links = Vec::with_capacity(maps.len());
         for map in maps {
             let name = map.name.clone();
-            let normals: Vec<_> = Vec::new();
-            let finder = ContactFinder::new(&map.positions, &normals, &map.faces, Path::new(&name)).map_err(
-                |source| TouchError::Mesh {
-                    link: name.clone(),
-                    source,
-                },
-            )?;
+            // A tactile map carries no normals: contacts get none (`Contact::normal` is None).
+            let finder =
+                ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&name)).map_err(|source| {
+                    TouchError::Mesh {
+                        link: name.clone(),
+                        source,
+                    }
+                })?;
             let raster =
                 Rasterizer::new(&map, Grid::StepMm(options.step_mm)).map_err(|source| TouchError::Map {
                     link: name.clone(),
