@@ -155,6 +155,7 @@ impl ImageModel {
                 .clone()
                 .with_input_fact(0, f32::fact([batch, 1, self.height, self.width]).into())
                 .and_then(|m| m.into_optimized())
+                .and_then(|mut m| crate::max_pool::swap_max_pools(&mut m).map(|_| m))
                 .map_err(|e| shape_err(format!("planning for batch {batch}: {e:#}")))?;
             let out = typed
                 .output_fact(0)

@@ -7,6 +7,7 @@
 //! - `classify` (feature `onnx`): tactile image classification (hand / non-hand, HandsNet,
 //!   Ch. 4.3) with any ONNX classifier of grey images, run by tract; `segment` (feature `onnx`):
 //!   hand-part segmentation (Ch. 4.4) the same way. [`card`]: the model card beside a model.
+//!   `max_pool` (feature `onnx`): the vectorised 2 x 2 max-pool both put in tract's plans.
 //! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8.
 //! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
@@ -23,6 +24,8 @@ pub mod classify;
 pub mod dataset;
 #[cfg(feature = "onnx")]
 mod image_model;
+#[cfg(feature = "onnx")]
+pub mod max_pool;
 pub mod metrics;
 pub mod parts;
 #[cfg(feature = "onnx")]

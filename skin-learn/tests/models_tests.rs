@@ -89,3 +89,43 @@ fn a_classifier_is_not_a_segmenter_and_vice_versa() {
     let err = Classifier::load(&model("handseg.onnx"), InputScale::Unit).unwrap_err();
     assert!(matches!(err, ModelError::Shape { .. }), "{err}");
 }
+
+/// skin-learn swaps tract's 2 x 2 max-pools for its own vectorised one: the shipped models must
+/// give exactly what tract's own plan gives (a max is exact, the rest of the plan is the same).
+#[test]
+fn the_swapped_max_pools_change_no_output() {
+    use tract_onnx::prelude::*;
+    let map = forearm();
+    let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let images: Vec<Vec<u8>> = (0..6).map(|k| synth.sample(79, k, k).image).collect();
+    for (name, pools) in [("handsnet.onnx", 4), ("handseg.onnx", 2)] {
+        let optimised = tract_onnx::onnx()
+            .model_for_path(model(name))
+            .and_then(|m| m.with_input_fact(0, f32::fact([1, 1, 68, 100]).into()))
+            .and_then(|m| m.into_optimized())
+            .unwrap();
+        let mut swapped = optimised.clone();
+        assert_eq!(
+            skin_learn::max_pool::swap_max_pools(&mut swapped).unwrap(),
+            pools,
+            "{name}"
+        );
+        let plain = optimised.into_runnable().unwrap();
+        let swapped = swapped.into_runnable().unwrap();
+        for image in &images {
+            let input: Tensor = tract_ndarray::Array4::from_shape_fn((1, 1, 68, 100), |(_, _, r, c)| {
+                f32::from(image[r * 100 + c]) / 255.0
+            })
+            .into();
+            let a = plain.run(tvec!(input.clone().into())).unwrap();
+            let b = swapped.run(tvec!(input.into())).unwrap();
+            let a = a[0].to_plain_array_view::<f32>().unwrap();
+            let b = b[0].to_plain_array_view::<f32>().unwrap();
+            assert_eq!(a.shape(), b.shape(), "{name}");
+            assert!(
+                a.iter().zip(b.iter()).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{name}"
+            );
+        }
+    }
+}

@@ -191,7 +191,8 @@ def evaluate(model, x, y, task, batch=256):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("task", choices=["handsnet", "segnet"])
-    ap.add_argument("--dataset", required=True, help="directory written by `skin synth`")
+    ap.add_argument("--dataset", required=True, action="append",
+                    help="directory written by `skin synth`; repeat to train on several (each split by its own subjects)")
     ap.add_argument("--out", required=True, help="ONNX file to write (a .pt and a .md card beside it)")
     ap.add_argument("--epochs", type=int, default=None, help="default: 80 (HandsNet), 100 (segmenter)")
     ap.add_argument("--lr", type=float, default=None, help="default: 0.01 (HandsNet), 0.05 (segmenter)")
@@ -219,7 +220,10 @@ def main():
     np.random.seed(a.seed)
     torch.manual_seed(a.seed)
 
-    x, y, test, rows, cut, n_subjects = load(a.dataset, a.task, a.test_fraction)
+    parts = [load(d, a.task, a.test_fraction) for d in a.dataset]
+    x, y, test = (torch.cat([p[i] for p in parts]) for i in range(3))
+    cut = ", ".join(str(p[4]) for p in parts)
+    n_subjects = ", ".join(str(p[5]) for p in parts)
     if a.smoke:
         n = min(48, len(x))
         x, y, test = x[:n], y[:n], torch.zeros(n, dtype=torch.bool)
@@ -307,7 +311,7 @@ def export(model, a, rows, cols, seg, scores, info):
         "",
         f"# {os.path.basename(a.out)}",
         "",
-        f"Trained by `skin-learn/training/train.py` on `{a.dataset}` (written by `skin synth`).",
+        "Trained by `skin-learn/training/train.py` on " + ", ".join(f"`{d}`" for d in a.dataset) + " (written by `skin synth`).",
         "",
         "Input: tactile images through the real pipeline (1 mm grid, contact-max grey, erosion 2 /",
         "dilation 4, resized), pixel values divided by 255 (input_scale: unit).",

@@ -1,0 +1,105 @@
+//! Where tract spends a batch-1 run of the project's models: the optimised plan node by node,
+//! the time of each (mean over 300 runs after 50 warm-up runs), largest first. Not a criterion
+//! bench: it prints a profile, the "what limits tract" part of BENCHMARKS.md.
+//!
+//! ```text
+//! cargo bench -p skin-learn --features onnx --bench model_profile [-- MODEL.onnx ...]
+//! ```
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)] // a profiling tool
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use tract_onnx::prelude::*;
+
+const WARM_UP: usize = 50;
+const RUNS: usize = 300;
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let args: Vec<PathBuf> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .map(PathBuf::from)
+        .collect();
+    let models = if args.is_empty() {
+        vec![
+            root.join("fixtures/models/handsnet.onnx"),
+            root.join("fixtures/models/handseg.onnx"),
+        ]
+    } else {
+        args
+    };
+    for path in models {
+        profile(&path);
+    }
+}
+
+fn profile(path: &Path) {
+    let plan = tract_onnx::onnx()
+        .model_for_path(path)
+        .and_then(|m| m.with_input_fact(0, f32::fact([1, 1, 68, 100]).into()))
+        .and_then(|m| m.into_optimized())
+        .and_then(|mut m| {
+            // As skin-learn plans it, unless PLAIN_TRACT is set.
+            if std::env::var("PLAIN_TRACT").is_err() {
+                skin_learn::max_pool::swap_max_pools(&mut m)?;
+            }
+            Ok(m)
+        })
+        .and_then(|m| m.into_runnable())
+        .unwrap();
+    let mut state = TypedSimpleState::new(&plan).unwrap();
+    let input: Tensor = tract_ndarray::Array4::from_shape_fn((1, 1, 68, 100), |(_, _, r, c)| {
+        if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
+            0.8f32
+        } else {
+            0.0
+        }
+    })
+    .into();
+    for _ in 0..WARM_UP {
+        state.run(tvec!(input.clone().into())).unwrap();
+    }
+    let mut per_node: HashMap<usize, Duration> = HashMap::new();
+    let whole = Instant::now();
+    for _ in 0..RUNS {
+        state
+            .run_plan_with_eval(tvec!(input.clone().into()), |ctx, op_state, node, inputs| {
+                let t = Instant::now();
+                let out = tract_onnx::tract_core::plan::eval(ctx, op_state, node, inputs);
+                *per_node.entry(node.id).or_default() += t.elapsed();
+                out
+            })
+            .unwrap();
+    }
+    let whole = whole.elapsed().as_secs_f64() * 1e3 / RUNS as f64;
+    let model = plan.model();
+    let mut rows: Vec<(usize, f64)> = per_node
+        .iter()
+        .map(|(&id, d)| (id, d.as_secs_f64() * 1e3 / RUNS as f64))
+        .collect();
+    rows.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let total: f64 = rows.iter().map(|r| r.1).sum();
+    println!(
+        "\n{}: {} nodes, {whole:.3} ms a run ({total:.3} ms in the nodes)",
+        path.display(),
+        model.nodes.len()
+    );
+    for (id, ms) in rows {
+        let node = &model.nodes[id];
+        let shape = format!("{:?}", node.outputs[0].fact.shape);
+        let op = format!("{:?}", node.op);
+        let op: String = if std::env::var("FULL").is_ok() {
+            op
+        } else {
+            op.chars().take(150).collect()
+        };
+        println!(
+            "{ms:8.3} ms {:5.1}%  #{id:<3} {:<28} [{shape}] {op}",
+            100.0 * ms / total,
+            node.name.chars().take(28).collect::<String>()
+        );
+    }
+}
