@@ -1,10 +1,13 @@
 //! Where tract spends a batch-1 run of the project's models: the optimised plan node by node,
-//! the time of each (mean over 300 runs after 50 warm-up runs), largest first. Not a criterion
+//! the time of each (mean over 100 runs after 20 warm-up runs), largest first. Not a criterion
 //! bench: it prints a profile, the "what limits tract" part of BENCHMARKS.md.
 //!
 //! ```text
 //! cargo bench -p skin-learn --features onnx --bench model_profile [-- MODEL.onnx ...]
 //! ```
+//!
+//! `BATCH=32` profiles a batch; `PLAIN_TRACT=1` leaves tract's own max-pools in the plan;
+//! `FULL=1` prints each node's whole description (the matrix kernel it picked).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)] // a profiling tool
 
@@ -13,8 +16,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tract_onnx::prelude::*;
 
-const WARM_UP: usize = 50;
-const RUNS: usize = 300;
+const WARM_UP: usize = 20;
+const RUNS: usize = 100;
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -37,9 +40,13 @@ fn main() {
 }
 
 fn profile(path: &Path) {
+    let batch: usize = std::env::var("BATCH")
+        .ok()
+        .and_then(|b| b.parse().ok())
+        .unwrap_or(1);
     let plan = tract_onnx::onnx()
         .model_for_path(path)
-        .and_then(|m| m.with_input_fact(0, f32::fact([1, 1, 68, 100]).into()))
+        .and_then(|m| m.with_input_fact(0, f32::fact([batch, 1, 68, 100]).into()))
         .and_then(|m| m.into_optimized())
         .and_then(|mut m| {
             // As skin-learn plans it, unless PLAIN_TRACT is set.
@@ -51,7 +58,7 @@ fn profile(path: &Path) {
         .and_then(|m| m.into_runnable())
         .unwrap();
     let mut state = TypedSimpleState::new(&plan).unwrap();
-    let input: Tensor = tract_ndarray::Array4::from_shape_fn((1, 1, 68, 100), |(_, _, r, c)| {
+    let input: Tensor = tract_ndarray::Array4::from_shape_fn((batch, 1, 68, 100), |(_, _, r, c)| {
         if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
             0.8f32
         } else {

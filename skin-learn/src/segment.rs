@@ -24,7 +24,7 @@ impl Segmenter {
     pub fn load(path: &Path, scale: InputScale) -> Result<Segmenter, ModelError> {
         let mut net = ImageModel::load(path, scale)?;
         let (h, w) = (net.height, net.width);
-        let classes = match net.output_shape(1)?.as_slice() {
+        let classes = match net.output_shape()?.as_slice() {
             [1, c, oh, ow] if (*oh, *ow) == (h, w) && *c >= 2 && *c <= 256 => *c,
             other => {
                 return Err(ModelError::Shape {
@@ -59,7 +59,7 @@ impl Segmenter {
         Ok(self.segment_batch(&[image])?.remove(0))
     }
 
-    /// The class of each pixel of each image, run as one batch. Pixels that are black in the
+    /// The class of each pixel of each image (each through the one-image plan). Pixels that are black in the
     /// input are background (class 0) whatever the model says: nothing pressed there.
     pub fn segment_batch(&mut self, images: &[&[u8]]) -> Result<Vec<Vec<u8>>, ModelError> {
         if images.is_empty() {
