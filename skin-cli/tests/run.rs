@@ -66,6 +66,20 @@ fn run_ok(cfg: &str, log: &str, out: &Path, extra: &[&str]) -> String {
     stdout
 }
 
+/// Every event `skin run` wrote to `out/events.jsonl`, in order.
+fn events(out: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// The events of one kind (`"event": kind`).
+fn events_of(out: &Path, kind: &str) -> Vec<serde_json::Value> {
+    events(out).into_iter().filter(|e| e["event"] == kind).collect()
+}
+
 /// (found, right, scripted) from the summary's script line.
 fn score(stdout: &str) -> (usize, usize, usize) {
     let line = stdout
@@ -97,8 +111,7 @@ fn the_fixture_session_finds_every_scripted_touch_and_classifies_them() {
     assert!(stdout.contains("x real time"), "--timings: {stdout}");
 
     // The events: one appeared, one released per touch, classified in between, gate actions.
-    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
-    let parsed: Vec<serde_json::Value> = events.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let parsed = events(&out);
     let count = |kind: &str| parsed.iter().filter(|e| e["event"] == kind).count();
     assert_eq!(count("appeared"), 20);
     assert_eq!(count("released"), 20);
@@ -218,12 +231,7 @@ fn stitched_links_report_a_contact_across_the_joint_at_every_posture() {
     );
     // The palm presses both links at once, at each of the three wrist rolls.
     assert!(stdout.contains("6 touch(es)"), "{stdout}");
-    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
-    let across: Vec<serde_json::Value> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-        .filter(|e| e["event"] == "across_joint")
-        .collect();
+    let across = events_of(&out, "across_joint");
     assert_eq!(across.len(), 3);
     for e in &across {
         assert_eq!(e["links"], serde_json::json!(["forearm", "wrist"]));
@@ -288,12 +296,7 @@ fn frames_with_a_module_missing_are_reported_and_the_touches_still_found() {
     assert!(stdout.contains("620 frames (40 incomplete)"), "{stdout}");
     let (found, _, _) = score(&stdout);
     assert_eq!(found, 20, "a lost module is not a release: {stdout}");
-    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
-    let incomplete: Vec<serde_json::Value> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-        .filter(|e| e["event"] == "incomplete")
-        .collect();
+    let incomplete = events_of(&out, "incomplete");
     assert_eq!(incomplete.len(), 40);
     assert_eq!(
         incomplete[0]["missing"],
