@@ -220,10 +220,11 @@ def main():
     np.random.seed(a.seed)
     torch.manual_seed(a.seed)
 
-    parts = [load(d, a.task, a.test_fraction) for d in a.dataset]
-    x, y, test = (torch.cat([p[i] for p in parts]) for i in range(3))
-    cut = ", ".join(str(p[4]) for p in parts)
-    n_subjects = ", ".join(str(p[5]) for p in parts)
+    # Each dataset split by its own subjects, then put together.
+    loaded = [load(d, a.task, a.test_fraction) for d in a.dataset]
+    x, y, test = (torch.cat([d[i] for d in loaded]) for i in range(3))
+    cut = ", ".join(str(d[4]) for d in loaded)
+    n_subjects = ", ".join(str(d[5]) for d in loaded)
     if a.smoke:
         n = min(48, len(x))
         x, y, test = x[:n], y[:n], torch.zeros(n, dtype=torch.bool)
