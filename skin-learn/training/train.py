@@ -14,6 +14,8 @@ tenth of the learning rate.
 
 Everything is seeded; on the CPU the run is repeatable. Set OMP_WAIT_POLICY=PASSIVE on a busy
 machine. `--smoke` runs one tiny epoch and checks the export (what CI runs when torch is there).
+`--swa-from K` exports the average of the weights of epochs K to the last (stochastic weight
+averaging), its batch-norm statistics recomputed on the training images.
 """
 
 import argparse
@@ -206,6 +208,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--init", help="fine-tune from this .pt (Ch. 5.4)")
     ap.add_argument("--first-convs-lr", type=float, default=1.0, help="lr factor of the first two convolutions (0.1 to fine-tune)")
+    ap.add_argument("--swa-from", type=int, default=None, metavar="EPOCH",
+                    help="export the average of the weights at the end of each epoch from EPOCH (1-based) on, "
+                         "with batch-norm statistics recomputed on the training images (stochastic weight averaging)")
     ap.add_argument("--smoke", action="store_true", help="one tiny epoch on a few images, then export and check")
     a = ap.parse_args()
 
@@ -252,6 +257,7 @@ def main():
     weights = median_frequency_weights(ytr) if seg else None
     loss_fn = nn.CrossEntropyLoss(weight=weights)
 
+    swa = torch.optim.swa_utils.AveragedModel(model) if a.swa_from else None
     start = time.time()
     for epoch in range(epochs):
         model.train()
@@ -268,14 +274,22 @@ def main():
             opt.step()
             total += float(loss.detach()) * len(idx)
         sched.step()
+        if swa is not None and epoch + 1 >= a.swa_from:
+            swa.update_parameters(model)
         line = f"epoch {epoch + 1}/{epochs}: loss {total / max(1, len(xtr)):.4f}"
         if len(xte) and ((epoch + 1) % 5 == 0 or epoch + 1 == epochs):
             line += "  test " + ", ".join(f"{k} {v:.4f}" for k, v in evaluate(model, xte, yte, a.task).items())
         print(f"{line}  ({time.time() - start:.0f} s)", flush=True)
 
+    if swa is not None and swa.n_averaged > 0:
+        # The averaged weights need batch-norm statistics of their own.
+        torch.optim.swa_utils.update_bn([xtr[i : i + 256] for i in range(0, len(xtr), 256)], swa)
+        model = swa.module
+        print(f"averaged the weights of epochs {a.swa_from} to {epochs}", flush=True)
     scores = evaluate(model, xte, yte, a.task) if len(xte) else {}
     export(model, a, rows_px, cols_px, seg, scores, dict(
         optimizer=a.optimizer, epochs=epochs, lr=lr, lr_drop_factor=drop, lr_drop_every=epochs if every >= epochs else every,
+        **({"swa_from": a.swa_from} if a.swa_from else {}),
         batch=batch, train_images=len(xtr), test_images=len(xte), subjects=n_subjects,
         test_subjects_from=cut, seconds=round(time.time() - start)))
 
