@@ -37,8 +37,9 @@ impl Classifier {
         Ok(Classifier { net, classes })
     }
 
-    /// Runs the model's matrix products on `threads` threads (1: on the caller's thread, the
-    /// default). Worth it for large batches; a single 68 x 100 image gains little.
+    /// Runs the model on `threads` threads (1: on the caller's thread, the default). A batch
+    /// is split between the threads image by image; a single image splits its matrix
+    /// products, which gains less (see BENCHMARKS.md).
     pub fn with_threads(mut self, threads: usize) -> Result<Classifier, ModelError> {
         self.net.set_threads(threads)?;
         Ok(self)

@@ -38,7 +38,9 @@ impl Segmenter {
         Ok(Segmenter { net, classes })
     }
 
-    /// Runs the model's matrix products on `threads` threads (1: on the caller's thread).
+    /// Runs the model on `threads` threads (1: on the caller's thread, the default). A batch
+    /// is split between the threads image by image; a single image splits its matrix
+    /// products, which gains less (see BENCHMARKS.md).
     pub fn with_threads(mut self, threads: usize) -> Result<Segmenter, ModelError> {
         self.net.set_threads(threads)?;
         Ok(self)

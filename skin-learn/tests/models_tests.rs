@@ -129,3 +129,36 @@ fn the_swapped_max_pools_change_no_output() {
         }
     }
 }
+
+/// On two threads a batch is split between them, each thread running its images through its own
+/// state of the one plan: every image must come out exactly as on one thread, in its place,
+/// whatever the split (7 images: shares of 4 and 3; 1 image: no split).
+#[test]
+fn a_batch_split_between_threads_gives_what_one_thread_gives() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let samples: Vec<Vec<u8>> = (0..7).map(|k| synth.sample(80, k, k).image).collect();
+    let images: Vec<&[u8]> = samples.iter().map(|s| s.as_slice()).collect();
+
+    let mut one = Classifier::load(&model("handsnet.onnx"), InputScale::Unit).unwrap();
+    let mut two = Classifier::load(&model("handsnet.onnx"), InputScale::Unit)
+        .unwrap()
+        .with_threads(2)
+        .unwrap();
+    let expected = one.classify_batch(&images).unwrap();
+    assert_eq!(two.classify_batch(&images).unwrap(), expected);
+    // Twice, so that the second run reuses the states the first made.
+    assert_eq!(two.classify_batch(&images[2..]).unwrap(), expected[2..]);
+    let single = two.classify(images[3]).unwrap();
+    assert!(single.iter().zip(&expected[3]).all(|(a, b)| (a - b).abs() < 1e-5));
+
+    let mut one = Segmenter::load(&model("handseg.onnx"), InputScale::Unit).unwrap();
+    let mut two = Segmenter::load(&model("handseg.onnx"), InputScale::Unit)
+        .unwrap()
+        .with_threads(2)
+        .unwrap();
+    assert_eq!(
+        two.segment_batch(&images).unwrap(),
+        one.segment_batch(&images).unwrap()
+    );
+}
