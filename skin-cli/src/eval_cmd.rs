@@ -52,7 +52,7 @@ pub struct Args {
     /// Grey levels as the model expects them (default: from the model card, else 255).
     #[arg(long, value_enum)]
     input_scale: Option<crate::classify_cmd::Scale>,
-    /// Threads for inference.
+    /// Threads for inference: each batch of 32 images is split between them.
     #[arg(long, default_value_t = 1)]
     threads: usize,
 }
