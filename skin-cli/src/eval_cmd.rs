@@ -17,7 +17,7 @@ use std::time::Instant;
 /// (or your own in the same layout).
 ///
 /// The test set is the last --test-fraction of the subjects (unseen people, as in the thesis;
-/// the training script splits the same way); 0 scores every sample. A classifier gets Tables
+/// the training script splits the same way); 1 or 0 scores every sample. A classifier gets Tables
 /// 4.3/4.4: accuracy, confusion matrix, accuracy per interaction or contact, and how the hard
 /// cases (partly off the skin, fingertips only) fare. A segmenter (output [N, classes, H, W]) is
 /// scored on the hand images, over the hand-part pixels, as Table 4.8 (Acc, mAcc, mIoU, fwIoU)
@@ -37,7 +37,8 @@ pub struct Args {
     /// Dataset directory (labels.csv, images/, masks/, frames.txt, map.json).
     #[arg(long, value_name = "DIR")]
     dataset: PathBuf,
-    /// Fraction of the subjects (the last ones) that form the test set; 0 for all samples.
+    /// Fraction of the subjects (the last ones) that form the test set; 1 (or 0) for all
+    /// samples, as for a dataset the model never saw any of.
     #[arg(long, default_value_t = 0.3)]
     test_fraction: f64,
     /// Test A: blind spots (1-4 spots of 10-40 mm).

@@ -979,6 +979,16 @@ fn eval_scores_the_matlab_handsnet_and_runs_test_a() {
         out.contains("accuracy ") && out.contains("by interaction / contact:"),
         "{out}"
     );
+    // All subjects as the test set, for a dataset the model saw none of: 1 says it too.
+    let o = skin(&["eval", "--model", m, "--dataset", d, "--test-fraction", "1"]);
+    let (all, err) = text(&o);
+    assert!(o.status.success(), "{all}{err}");
+    assert!(all.contains("60 test images"), "{all}");
+    // The default holds out the last 30% of the subjects.
+    let o = skin(&["eval", "--model", m, "--dataset", d]);
+    let (held_out, err) = text(&o);
+    assert!(o.status.success(), "{held_out}{err}");
+    assert!(!held_out.contains("60 test images"), "{held_out}");
     let o = skin(&[
         "eval",
         "--model",
