@@ -230,9 +230,7 @@ impl ImageModel {
                     .states
                     .first_mut()
                     .ok_or_else(|| ModelError::Run("the plan has no state".into()))?;
-                for (im, out) in images.iter().zip(plan.outputs.chunks_exact_mut(per_image)) {
-                    input.run(state, im, &executor, out)?;
-                }
+                input.run_share(state, images, &mut plan.outputs, per_image, &executor)?;
             }
             Some(pool) => {
                 let workers = pool.current_num_threads().clamp(1, images.len());
@@ -246,28 +244,21 @@ impl ImageModel {
                     plan.states.push(state);
                 }
                 let share = images.len().div_ceil(workers);
-                let mut failures: Vec<Option<ModelError>> = (0..workers).map(|_| None).collect();
+                let mut results: Vec<Result<(), ModelError>> = (0..workers).map(|_| Ok(())).collect();
                 pool.scope(|scope| {
-                    for (((chunk, outs), state), failure) in images
+                    for (((chunk, outs), state), result) in images
                         .chunks(share)
                         .zip(plan.outputs.chunks_mut(share * per_image))
                         .zip(plan.states.iter_mut())
-                        .zip(failures.iter_mut())
+                        .zip(results.iter_mut())
                     {
                         let input = &input;
                         scope.spawn(move |_| {
-                            for (im, out) in chunk.iter().zip(outs.chunks_exact_mut(per_image)) {
-                                if let Err(e) = input.run(state, im, &Executor::SingleThread, out) {
-                                    *failure = Some(e);
-                                    return;
-                                }
-                            }
+                            *result = input.run_share(state, chunk, outs, per_image, &Executor::SingleThread);
                         });
                     }
                 });
-                if let Some(e) = failures.into_iter().flatten().next() {
-                    return Err(e);
-                }
+                results.into_iter().collect::<Result<(), ModelError>>()?;
             }
         }
         Ok(read(&plan.outputs))
@@ -283,6 +274,22 @@ struct Input {
 }
 
 impl Input {
+    /// Runs `images` one after the other through `state`, each into its `per_image` values of
+    /// `outs`; stops at the first failure.
+    fn run_share(
+        &self,
+        state: &mut TypedSimpleState,
+        images: &[&[u8]],
+        outs: &mut [f32],
+        per_image: usize,
+        executor: &Executor,
+    ) -> Result<(), ModelError> {
+        for (image, out) in images.iter().zip(outs.chunks_exact_mut(per_image)) {
+            self.run(state, image, executor, out)?;
+        }
+        Ok(())
+    }
+
     /// Runs one image (its size already checked) through `state` and writes its outputs to
     /// `out`, which has the plan's size for one image.
     fn run(

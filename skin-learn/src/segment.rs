@@ -61,8 +61,9 @@ impl Segmenter {
         Ok(self.segment_batch(&[image])?.remove(0))
     }
 
-    /// The class of each pixel of each image (each through the one-image plan). Pixels that are black in the
-    /// input are background (class 0) whatever the model says: nothing pressed there.
+    /// The class of each pixel of each image (each through the one-image plan). Pixels that are
+    /// black in the input are background (class 0) whatever the model says: nothing pressed
+    /// there.
     pub fn segment_batch(&mut self, images: &[&[u8]]) -> Result<Vec<Vec<u8>>, ModelError> {
         if images.is_empty() {
             return Ok(Vec::new());
