@@ -167,7 +167,12 @@ impl ImageModel {
                 .ok_or_else(|| shape_err("the output's shape is not fixed for a fixed input".into()))?;
             let plan = typed.into_runnable().map_err(|e| shape_err(format!("{e:#}")))?;
             let state = TypedSimpleState::new(&plan).map_err(|e| shape_err(format!("{e:#}")))?;
-            let per_image = output_shape.iter().product();
+            let per_image: usize = output_shape.iter().product();
+            if per_image == 0 {
+                return Err(shape_err(format!(
+                    "output {output_shape:?} for one image is empty: no class or pixel scores"
+                )));
+            }
             self.plan = Some(Plan {
                 states: vec![state],
                 output_shape,

@@ -115,3 +115,84 @@ fn a_corrupt_file_and_a_colour_model_are_clear_errors() {
         "{text}"
     );
 }
+
+/// A model whose output for one image is empty ([N, 0]: the flattened image sliced to nothing)
+/// is refused at load, naming the file; it must not load and then fail on the first image.
+#[test]
+fn a_model_with_an_empty_output_is_a_clear_error() {
+    use tract_onnx::pb;
+    let ints = |name: &str, v: i64| pb::TensorProto {
+        name: name.into(),
+        dims: vec![1],
+        data_type: 7, // INT64
+        int64_data: vec![v],
+        ..Default::default()
+    };
+    let dim = |v: pb::tensor_shape_proto::dimension::Value| pb::tensor_shape_proto::Dimension {
+        value: Some(v),
+        ..Default::default()
+    };
+    use pb::tensor_shape_proto::dimension::Value::{DimParam, DimValue};
+    let image = pb::ValueInfoProto {
+        name: "image".into(),
+        r#type: Some(pb::TypeProto {
+            value: Some(pb::type_proto::Value::TensorType(pb::type_proto::Tensor {
+                elem_type: 1, // FLOAT
+                shape: Some(pb::TensorShapeProto {
+                    dim: vec![
+                        dim(DimParam("N".into())),
+                        dim(DimValue(1)),
+                        dim(DimValue(68)),
+                        dim(DimValue(100)),
+                    ],
+                }),
+            })),
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let node = |op: &str, inputs: &[&str], output: &str, attribute: Vec<pb::AttributeProto>| pb::NodeProto {
+        op_type: op.into(),
+        input: inputs.iter().map(|s| s.to_string()).collect(),
+        output: vec![output.into()],
+        attribute,
+        ..Default::default()
+    };
+    let axis = pb::AttributeProto {
+        name: "axis".into(),
+        r#type: 2, // INT
+        i: 1,
+        ..Default::default()
+    };
+    let model = pb::ModelProto {
+        ir_version: 8,
+        opset_import: vec![pb::OperatorSetIdProto {
+            domain: String::new(),
+            version: 17,
+        }],
+        graph: Some(pb::GraphProto {
+            name: "empty".into(),
+            node: vec![
+                node("Flatten", &["image"], "flat", vec![axis]),
+                node("Slice", &["flat", "starts", "ends", "axes"], "scores", vec![]),
+            ],
+            initializer: vec![ints("starts", 0), ints("ends", 0), ints("axes", 1)],
+            input: vec![image],
+            output: vec![pb::ValueInfoProto {
+                name: "scores".into(),
+                ..Default::default()
+            }],
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty.onnx");
+    std::fs::write(&path, model.encode_to_vec()).unwrap();
+    let err = Classifier::load(&path, InputScale::Unit).unwrap_err();
+    assert!(matches!(err, ModelError::Shape { .. }), "{err}");
+    assert!(
+        err.to_string().contains("empty.onnx") && err.to_string().contains("empty"),
+        "{err}"
+    );
+}
