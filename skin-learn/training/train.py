@@ -216,6 +216,10 @@ def main():
 
     seg = a.task == "segnet"
     epochs = a.epochs or (100 if seg else 80)
+    last = 1 if a.smoke else epochs
+    if a.swa_from is not None and not 1 <= a.swa_from <= last:
+        # Checked before the datasets load: nothing would be averaged, yet the card would say so.
+        ap.error(f"--swa-from {a.swa_from}: the epochs are 1 to {last}")
     lr = a.lr or (0.001 if a.optimizer == "adam" else 0.05 if seg else 0.01)
     drop = a.lr_drop_factor or (0.1 if seg else 0.2)
     every = a.lr_drop_every or max(1, epochs // 2)
@@ -257,7 +261,7 @@ def main():
     weights = median_frequency_weights(ytr) if seg else None
     loss_fn = nn.CrossEntropyLoss(weight=weights)
 
-    swa = torch.optim.swa_utils.AveragedModel(model) if a.swa_from else None
+    swa = torch.optim.swa_utils.AveragedModel(model) if a.swa_from is not None else None
     start = time.time()
     for epoch in range(epochs):
         model.train()
@@ -281,7 +285,7 @@ def main():
             line += "  test " + ", ".join(f"{k} {v:.4f}" for k, v in evaluate(model, xte, yte, a.task).items())
         print(f"{line}  ({time.time() - start:.0f} s)", flush=True)
 
-    if swa is not None and swa.n_averaged > 0:
+    if swa is not None:
         # The averaged weights need batch-norm statistics of their own.
         torch.optim.swa_utils.update_bn([xtr[i : i + 256] for i in range(0, len(xtr), 256)], swa)
         model = swa.module
@@ -289,7 +293,7 @@ def main():
     scores = evaluate(model, xte, yte, a.task) if len(xte) else {}
     export(model, a, rows_px, cols_px, seg, scores, dict(
         optimizer=a.optimizer, epochs=epochs, lr=lr, lr_drop_factor=drop, lr_drop_every=epochs if every >= epochs else every,
-        **({"swa_from": a.swa_from} if a.swa_from else {}),
+        **({"swa_from": a.swa_from} if swa is not None else {}),
         batch=batch, train_images=len(xtr), test_images=len(xte), subjects=n_subjects,
         test_subjects_from=cut, seconds=round(time.time() - start)))
 
