@@ -15,7 +15,10 @@ tenth of the learning rate.
 Everything is seeded; on the CPU the run is repeatable. Set OMP_WAIT_POLICY=PASSIVE on a busy
 machine. `--smoke` runs one tiny epoch and checks the export (what CI runs when torch is there).
 `--swa-from K` exports the average of the weights of epochs K to the last (stochastic weight
-averaging), its batch-norm statistics recomputed on the training images.
+averaging), its batch-norm statistics recomputed on the training images. For the segmenter,
+`--init NARROW.pt --width W` widens a trained model to W channels keeping its function, and
+`--lovasz 1` adds an IoU surrogate to its loss. `python -m unittest discover -s
+skin-learn/training` tests these.
 """
 
 import argparse
@@ -124,6 +127,66 @@ class HandSeg(nn.Module):
         return list(self.conv1.parameters()) + list(self.conv2.parameters())
 
 
+def widen(old, model):
+    """Load the weights `old` of a narrower HandSeg into `model`, keeping its function (the
+    zero-init expansion of Net2Net): each old channel keeps its place (within each half of the
+    decoders' concatenated inputs) and weights; the new channels keep the model's random
+    incoming weights, and every weight reading a new channel starts at zero, so the wider
+    network computes what the narrow one did and the new channels learn from there."""
+    new = model.state_dict()
+    for name, t in new.items():
+        o = old[name].to(t.dtype)
+        if o.shape == t.shape:
+            new[name] = o.clone()
+            continue
+        if t.dim() == 1:
+            t[: o.shape[0]] = o
+            continue
+        transposed = name.startswith("up")  # ConvTranspose2d weights are [in, out, kh, kw]
+        d_in, d_out = (0, 1) if transposed else (1, 0)
+        halves = name in ("dec2.0.weight", "dec1.0.weight")  # cat([upsampled, skip])
+
+        def places(dim, split):
+            n_old, n_new = o.shape[dim], t.shape[dim]
+            if split:
+                return torch.cat([torch.arange(n_old // 2), n_new // 2 + torch.arange(n_old // 2)])
+            return torch.arange(n_old)
+
+        p_in, p_out = places(d_in, halves), places(d_out, False)
+        keep = torch.zeros(t.shape[d_in], dtype=torch.bool)
+        keep[p_in] = True
+        if transposed:
+            t[~keep] = 0
+            t[p_in[:, None], p_out[None, :]] = o
+        else:
+            t[:, ~keep] = 0
+            t[p_out[:, None], p_in[None, :]] = o
+    model.load_state_dict(new)
+
+
+def lovasz_softmax(logits, y):
+    """The Lovasz-softmax loss (Berman et al. 2018), a convex surrogate of 1 - IoU, over the
+    hand-part pixels of a batch and the parts present in it: the metric of Table 4.8 ignores
+    background pixels, but calling a part pixel background counts against its part."""
+    probs = F.softmax(logits, 1).permute(0, 2, 3, 1).reshape(-1, logits.shape[1])
+    labels = y.reshape(-1)
+    on = labels > 0
+    probs, labels = probs[on], labels[on]
+    losses = []
+    for c in range(1, logits.shape[1]):
+        fg = (labels == c).to(probs.dtype)
+        if fg.sum() == 0:
+            continue
+        errors, order = torch.sort((fg - probs[:, c]).abs(), descending=True)
+        fg = fg[order]
+        inter = fg.sum() - fg.cumsum(0)
+        union = fg.sum() + (1 - fg).cumsum(0)
+        jaccard = 1 - inter / union
+        jaccard[1:] = jaccard[1:] - jaccard[:-1]
+        losses.append(torch.dot(errors, jaccard))
+    return torch.stack(losses).mean() if losses else logits.sum() * 0
+
+
 def load(dataset, task, test_fraction):
     rows = list(csv.DictReader(open(os.path.join(dataset, "labels.csv"))))
     if task == "segnet":
@@ -211,10 +274,21 @@ def main():
     ap.add_argument("--swa-from", type=int, default=None, metavar="EPOCH",
                     help="export the average of the weights at the end of each epoch from EPOCH (1-based) on, "
                          "with batch-norm statistics recomputed on the training images (stochastic weight averaging)")
+    ap.add_argument("--width", type=int, default=16,
+                    help="segmenter: channels of its first level (16 for the shipped model's first stages); "
+                         "with --init from a narrower model, that model is widened keeping its function")
+    ap.add_argument("--lovasz", type=float, default=0.0, metavar="WEIGHT",
+                    help="segmenter: add WEIGHT x the Lovasz-softmax loss (an IoU surrogate) to the cross-entropy")
+    ap.add_argument("--test-every", type=int, default=5, metavar="EPOCHS",
+                    help="score the test split every EPOCHS epochs, and after the last (default 5)")
     ap.add_argument("--smoke", action="store_true", help="one tiny epoch on a few images, then export and check")
     a = ap.parse_args()
 
     seg = a.task == "segnet"
+    if not seg and (a.width != 16 or a.lovasz > 0):
+        ap.error("--width and --lovasz are options of the segmenter")
+    if a.test_every < 1:
+        ap.error("--test-every must be at least 1")
     epochs = a.epochs or (100 if seg else 80)
     last = 1 if a.smoke else epochs
     if a.swa_from is not None and not 1 <= a.swa_from <= last:
@@ -244,10 +318,13 @@ def main():
     print(f"{a.task}: {len(xtr)} training and {len(xte)} test images ({rows_px} x {cols_px}); "
           f"test subjects >= {cut} of {n_subjects}", flush=True)
 
-    model = HandSeg() if seg else HandsNet(rows_px, cols_px)
+    model = HandSeg(a.width) if seg else HandsNet(rows_px, cols_px)
     if a.init:
-        state = torch.load(a.init, map_location="cpu")
-        model.load_state_dict({k: v.float() for k, v in state.items()})
+        state = {k: v.float() for k, v in torch.load(a.init, map_location="cpu").items()}
+        if seg and state["conv1.0.bias"].shape[0] < a.width:
+            widen(state, model)
+        else:
+            model.load_state_dict(state)
     first = {id(p) for p in model.first_convs()}
     groups = [
         {"params": [p for p in model.parameters() if id(p) in first], "lr": lr * a.first_convs_lr},
@@ -273,7 +350,10 @@ def main():
                 continue
             xb, yb = flip(xtr[idx], ytr[idx], a.task)
             opt.zero_grad()
-            loss = loss_fn(model(xb), yb)
+            out = model(xb)
+            loss = loss_fn(out, yb)
+            if seg and a.lovasz > 0:
+                loss = loss + a.lovasz * lovasz_softmax(out, yb)
             loss.backward()
             opt.step()
             total += float(loss.detach()) * len(idx)
@@ -281,7 +361,7 @@ def main():
         if swa is not None and epoch + 1 >= a.swa_from:
             swa.update_parameters(model)
         line = f"epoch {epoch + 1}/{epochs}: loss {total / max(1, len(xtr)):.4f}"
-        if len(xte) and ((epoch + 1) % 5 == 0 or epoch + 1 == epochs):
+        if len(xte) and ((epoch + 1) % a.test_every == 0 or epoch + 1 == epochs):
             line += "  test " + ", ".join(f"{k} {v:.4f}" for k, v in evaluate(model, xte, yte, a.task).items())
         print(f"{line}  ({time.time() - start:.0f} s)", flush=True)
 
@@ -292,6 +372,7 @@ def main():
         print(f"averaged the weights of epochs {a.swa_from} to {epochs}", flush=True)
     scores = evaluate(model, xte, yte, a.task) if len(xte) else {}
     export(model, a, rows_px, cols_px, seg, scores, dict(
+        **({"width": a.width} if seg else {}), **({"lovasz": a.lovasz} if seg and a.lovasz > 0 else {}),
         optimizer=a.optimizer, epochs=epochs, lr=lr, lr_drop_factor=drop, lr_drop_every=epochs if every >= epochs else every,
         **({"swa_from": a.swa_from} if swa is not None else {}),
         batch=batch, train_images=len(xtr), test_images=len(xte), subjects=n_subjects,
