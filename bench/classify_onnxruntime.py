@@ -1,7 +1,7 @@
 """onnxruntime on the tactile image models, for comparison with
 `cargo bench -p skin-learn --features onnx --bench classify` in the same run: the
 MATLAB-exported HandsNet of ../shared/data (input fixed at batch 1), and the project's HandsNet
-and hand-part segmenter of fixtures/models (dynamic batch): batch-1 latency on one and two
+and hand-part segmenters of fixtures/models (dynamic batch): batch-1 latency on one and two
 threads, and batch-32 time per image.
 
     pip install onnxruntime numpy
@@ -20,6 +20,7 @@ models = {
     "handsnet": (os.path.join(here, "..", "..", "shared", "data", "cyskin", "HandsNet_handles_finetuned.onnx"), 1.0),
     "handsnet-ours": (os.path.join(here, "..", "fixtures", "models", "handsnet.onnx"), 1 / 255),
     "handseg": (os.path.join(here, "..", "fixtures", "models", "handseg.onnx"), 1 / 255),
+    "handseg-wide": (os.path.join(here, "..", "fixtures", "models", "handseg_wide.onnx"), 1 / 255),
 }
 r, c = np.mgrid[0:68, 0:100]
 blob = np.where(np.hypot(r - 34.0, c - 50.0) < 18.0, 200.0, 0.0).astype(np.float32)[None, None]

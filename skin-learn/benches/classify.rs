@@ -41,6 +41,11 @@ fn bench(c: &mut Criterion) {
             root.join("fixtures/models/handseg.onnx"),
             InputScale::Unit,
         ),
+        (
+            "handseg-wide",
+            root.join("fixtures/models/handseg_wide.onnx"),
+            InputScale::Unit,
+        ),
     ];
     for (name, model, scale) in models {
         if !model.exists() {
@@ -49,7 +54,7 @@ fn bench(c: &mut Criterion) {
         }
         let mut group = c.benchmark_group(name);
         for threads in [1usize, 2] {
-            if name == "handseg" {
+            if name.starts_with("handseg") {
                 let mut net = Segmenter::load(&model, scale)
                     .unwrap()
                     .with_threads(threads)

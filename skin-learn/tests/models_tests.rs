@@ -16,7 +16,7 @@ use skin_learn::synth::{SynthOptions, Synthesizer};
 
 #[test]
 fn cards_say_how_to_feed_the_models() {
-    for name in ["handsnet.onnx", "handseg.onnx"] {
+    for name in ["handsnet.onnx", "handseg.onnx", "handseg_wide.onnx"] {
         let card = ModelCard::for_model(&model(name)).expect("a card beside every shipped model");
         assert_eq!(card.unit_scale, Some(true), "{name}");
     }
@@ -24,17 +24,20 @@ fn cards_say_how_to_feed_the_models() {
         ModelCard::for_model(&model("handsnet.onnx")).unwrap().classes,
         ["hand", "non_hand"]
     );
-    assert_eq!(
-        ModelCard::for_model(&model("handseg.onnx"))
-            .unwrap()
-            .classes
-            .len(),
-        7
-    );
+    for name in ["handseg.onnx", "handseg_wide.onnx"] {
+        let card = ModelCard::for_model(&model(name)).unwrap();
+        assert_eq!(card.classes.len(), 7, "{name}");
+    }
 }
 
 #[test]
-fn the_segmenter_labels_fresh_hands_far_above_chance() {
+fn the_segmenters_label_fresh_hands_far_above_chance() {
+    for name in ["handseg.onnx", "handseg_wide.onnx"] {
+        labels_fresh_hands_far_above_chance(name);
+    }
+}
+
+fn labels_fresh_hands_far_above_chance(name: &str) {
     let map = forearm();
     let mut synth = Synthesizer::new(
         &map,
@@ -44,7 +47,7 @@ fn the_segmenter_labels_fresh_hands_far_above_chance() {
         },
     )
     .unwrap();
-    let mut net = Segmenter::load(&model("handseg.onnx"), InputScale::Unit).unwrap();
+    let mut net = Segmenter::load(&model(name), InputScale::Unit).unwrap();
     assert_eq!((net.input_size(), net.classes()), ((68, 100), 7));
     // Subjects the model never saw (the training set used seed 1).
     let samples: Vec<_> = (0..24).map(|k| synth.sample(77, k / 4, k % 4)).collect();
@@ -62,7 +65,7 @@ fn the_segmenter_labels_fresh_hands_far_above_chance() {
     }
     let scores = cm.segmentation_scores(1);
     // Six parts: chance is about 1/6; a transposed or misread output scores near it.
-    assert!(scores.pixel_accuracy > 0.45, "{scores:?}");
+    assert!(scores.pixel_accuracy > 0.45, "{name}: {scores:?}");
 }
 
 #[test]
