@@ -274,8 +274,8 @@ def main():
     ap.add_argument("--swa-from", type=int, default=None, metavar="EPOCH",
                     help="export the average of the weights at the end of each epoch from EPOCH (1-based) on, "
                          "with batch-norm statistics recomputed on the training images (stochastic weight averaging)")
-    ap.add_argument("--width", type=int, default=16,
-                    help="segmenter: channels of its first level (16 for the shipped model's first stages); "
+    ap.add_argument("--width", type=int, default=None,
+                    help="segmenter: channels of its first level (default: those of --init, else 16); "
                          "with --init from a narrower model, that model is widened keeping its function")
     ap.add_argument("--lovasz", type=float, default=0.0, metavar="WEIGHT",
                     help="segmenter: add WEIGHT x the Lovasz-softmax loss (an IoU surrogate) to the cross-entropy")
@@ -285,8 +285,10 @@ def main():
     a = ap.parse_args()
 
     seg = a.task == "segnet"
-    if not seg and (a.width != 16 or a.lovasz > 0):
+    if not seg and (a.width is not None or a.lovasz != 0):
         ap.error("--width and --lovasz are options of the segmenter")
+    if a.lovasz < 0 or (a.width is not None and a.width < 1):
+        ap.error("--width must be at least 1 and --lovasz at least 0")
     if a.test_every < 1:
         ap.error("--test-every must be at least 1")
     epochs = a.epochs or (100 if seg else 80)
@@ -303,6 +305,13 @@ def main():
     np.random.seed(a.seed)
     torch.manual_seed(a.seed)
 
+    # The starting weights first: a wrong --width is an error before the datasets load.
+    state = {k: v.float() for k, v in torch.load(a.init, map_location="cpu").items()} if a.init else None
+    init_width = state["conv1.0.bias"].shape[0] if seg and state is not None else None
+    width = a.width or init_width or 16
+    if init_width is not None and width < init_width:
+        sys.exit(f"--width {width}: {a.init} has {init_width} channels; a model can be widened, not narrowed")
+
     # Each dataset split by its own subjects, then put together.
     loaded = [load(d, a.task, a.test_fraction) for d in a.dataset]
     x, y, test = (torch.cat([d[i] for d in loaded]) for i in range(3))
@@ -318,10 +327,9 @@ def main():
     print(f"{a.task}: {len(xtr)} training and {len(xte)} test images ({rows_px} x {cols_px}); "
           f"test subjects >= {cut} of {n_subjects}", flush=True)
 
-    model = HandSeg(a.width) if seg else HandsNet(rows_px, cols_px)
-    if a.init:
-        state = {k: v.float() for k, v in torch.load(a.init, map_location="cpu").items()}
-        if seg and state["conv1.0.bias"].shape[0] < a.width:
+    model = HandSeg(width) if seg else HandsNet(rows_px, cols_px)
+    if state is not None:
+        if init_width is not None and init_width < width:
             widen(state, model)
         else:
             model.load_state_dict(state)
@@ -372,7 +380,7 @@ def main():
         print(f"averaged the weights of epochs {a.swa_from} to {epochs}", flush=True)
     scores = evaluate(model, xte, yte, a.task) if len(xte) else {}
     export(model, a, rows_px, cols_px, seg, scores, dict(
-        **({"width": a.width} if seg else {}), **({"lovasz": a.lovasz} if seg and a.lovasz > 0 else {}),
+        **({"width": width} if seg else {}), **({"lovasz": a.lovasz} if seg and a.lovasz > 0 else {}),
         optimizer=a.optimizer, epochs=epochs, lr=lr, lr_drop_factor=drop, lr_drop_every=epochs if every >= epochs else every,
         **({"swa_from": a.swa_from} if swa is not None else {}),
         batch=batch, train_images=len(xtr), test_images=len(xte), subjects=n_subjects,
