@@ -1,6 +1,7 @@
 //! Tactile image models run by tract: the MATLAB-exported HandsNet of ../shared/data, the
 //! project's HandsNet and hand-part segmenter (fixtures/models); one image at a time on one and
-//! two threads, and batches of 32. bench/classify_onnxruntime.py times onnxruntime on the same
+//! two threads, and batches of 32; the segmenters also one image averaged over its mirror
+//! images (`Segmenter::with_mirror_averaging`). bench/classify_onnxruntime.py times onnxruntime on the same
 //! models in the same run.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
@@ -67,6 +68,11 @@ fn bench(c: &mut Criterion) {
                 group.throughput(Throughput::Elements(32));
                 group.bench_function(format!("batch 32, {threads} thread(s)"), |b| {
                     b.iter(|| black_box(net.segment_batch(black_box(&batch)).unwrap()))
+                });
+                let mut net = net.with_mirror_averaging(true);
+                group.throughput(Throughput::Elements(1));
+                group.bench_function(format!("batch 1 over mirrors, {threads} thread(s)"), |b| {
+                    b.iter(|| black_box(net.segment(black_box(&image)).unwrap()))
                 });
             } else {
                 let mut net = Classifier::load(&model, scale)

@@ -68,6 +68,71 @@ fn labels_fresh_hands_far_above_chance(name: &str) {
     assert!(scores.pixel_accuracy > 0.45, "{name}: {scores:?}");
 }
 
+/// `labels` (H x W, row-major) mirrored left-right.
+fn mirrored(labels: &[u8], w: usize) -> Vec<u8> {
+    labels
+        .chunks(w)
+        .flat_map(|row| row.iter().rev().copied())
+        .collect()
+}
+
+#[test]
+fn mirror_averaging_labels_a_mirrored_hand_as_the_mirror_of_its_labels() {
+    let map = forearm();
+    let mut synth = Synthesizer::new(
+        &map,
+        SynthOptions {
+            hand_fraction: 1.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    let mut plain = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit).unwrap();
+    let mut averaged = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit)
+        .unwrap()
+        .with_mirror_averaging(true);
+    let w = averaged.input_size().1;
+    let samples: Vec<_> = (0..16).map(|k| synth.sample(79, k / 4, k % 4)).collect();
+    let (mut plain_cm, mut averaged_cm) = (ConfusionMatrix::new(7), ConfusionMatrix::new(7));
+    let mut plain_breaks_symmetry = false;
+    for s in &samples {
+        let labels = averaged.segment(&s.image).unwrap();
+        // The four views of a mirrored image are the four views of the image: its labels must
+        // be the mirror of the image's, pixel for pixel. Scores read back from the wrong
+        // pixel, or a view left out, break this.
+        let flipped = averaged.segment(&mirrored(&s.image, w)).unwrap();
+        assert_eq!(flipped, mirrored(&labels, w));
+        let one = plain.segment(&s.image).unwrap();
+        plain_breaks_symmetry |= plain.segment(&mirrored(&s.image, w)).unwrap() != mirrored(&one, w);
+        plain_cm.add_image(&s.mask, &one);
+        averaged_cm.add_image(&s.mask, &labels);
+    }
+    // The model alone is not mirror-symmetric, so the assertion above has something to catch.
+    assert!(plain_breaks_symmetry);
+    let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
+    let mut two = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit)
+        .unwrap()
+        .with_mirror_averaging(true)
+        .with_threads(2)
+        .unwrap();
+    let batch = two.segment_batch(&images).unwrap();
+    for (s, labels) in samples.iter().zip(&batch) {
+        assert_eq!(
+            labels,
+            &averaged.segment(&s.image).unwrap(),
+            "batch and single runs differ"
+        );
+    }
+    let (p, a) = (
+        plain_cm.segmentation_scores(1).mean_iou,
+        averaged_cm.segmentation_scores(1).mean_iou,
+    );
+    assert!(
+        a > p - 0.01,
+        "averaging over mirrors: mIoU {a:.4}, the model alone {p:.4}"
+    );
+}
+
 #[test]
 fn the_classifier_tells_fresh_hands_from_other_contacts_above_chance() {
     let map = forearm();
