@@ -28,6 +28,9 @@ use std::time::Instant;
 /// re-triangulated (Table 5.3/5.4). Each cell is the mean over --patterns random maps. The
 /// segmentation ground truth of a degraded image is masked to what it still shows (Ch. 5.3).
 /// The input scaling comes from the model card (MODEL.md beside MODEL.onnx) unless given.
+///
+/// A segmenter is also scored by case: whole hands on the skin, partly off it, fingertips only,
+/// with or without the thumb or palm in view, and on the pixels off the seams between parts.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -56,6 +59,10 @@ pub struct Args {
     /// Threads for inference: each batch of 32 images is split between them.
     #[arg(long, default_value_t = 1)]
     threads: usize,
+    /// A segmenter averages the part scores of each image and of its three mirror images
+    /// (left-right, up-down, both): four times the inference.
+    #[arg(long)]
+    mirrors: bool,
 }
 
 /// A degraded map of one cell of Test A / Test B, by pattern seed.
@@ -80,6 +87,8 @@ struct Scores {
     cm: ConfusionMatrix,
     by_kind: BTreeMap<String, (usize, usize)>,
     hard: [(usize, usize); 2],
+    /// A segmenter's confusion per case of [`CASES`], with the number of images in each.
+    cases: Vec<(ConfusionMatrix, usize)>,
     seconds: f64,
     images: usize,
 }
@@ -91,10 +100,17 @@ pub fn run(args: Args) -> Result<()> {
         Err(ModelError::Shape { .. }) => Model::Segmenter(
             Segmenter::load(&args.model, scale)
                 .with_context(|| "neither a classifier ([N, classes]) nor a segmenter")?
+                .with_mirror_averaging(args.mirrors)
                 .with_threads(args.threads)?,
         ),
         Err(e) => return Err(e.into()),
     };
+    if args.mirrors && matches!(model, Model::Classifier(_)) {
+        bail!(
+            "{}: --mirrors is for a segmenter, and this model is a classifier",
+            args.model.display()
+        );
+    }
     let data = Dataset::read(&args.dataset)?;
     let segmenting = matches!(model, Model::Segmenter(_));
     let test = test_set(&data, args.test_fraction, segmenting);
@@ -277,6 +293,54 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
+/// The cases a segmenter is also scored on, to show where its errors lie. The first three come
+/// from labels.csv; the last two from the true mask: without the thumb or the palm in view, a row
+/// of fingers reads the same for a left hand as for a mirrored right one.
+const CASES: [&str; 6] = [
+    "whole hand on the skin",
+    "partly off the skin",
+    "fingertips only",
+    "thumb or palm in view",
+    "fingers only in view",
+    BORDERS_AWAY,
+];
+
+/// The case scored on every image but only on pixels whose 8 neighbours share their true label:
+/// how much of the error sits on the one-pixel seams between parts (PASCAL VOC likewise leaves a
+/// band along object borders unscored).
+const BORDERS_AWAY: &str = "pixels off part borders";
+
+/// Which of [`CASES`] a hand image with `truth` as its part mask belongs to.
+fn cases_of(e: &skin_learn::dataset::Entry, truth: &[u8]) -> [bool; 6] {
+    let anchored = truth
+        .iter()
+        .any(|&l| l == Part::Thumb as u8 || l == Part::Palm as u8);
+    [
+        !e.partial && !e.fingertips,
+        e.partial,
+        e.fingertips,
+        anchored,
+        !anchored,
+        true,
+    ]
+}
+
+/// `truth` with every pixel that has a differently labelled 8-neighbour set to 0 (unscored).
+fn off_borders(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
+    let mut out = truth.to_vec();
+    for r in 0..rows {
+        for c in 0..cols {
+            let l = truth[r * cols + c];
+            let seam = (r.saturating_sub(1)..(r + 2).min(rows))
+                .any(|y| (c.saturating_sub(1)..(c + 2).min(cols)).any(|x| truth[y * cols + x] != l));
+            if seam {
+                out[r * cols + c] = 0;
+            }
+        }
+    }
+    out
+}
+
 /// Test-set indices: samples of the last `fraction` of the subjects (hands only when segmenting).
 fn test_set(data: &Dataset, fraction: f64, hands_only: bool) -> Vec<usize> {
     let keep = |i: &usize| !hands_only || data.entries[*i].hand;
@@ -309,9 +373,16 @@ fn score(
         }),
         by_kind: BTreeMap::new(),
         hard: [(0, 0); 2],
+        cases: Vec::new(),
         seconds: 0.0,
         images: images.len(),
     };
+    if let Model::Segmenter(g) = model {
+        s.cases = CASES
+            .iter()
+            .map(|_| (ConfusionMatrix::new(g.classes()), 0))
+            .collect();
+    }
     let start = Instant::now();
     for (n, (chunk, idx)) in images.chunks(32).zip(test.chunks(32)).enumerate() {
         let refs: Vec<&[u8]> = chunk.iter().map(|v| v.as_slice()).collect();
@@ -347,6 +418,18 @@ fn score(
                     let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
                     let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
                     *slot = (slot.0 + right as usize, slot.1 + parts as usize);
+                    for ((case, yes), name) in s.cases.iter_mut().zip(cases_of(e, truth)).zip(CASES) {
+                        if !yes {
+                            continue;
+                        }
+                        if name == BORDERS_AWAY {
+                            let (rows, cols) = g.input_size();
+                            case.0.add_image(&off_borders(truth, rows, cols), labels);
+                        } else {
+                            case.0.merge(&one);
+                        }
+                        case.1 += 1;
+                    }
                     s.cm.merge(&one);
                 }
             }
@@ -427,5 +510,41 @@ fn report(s: &Scores, segmenting: bool) {
             "  {kind:<11} {:>7.2}%  of {n} px",
             100.0 * *right as f64 / (*n).max(1) as f64
         );
+    }
+    crate::say!("by case (an image can be in several):");
+    crate::say!("  {:<24} {:>6}      Acc     mIoU", "", "images");
+    for ((cm, n), name) in s.cases.iter().zip(CASES) {
+        let g = cm.segmentation_scores(1);
+        crate::say!(
+            "  {name:<24} {n:>6} {:>7.2}% {:>7.2}%",
+            100.0 * g.pixel_accuracy,
+            100.0 * g.mean_iou
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::off_borders;
+
+    #[test]
+    fn off_borders_unscores_both_sides_of_a_seam_and_nothing_else() {
+        // Two parts side by side (columns 0-2 part 1, 3-5 part 2) on 4 rows; the image's edge
+        // is no seam.
+        let truth: Vec<u8> = (0..24).map(|i| if i % 6 < 3 { 1 } else { 2 }).collect();
+        let kept = off_borders(&truth, 4, 6);
+        let expected: Vec<u8> = (0..24)
+            .map(|i| match i % 6 {
+                2 | 3 => 0,
+                c if c < 2 => 1,
+                _ => 2,
+            })
+            .collect();
+        assert_eq!(kept, expected);
+        // A part pixel next to background (0) is on a seam too.
+        let mut lone = vec![0u8; 9];
+        lone[4] = 6;
+        assert_eq!(off_borders(&lone, 3, 3), vec![0; 9]);
+        assert_eq!(off_borders(&[3; 12], 3, 4), vec![3; 12]);
     }
 }

@@ -1015,6 +1015,115 @@ fn eval_scores_the_matlab_handsnet_and_runs_test_a() {
     assert!(err.contains("per-pixel class scores"), "{err}");
 }
 
+#[cfg(feature = "onnx")]
+#[test]
+fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("d");
+    synth(&data, "9");
+    let hands = skin_learn::dataset::Dataset::read(&data)
+        .unwrap()
+        .entries
+        .iter()
+        .filter(|e| e.hand)
+        .count();
+    let model = root().join("fixtures/models/handseg.onnx");
+    let (m, d) = (model.to_str().unwrap(), data.to_str().unwrap());
+    let eval = |extra: &[&str]| {
+        let mut a = vec!["eval", "--model", m, "--dataset", d, "--test-fraction", "1"];
+        a.extend_from_slice(extra);
+        let o = skin(&a);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{out}{err}");
+        out
+    };
+    let plain = eval(&[]);
+    // Each case row: its name, then images, Acc and mIoU.
+    let images = |out: &str, case: &str| -> usize {
+        let line = out
+            .lines()
+            .find(|l| l.trim_start().starts_with(case))
+            .unwrap_or_else(|| panic!("no '{case}' row:\n{out}"));
+        line[line.find(case).unwrap() + case.len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    assert_eq!(
+        images(&plain, "thumb or palm in view") + images(&plain, "fingers only in view"),
+        hands,
+        "{plain}"
+    );
+    assert_eq!(images(&plain, "pixels off part borders"), hands, "{plain}");
+    assert!(images(&plain, "whole hand on the skin") <= hands);
+    let mirrors = eval(&["--mirrors"]);
+    // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
+    let scores = |out: &str| -> Vec<String> {
+        let line = out.lines().nth(2).unwrap_or_default();
+        line.split_whitespace().take(4).map(str::to_owned).collect()
+    };
+    assert_eq!(scores(&plain).len(), 4, "{plain}");
+    assert_ne!(
+        scores(&plain),
+        scores(&mirrors),
+        "--mirrors changed nothing:\n{mirrors}"
+    );
+    // skin segment: a coloured part image per input, black where nothing pressed.
+    let entries = skin_learn::dataset::Dataset::read(&data).unwrap().entries;
+    let hand = entries.iter().find(|e| e.hand).unwrap();
+    let input = data.join("images").join(&hand.file);
+    let out = tmp.path().join("parts");
+    for extra in [&[][..], &["--mirrors"][..]] {
+        let mut a = vec![
+            "segment",
+            "--model",
+            m,
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        let o = skin(&a);
+        let (said, err) = text(&o);
+        assert!(o.status.success(), "{said}{err}");
+        let stem = hand.file.trim_end_matches(".png");
+        let parts = image::open(out.join(format!("{stem}_parts.png")))
+            .unwrap()
+            .into_rgb8();
+        assert_eq!(parts.dimensions(), (100, 68));
+        // The hand's pixels in the true mask get a part: the model calls almost none of them
+        // background (faint noise elsewhere in the image may stay black).
+        let truth = grey(&data.join("masks").join(&hand.file));
+        let (mut hand_px, mut coloured) = (0, 0);
+        for ((px, &g), &t) in parts.pixels().zip(&grey(&input)).zip(&truth) {
+            assert!(
+                g > 0 || px.0 == [0, 0, 0],
+                "{extra:?}: a part where nothing pressed"
+            );
+            hand_px += usize::from(t > 0);
+            coloured += usize::from(t > 0 && px.0 != [0, 0, 0]);
+        }
+        assert!(
+            coloured * 10 >= hand_px * 9,
+            "{extra:?}: {coloured} of {hand_px} hand pixels coloured"
+        );
+    }
+    // A classifier has no pixels to mirror.
+    let classifier = root().join("fixtures/models/handsnet.onnx");
+    let o = skin(&[
+        "eval",
+        "--model",
+        classifier.to_str().unwrap(),
+        "--dataset",
+        d,
+        "--mirrors",
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("--mirrors is for a segmenter"), "{err}");
+}
+
 #[test]
 fn a_broken_labels_file_names_its_line() {
     let tmp = tempfile::tempdir().unwrap();
