@@ -12,7 +12,7 @@ use skin_learn::card::ModelCard;
 use skin_learn::classify::{Classifier, InputScale, ModelError};
 use skin_learn::metrics::ConfusionMatrix;
 use skin_learn::segment::Segmenter;
-use skin_learn::synth::{SynthOptions, Synthesizer};
+use skin_learn::synth::{Sample, SynthOptions, Synthesizer};
 
 #[test]
 fn cards_say_how_to_feed_the_models() {
@@ -37,7 +37,8 @@ fn the_segmenters_label_fresh_hands_far_above_chance() {
     }
 }
 
-fn labels_fresh_hands_far_above_chance(name: &str) {
+/// `count` hands of subjects no model saw (the training sets used other seeds), four each.
+fn fresh_hands(seed: u64, count: u32) -> Vec<Sample> {
     let map = forearm();
     let mut synth = Synthesizer::new(
         &map,
@@ -47,10 +48,14 @@ fn labels_fresh_hands_far_above_chance(name: &str) {
         },
     )
     .unwrap();
+    (0..count).map(|k| synth.sample(seed, k / 4, k % 4)).collect()
+}
+
+fn labels_fresh_hands_far_above_chance(name: &str) {
     let mut net = Segmenter::load(&model(name), InputScale::Unit).unwrap();
     assert_eq!((net.input_size(), net.classes()), ((68, 100), 7));
     // Subjects the model never saw (the training set used seed 1).
-    let samples: Vec<_> = (0..24).map(|k| synth.sample(77, k / 4, k % 4)).collect();
+    let samples = fresh_hands(77, 24);
     let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
     let batch = net.segment_batch(&images).unwrap();
     let mut cm = ConfusionMatrix::new(7);
@@ -78,21 +83,12 @@ fn mirrored(labels: &[u8], w: usize) -> Vec<u8> {
 
 #[test]
 fn mirror_averaging_labels_a_mirrored_hand_as_the_mirror_of_its_labels() {
-    let map = forearm();
-    let mut synth = Synthesizer::new(
-        &map,
-        SynthOptions {
-            hand_fraction: 1.0,
-            ..SynthOptions::default()
-        },
-    )
-    .unwrap();
     let mut plain = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit).unwrap();
     let mut averaged = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit)
         .unwrap()
         .with_mirror_averaging(true);
     let w = averaged.input_size().1;
-    let samples: Vec<_> = (0..16).map(|k| synth.sample(79, k / 4, k % 4)).collect();
+    let samples = fresh_hands(79, 16);
     let (mut plain_cm, mut averaged_cm) = (ConfusionMatrix::new(7), ConfusionMatrix::new(7));
     let mut plain_breaks_symmetry = false;
     for s in &samples {
