@@ -185,6 +185,21 @@ impl ImageModel {
             .ok_or_else(|| ModelError::Run("plan cache".into()))
     }
 
+    /// Checks that each image of a batch has the model's H x W pixels.
+    pub(crate) fn check_sizes(&self, images: &[&[u8]]) -> Result<(), ModelError> {
+        let (h, w) = (self.height, self.width);
+        match images.iter().position(|im| im.len() != h * w) {
+            None => Ok(()),
+            Some(index) => Err(ModelError::Image {
+                index,
+                got: images[index].len(),
+                want: h * w,
+                height: h,
+                width: w,
+            }),
+        }
+    }
+
     /// Runs a batch of images (row-major grey levels, H x W each) and hands the flat output
     /// (the outputs of [`Self::output_shape`] one image after the other) to `read`.
     ///
@@ -200,18 +215,8 @@ impl ImageModel {
         images: &[&[u8]],
         read: impl FnOnce(&[f32]) -> T,
     ) -> Result<T, ModelError> {
+        self.check_sizes(images)?;
         let (h, w) = (self.height, self.width);
-        for (index, im) in images.iter().enumerate() {
-            if im.len() != h * w {
-                return Err(ModelError::Image {
-                    index,
-                    got: im.len(),
-                    want: h * w,
-                    height: h,
-                    width: w,
-                });
-            }
-        }
         let input = Input {
             height: h,
             width: w,

@@ -127,17 +127,10 @@ impl Segmenter {
             let x = if v & 1 != 0 { w - 1 - x } else { x };
             r * w + x
         };
+        // Checked before the views are cut, which index every image at H x W.
+        self.net.check_sizes(images)?;
         self.views.clear();
-        for (index, image) in images.iter().enumerate() {
-            if image.len() != pixels {
-                return Err(ModelError::Image {
-                    index,
-                    got: image.len(),
-                    want: pixels,
-                    height: h,
-                    width: w,
-                });
-            }
+        for image in images {
             for v in 0..4 {
                 self.views.extend((0..pixels).map(|p| image[mirror(v, p)]));
             }

@@ -130,6 +130,29 @@ fn mirror_averaging_labels_a_mirrored_hand_as_the_mirror_of_its_labels() {
 }
 
 #[test]
+fn a_segmenter_refuses_an_image_of_the_wrong_size_with_or_without_mirrors() {
+    let good = vec![0u8; 68 * 100];
+    for mirrors in [false, true] {
+        let mut net = Segmenter::load(&model("handseg.onnx"), InputScale::Unit)
+            .unwrap()
+            .with_mirror_averaging(mirrors);
+        let err = net.segment_batch(&[&good, &[0u8; 100]]).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ModelError::Image {
+                    index: 1,
+                    got: 100,
+                    want: 6800,
+                    ..
+                }
+            ),
+            "mirrors {mirrors}: {err}"
+        );
+    }
+}
+
+#[test]
 fn the_classifier_tells_fresh_hands_from_other_contacts_above_chance() {
     let map = forearm();
     let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
