@@ -1,8 +1,8 @@
 //! Tactile image models run by tract: the MATLAB-exported HandsNet of ../shared/data, the
-//! project's HandsNet and hand-part segmenter (fixtures/models); one image at a time on one and
-//! two threads, and batches of 32; the segmenters also one image averaged over its mirror
-//! images (`Segmenter::with_mirror_averaging`). bench/classify_onnxruntime.py times onnxruntime on the same
-//! models in the same run.
+//! project's HandsNet and hand-part segmenters (fixtures/models); one image at a time on one
+//! and two threads, and batches of 32; the segmenters also one image averaged over its mirror
+//! images (`Segmenter::with_mirror_averaging`). bench/classify_onnxruntime.py times
+//! onnxruntime on the same models in the same run.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 

@@ -54,7 +54,6 @@ fn fresh_hands(seed: u64, count: u32) -> Vec<Sample> {
 fn labels_fresh_hands_far_above_chance(name: &str) {
     let mut net = Segmenter::load(&model(name), InputScale::Unit).unwrap();
     assert_eq!((net.input_size(), net.classes()), ((68, 100), 7));
-    // Subjects the model never saw (the training set used seed 1).
     let samples = fresh_hands(77, 24);
     let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
     let batch = net.segment_batch(&images).unwrap();
