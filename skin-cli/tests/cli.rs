@@ -1057,6 +1057,42 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
     );
     assert_eq!(images(&plain, "pixels off part borders"), hands, "{plain}");
     assert!(images(&plain, "whole hand on the skin") <= hands);
+    assert!(images(&plain, "all six parts in view") <= images(&plain, "thumb or palm in view"));
+    // As if each hand's side were known: each image scored against the better fitting of its
+    // mask and the mirror hand's, so no fewer pixels are right than against the masks alone.
+    let side = plain
+        .lines()
+        .find(|l| l.starts_with("as if each hand's side were known"))
+        .unwrap_or_else(|| panic!("no side-known line:\n{plain}"));
+    let of = side.split(" images)").next().unwrap_or_default();
+    let of: Vec<usize> = of
+        .rsplit(", ")
+        .next()
+        .unwrap_or_default()
+        .split(" of ")
+        .map(|n| n.parse().unwrap())
+        .collect();
+    assert!(of[0] <= hands && of[1] == hands, "{side}");
+    let side_acc: f64 = side
+        .split("Acc ")
+        .nth(1)
+        .unwrap()
+        .split('%')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let plain_acc: f64 = plain
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split('%')
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(side_acc >= plain_acc, "{side}\n{plain}");
     let mirrors = eval(&["--mirrors"]);
     // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
     let scores = |out: &str| -> Vec<String> {
