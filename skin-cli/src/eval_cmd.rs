@@ -31,7 +31,8 @@ use std::time::Instant;
 ///
 /// A segmenter is also scored by case: whole hands on the skin, partly off it, fingertips only,
 /// with or without the thumb or palm in view, with all six parts in view, and on the pixels off
-/// the seams between parts; and as if each hand's side (left or right) were known.
+/// the seams between parts; its pixels are counted by their distance to the nearest other part;
+/// and it is scored as if each hand's side (left or right) were known.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -93,6 +94,8 @@ struct Scores {
     /// A segmenter's confusion with each image scored against its mask or the mirror hand's,
     /// whichever fits better, and the number of images the mirror hand's fit better.
     side_known: (ConfusionMatrix, usize),
+    /// A segmenter's hand-part pixels by [`SEAM_BINS`]: (predicted right, all).
+    by_seam_distance: [(u64, u64); SEAM_BINS.len()],
     seconds: f64,
     images: usize,
 }
@@ -347,6 +350,58 @@ fn mirror_hand(truth: &[u8]) -> Vec<u8> {
     truth.iter().map(|&l| swap(l)).collect()
 }
 
+/// Bins of a part pixel's distance to the nearest pixel of another part (in pixels, 8-connected:
+/// 1 for a pixel on a seam): (name, largest distance in the bin). The last bin takes the pixels
+/// with no other part within [`SEAM_REACH`], and the pixels of a hand with one part only.
+const SEAM_BINS: [(&str, u8); 6] = [
+    ("1", 1),
+    ("2", 2),
+    ("3", 3),
+    ("4-5", 5),
+    ("6-7", 7),
+    ("farther", u8::MAX),
+];
+
+/// How far [`seam_distance`] looks.
+const SEAM_REACH: u8 = 7;
+
+/// For each pixel of `truth` with a part, the Chebyshev distance to the nearest pixel of another
+/// part (background does not count), or `u8::MAX` if none lies within [`SEAM_REACH`]; 0 for
+/// background pixels. Where two fingers meet, the image shows one imprint: this says how much of
+/// the error sits near such seams rather than on whole parts mistaken.
+fn seam_distance(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
+    let reach = isize::from(SEAM_REACH);
+    let at = |y: isize, x: isize| -> u8 {
+        if y < 0 || x < 0 || y >= rows as isize || x >= cols as isize {
+            0
+        } else {
+            truth[y as usize * cols + x as usize]
+        }
+    };
+    let mut out = vec![0u8; truth.len()];
+    for (i, d) in out.iter_mut().enumerate().take(rows * cols) {
+        let l = truth[i];
+        if l == 0 {
+            continue;
+        }
+        let (r, c) = ((i / cols) as isize, (i % cols) as isize);
+        *d = (1..=reach)
+            .find(|&k| {
+                // The ring of pixels at distance exactly k.
+                (-k..=k).any(|e| {
+                    [(r - k, c + e), (r + k, c + e), (r + e, c - k), (r + e, c + k)]
+                        .iter()
+                        .any(|&(y, x)| {
+                            let m = at(y, x);
+                            m != 0 && m != l
+                        })
+                })
+            })
+            .map_or(u8::MAX, |k| k as u8);
+    }
+    out
+}
+
 /// `truth` with every pixel that has a differently labelled 8-neighbour set to 0 (unscored).
 fn off_borders(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
     let mut out = truth.to_vec();
@@ -397,6 +452,7 @@ fn score(
         hard: [(0, 0); 2],
         cases: Vec::new(),
         side_known: (ConfusionMatrix::new(0), 0),
+        by_seam_distance: [(0, 0); SEAM_BINS.len()],
         seconds: 0.0,
         images: images.len(),
     };
@@ -453,6 +509,14 @@ fn score(
                             case.0.merge(&one);
                         }
                         case.1 += 1;
+                    }
+                    let (rows, cols) = g.input_size();
+                    for ((&t, &p), d) in truth.iter().zip(labels).zip(seam_distance(truth, rows, cols)) {
+                        if t != 0 {
+                            let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
+                            let slot = &mut s.by_seam_distance[bin];
+                            *slot = (slot.0 + u64::from(p == t), slot.1 + 1);
+                        }
                     }
                     let mut mirror = ConfusionMatrix::new(s.cm.classes());
                     mirror.add_image(&mirror_hand(truth), labels);
@@ -554,6 +618,41 @@ fn report(s: &Scores, segmenting: bool) {
             100.0 * g.mean_iou
         );
     }
+    let wrong: Vec<u64> = s.by_seam_distance.iter().map(|(right, n)| n - right).collect();
+    let all_wrong = wrong.iter().sum::<u64>().max(1) as f64;
+    crate::say!("hand-part pixels by distance to the nearest pixel of another part (px):");
+    crate::say!(
+        "  {:<22}{}",
+        "distance",
+        SEAM_BINS
+            .iter()
+            .map(|(name, _)| format!("{name:>9}"))
+            .collect::<String>()
+    );
+    crate::say!(
+        "  {:<22}{}",
+        "pixels",
+        s.by_seam_distance
+            .iter()
+            .map(|(_, n)| format!("{n:>9}"))
+            .collect::<String>()
+    );
+    crate::say!(
+        "  {:<22}{}",
+        "predicted right",
+        s.by_seam_distance
+            .iter()
+            .map(|&(right, n)| format!("{:>8.2}%", 100.0 * right as f64 / n.max(1) as f64))
+            .collect::<String>()
+    );
+    crate::say!(
+        "  {:<22}{}",
+        "share of the errors",
+        wrong
+            .iter()
+            .map(|&w| format!("{:>8.2}%", 100.0 * w as f64 / all_wrong))
+            .collect::<String>()
+    );
     // Taking a hand for the other side swaps its fingers' names; what this recovers is the
     // price of that mistake, the rest is where the parts meet.
     let g = s.side_known.0.segmentation_scores(1);
@@ -569,7 +668,7 @@ fn report(s: &Scores, segmenting: bool) {
 
 #[cfg(test)]
 mod tests {
-    use super::{mirror_hand, off_borders};
+    use super::{mirror_hand, off_borders, seam_distance};
 
     #[test]
     fn off_borders_unscores_both_sides_of_a_seam_and_nothing_else() {
@@ -601,5 +700,20 @@ mod tests {
         );
         let row = [2u8, 2, 3, 3, 0, 4, 5, 6, 1];
         assert_eq!(mirror_hand(&mirror_hand(&row)), row);
+    }
+
+    #[test]
+    fn seam_distance_counts_pixels_to_the_nearest_other_part_not_to_background() {
+        // One row: background, three thumb pixels, three index pixels, background.
+        let row = [0u8, 1, 1, 1, 2, 2, 2, 0];
+        assert_eq!(seam_distance(&row, 1, 8), vec![0, 3, 2, 1, 1, 2, 3, 0]);
+        // Diagonal neighbours are at distance 1; a lone part has no seam.
+        let diag = [1u8, 0, 0, 0, 0, 0, 0, 0, 2];
+        assert_eq!(seam_distance(&diag, 3, 3), vec![2, 0, 0, 0, 0, 0, 0, 0, 2]);
+        assert_eq!(seam_distance(&[6; 6], 2, 3), vec![u8::MAX; 6]);
+        // Beyond the reach of 7 pixels: none.
+        let mut far = vec![3u8; 10];
+        far[9] = 4;
+        assert_eq!(seam_distance(&far, 1, 10)[..3], [u8::MAX, u8::MAX, 7]);
     }
 }

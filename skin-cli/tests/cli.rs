@@ -1093,6 +1093,35 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         .parse()
         .unwrap();
     assert!(side_acc >= plain_acc, "{side}\n{plain}");
+    // Where the errors lie: every wrong pixel is in one distance bin.
+    let row = |name: &str| -> Vec<f64> {
+        let line = plain
+            .lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or_else(|| panic!("no '{name}' row:\n{plain}"));
+        line.trim_start()[name.len()..]
+            .split_whitespace()
+            .map(|v| v.trim_end_matches('%').parse().unwrap())
+            .collect()
+    };
+    let (pixels, right, share) = (
+        row("pixels  "),
+        row("predicted right"),
+        row("share of the errors"),
+    );
+    assert!(
+        pixels.len() == 6 && right.len() == 6 && share.len() == 6,
+        "{plain}"
+    );
+    let wrong: f64 = pixels
+        .iter()
+        .zip(&right)
+        .map(|(n, r)| n * (1.0 - r / 100.0))
+        .sum();
+    assert!(
+        wrong > 0.0 && (share.iter().sum::<f64>() - 100.0).abs() < 0.1,
+        "{plain}"
+    );
     let mirrors = eval(&["--mirrors"]);
     // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
     let scores = |out: &str| -> Vec<String> {
