@@ -620,39 +620,20 @@ fn report(s: &Scores, segmenting: bool) {
     }
     let wrong: Vec<u64> = s.by_seam_distance.iter().map(|(right, n)| n - right).collect();
     let all_wrong = wrong.iter().sum::<u64>().max(1) as f64;
+    let cells = |cell: &dyn Fn(usize) -> String| (0..SEAM_BINS.len()).map(cell).collect::<String>();
+    let share = |a: u64, b: f64| format!("{:>8.2}%", 100.0 * a as f64 / b.max(1.0));
     crate::say!("hand-part pixels by distance to the nearest pixel of another part (px):");
-    crate::say!(
-        "  {:<22}{}",
-        "distance",
-        SEAM_BINS
-            .iter()
-            .map(|(name, _)| format!("{name:>9}"))
-            .collect::<String>()
-    );
-    crate::say!(
-        "  {:<22}{}",
-        "pixels",
-        s.by_seam_distance
-            .iter()
-            .map(|(_, n)| format!("{n:>9}"))
-            .collect::<String>()
-    );
-    crate::say!(
-        "  {:<22}{}",
-        "predicted right",
-        s.by_seam_distance
-            .iter()
-            .map(|&(right, n)| format!("{:>8.2}%", 100.0 * right as f64 / n.max(1) as f64))
-            .collect::<String>()
-    );
-    crate::say!(
-        "  {:<22}{}",
-        "share of the errors",
-        wrong
-            .iter()
-            .map(|&w| format!("{:>8.2}%", 100.0 * w as f64 / all_wrong))
-            .collect::<String>()
-    );
+    for (name, row) in [
+        ("distance", cells(&|b| format!("{:>9}", SEAM_BINS[b].0))),
+        ("pixels", cells(&|b| format!("{:>9}", s.by_seam_distance[b].1))),
+        (
+            "predicted right",
+            cells(&|b| share(s.by_seam_distance[b].0, s.by_seam_distance[b].1 as f64)),
+        ),
+        ("share of the errors", cells(&|b| share(wrong[b], all_wrong))),
+    ] {
+        crate::say!("  {name:<22}{row}");
+    }
     // Taking a hand for the other side swaps its fingers' names; what this recovers is the
     // price of that mistake, the rest is where the parts meet.
     let g = s.side_known.0.segmentation_scores(1);
