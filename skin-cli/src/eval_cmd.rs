@@ -301,8 +301,9 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// The cases a segmenter is also scored on, to show where its errors lie. The first three come
-/// from labels.csv; the last two from the true mask: without the thumb or the palm in view, a row
-/// of fingers reads the same for a left hand as for a mirrored right one.
+/// from labels.csv; the others from the true mask: without the thumb or the palm in view, a row
+/// of fingers reads the same for a left hand as for a mirrored right one; with all six parts in
+/// view, nothing is hidden.
 const CASES: [&str; 7] = [
     "whole hand on the skin",
     "partly off the skin",
@@ -375,7 +376,7 @@ fn seam_distance(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
         if y < 0 || x < 0 || y >= rows as isize || x >= cols as isize {
             0
         } else {
-            truth[y as usize * cols + x as usize]
+            truth.get(y as usize * cols + x as usize).copied().unwrap_or(0)
         }
     };
     let mut out = vec![0u8; truth.len()];
@@ -641,6 +642,7 @@ fn report(s: &Scores, segmenting: bool) {
         "as if each hand's side were known (scored against the mirror hand's labels where those \
          fit better, {} of {} images): Acc {:.2}%, mIoU {:.2}%",
         s.side_known.1,
+        // The last case, the pixels off the seams, takes every hand image.
         s.cases.last().map_or(0, |c| c.1),
         100.0 * g.pixel_accuracy,
         100.0 * g.mean_iou
