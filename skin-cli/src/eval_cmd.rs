@@ -499,19 +499,18 @@ fn score(
                     let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
                     let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
                     *slot = (slot.0 + right as usize, slot.1 + parts as usize);
+                    let (rows, cols) = g.input_size();
                     for ((case, yes), name) in s.cases.iter_mut().zip(cases_of(e, truth)).zip(CASES) {
                         if !yes {
                             continue;
                         }
                         if name == BORDERS_AWAY {
-                            let (rows, cols) = g.input_size();
                             case.0.add_image(&off_borders(truth, rows, cols), labels);
                         } else {
                             case.0.merge(&one);
                         }
                         case.1 += 1;
                     }
-                    let (rows, cols) = g.input_size();
                     for ((&t, &p), d) in truth.iter().zip(labels).zip(seam_distance(truth, rows, cols)) {
                         if t != 0 {
                             let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
@@ -521,8 +520,8 @@ fn score(
                     }
                     let mut mirror = ConfusionMatrix::new(s.cm.classes());
                     mirror.add_image(&mirror_hand(truth), labels);
-                    let right = |m: &ConfusionMatrix| (1..m.classes()).map(|c| m.get(c, c)).sum::<u64>();
-                    if right(&mirror) > right(&one) {
+                    let mirror_right: u64 = (1..mirror.classes()).map(|c| mirror.get(c, c)).sum();
+                    if mirror_right > right {
                         s.side_known.0.merge(&mirror);
                         s.side_known.1 += 1;
                     } else {
