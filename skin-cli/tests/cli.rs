@@ -1093,6 +1093,39 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         .parse()
         .unwrap();
     assert!(side_acc >= plain_acc, "{side}\n{plain}");
+    // Part regions named wrong: no more than there are regions, their share of the errors and
+    // the rest's add up, and correcting their names loses no pixel.
+    let naming = plain
+        .lines()
+        .find(|l| l.starts_with("part regions"))
+        .unwrap_or_else(|| panic!("no part-regions line:\n{plain}"));
+    let number_after = |key: &str| -> f64 {
+        naming
+            .split(key)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{naming}"))
+            .trim_start()
+            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{key}: {naming}"))
+    };
+    // "... part): M of N named as another part ..."
+    let counts: Vec<f64> = naming
+        .split("part):")
+        .nth(1)
+        .unwrap_or_default()
+        .split_whitespace()
+        .take(3)
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let [misnamed, regions] = counts[..] else {
+        panic!("{naming}")
+    };
+    assert!(regions >= 1.0 && misnamed <= regions, "{naming}");
+    let (in_misnamed, elsewhere) = (number_after("they hold"), number_after("the other"));
+    assert!((in_misnamed + elsewhere - 100.0).abs() < 0.02, "{naming}");
+    assert!(number_after("named right: Acc") >= plain_acc, "{naming}\n{plain}");
     // Where the errors lie: every wrong pixel is in one distance bin.
     let row = |name: &str| -> Vec<f64> {
         let line = plain
