@@ -7,6 +7,7 @@ use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, Tactile
 use skin_learn::classify::{Classifier, ModelError};
 use skin_learn::dataset::Dataset;
 use skin_learn::metrics::ConfusionMatrix;
+use skin_learn::parts::taxel_labels;
 use skin_learn::segment::Segmenter;
 use skin_learn::synth::Part;
 use std::collections::{BTreeMap, HashMap};
@@ -103,6 +104,9 @@ struct Scores {
     naming: Naming,
     /// A segmenter's confusion with the name of each region named wrong corrected.
     named_right: ConfusionMatrix,
+    /// Over the pressed taxels with a true part, each taking the part of its pixel (when the
+    /// dataset has per-taxel truth): the segmenter's confusion, and the true masks' own.
+    by_taxel: Option<[ConfusionMatrix; 2]>,
     seconds: f64,
     images: usize,
 }
@@ -160,7 +164,12 @@ pub fn run(args: Args) -> Result<()> {
             images.push(img);
             truths.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
         }
-        let s = score(&mut model, &data, &test, &images, &truths)?;
+        let taxels = if segmenting {
+            taxel_truth(&data, &test)?
+        } else {
+            None
+        };
+        let s = score(&mut model, &data, &test, &images, &truths, taxels.as_ref())?;
         report(&s, segmenting);
         return Ok(());
     }
@@ -278,7 +287,7 @@ pub fn run(args: Args) -> Result<()> {
                     truths.push(Vec::new());
                 }
             }
-            let s = score(&mut model, &data, &test, &images, &truths)?;
+            let s = score(&mut model, &data, &test, &images, &truths, None)?;
             if segmenting {
                 let g = s.cm.segmentation_scores(1);
                 for (sum, v) in sums.iter_mut().zip([
@@ -410,6 +419,64 @@ fn seam_distance(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
     out
 }
 
+/// The per-taxel truth of a dataset's test images: the map, the raster its images were made on
+/// (1 mm grid, as `skin synth` draws them), and per test image its readings and each taxel's
+/// true part, in map order.
+struct TaxelTruth {
+    map: TactileMap,
+    raster: Rasterizer,
+    pressures: Vec<Vec<f32>>,
+    parts: Vec<Vec<u8>>,
+}
+
+/// Reads [`TaxelTruth`] for `test`, or `None` if the dataset lacks any of map.json, frames.txt
+/// and taxel_parts.txt (a dataset of images and masks only).
+fn taxel_truth(data: &Dataset, test: &[usize]) -> Result<Option<TaxelTruth>> {
+    let [map, frames, parts] = ["map.json", "frames.txt", "taxel_parts.txt"].map(|f| data.dir.join(f));
+    if !(map.exists() && frames.exists() && parts.exists()) {
+        return Ok(None);
+    }
+    let map = TactileMap::read(&map)?;
+    let raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
+    let in_map_order = |path: &std::path::Path| -> Result<Vec<Vec<f32>>> {
+        let rec = recording::read(path)?;
+        if rec.frames.len() != data.entries.len() {
+            bail!(
+                "{}: {} frames for {} rows of labels.csv",
+                path.display(),
+                rec.frames.len(),
+                data.entries.len()
+            );
+        }
+        let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(k, id)| (*id, k)).collect();
+        let cols: Vec<usize> = map
+            .ids
+            .iter()
+            .map(|id| {
+                column
+                    .get(id)
+                    .copied()
+                    .with_context(|| format!("{}: no column for taxel {id} of map.json", path.display()))
+            })
+            .collect::<Result<_>>()?;
+        Ok(test
+            .iter()
+            .map(|&i| cols.iter().map(|&c| rec.frames[i].values[c]).collect())
+            .collect())
+    };
+    let pressures = in_map_order(&frames)?;
+    let parts = in_map_order(&parts)?
+        .into_iter()
+        .map(|row| row.into_iter().map(|v| v.clamp(0.0, 255.0) as u8).collect())
+        .collect();
+    Ok(Some(TaxelTruth {
+        map,
+        raster,
+        pressures,
+        parts,
+    }))
+}
+
 /// How a segmenter named the part regions of its images: a region is a set of 8-connected
 /// pixels with the same true part, and it is named wrong when most of its pixels carry one other
 /// part's label. Its wrong pixels are then a finger taken for its neighbour (or the hand for the
@@ -534,6 +601,7 @@ fn score(
     test: &[usize],
     images: &[Vec<u8>],
     truths: &[Vec<u8>],
+    taxels: Option<&TaxelTruth>,
 ) -> Result<Scores> {
     let mut s = Scores {
         cm: ConfusionMatrix::new(match model {
@@ -547,6 +615,7 @@ fn score(
         by_seam_distance: [(0, 0); SEAM_BINS.len()],
         naming: Naming::default(),
         named_right: ConfusionMatrix::new(0),
+        by_taxel: None,
         seconds: 0.0,
         images: images.len(),
     };
@@ -557,6 +626,7 @@ fn score(
             .collect();
         s.side_known.0 = ConfusionMatrix::new(g.classes());
         s.named_right = ConfusionMatrix::new(g.classes());
+        s.by_taxel = taxels.map(|_| [(); 2].map(|_| ConfusionMatrix::new(g.classes())));
     }
     let start = Instant::now();
     for (n, (chunk, idx)) in images.chunks(32).zip(test.chunks(32)).enumerate() {
@@ -610,6 +680,17 @@ fn score(
                             let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
                             let slot = &mut s.by_seam_distance[bin];
                             *slot = (slot.0 + u64::from(p == t), slot.1 + 1);
+                        }
+                    }
+                    if let (Some(t), Some(cms)) = (taxels, s.by_taxel.as_mut()) {
+                        let (pressures, parts) = (&t.pressures[n * 32 + k], &t.parts[n * 32 + k]);
+                        for (cm, image) in cms.iter_mut().zip([labels.as_slice(), truth]) {
+                            for (i, label) in taxel_labels(&t.map, &t.raster, (rows, cols), image, pressures)
+                            {
+                                if parts[i] > 0 {
+                                    cm.add(usize::from(parts[i]), usize::from(label));
+                                }
+                            }
                         }
                     }
                     let (naming, renamed) = name_regions(truth, labels, rows, cols);
@@ -730,6 +811,27 @@ fn report(s: &Scores, segmenting: bool) {
         ("share of the errors", cells(&|b| share(wrong[b], all_wrong))),
     ] {
         crate::say!("  {name:<22}{row}");
+    }
+    match &s.by_taxel {
+        Some([model, masks]) => {
+            // The masks follow the image, whose dilation spreads a brighter part over its
+            // neighbour's taxels: read the same way, they are the most a segmenter that learned
+            // them perfectly could score here.
+            let (g, m) = (model.segmentation_scores(1), masks.segmentation_scores(1));
+            crate::say!(
+                "per taxel ({} pressed taxels with a true part from taxel_parts.txt, each taking its \
+                 pixel's part as skin segment's per-part table does): Acc {:.2}%, mIoU {:.2}%; \
+                 the true masks read the same way: Acc {:.2}%, mIoU {:.2}%",
+                (1..model.classes()).map(|c| model.truth_total(c)).sum::<u64>(),
+                100.0 * g.pixel_accuracy,
+                100.0 * g.mean_iou,
+                100.0 * m.pixel_accuracy,
+                100.0 * m.mean_iou
+            );
+        }
+        None => {
+            crate::say!("per taxel: not scored (the dataset has no map.json, frames.txt and taxel_parts.txt)")
+        }
     }
     let n = &s.naming;
     let named_right = s.named_right.segmentation_scores(1);

@@ -1155,6 +1155,26 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         wrong > 0.0 && (share.iter().sum::<f64>() - 100.0).abs() < 0.1,
         "{plain}"
     );
+    // Per taxel: the segmentation read at each pressed taxel, against taxel_parts.txt; the
+    // true masks read the same way give (almost) every taxel its own part.
+    let per_taxel = plain
+        .lines()
+        .find(|l| l.starts_with("per taxel ("))
+        .unwrap_or_else(|| panic!("no per-taxel line:\n{plain}"));
+    let after = |key: &str| -> f64 {
+        per_taxel
+            .split(key)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{key}: {per_taxel}"))
+            .trim_start()
+            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{key}: {per_taxel}"))
+    };
+    assert!(after("per taxel (") > 0.0, "{per_taxel}");
+    assert!((0.0..=100.0).contains(&after("the same way: Acc")), "{per_taxel}");
+    assert!((0.0..=100.0).contains(&after("does): Acc")), "{per_taxel}");
     let mirrors = eval(&["--mirrors"]);
     // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
     let scores = |out: &str| -> Vec<String> {
@@ -1166,6 +1186,13 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         scores(&plain),
         scores(&mirrors),
         "--mirrors changed nothing:\n{mirrors}"
+    );
+    // A dataset of images and masks only is scored per pixel, and says why not per taxel.
+    std::fs::remove_file(data.join("taxel_parts.txt")).unwrap();
+    let without = eval(&[]);
+    assert!(
+        without.contains("per taxel: not scored") && scores(&without) == scores(&plain),
+        "{without}"
     );
     // skin segment: a coloured part image per input, black where nothing pressed.
     let entries = skin_learn::dataset::Dataset::read(&data).unwrap().entries;

@@ -33,22 +33,12 @@ pub fn part_contacts(
     labels: &[u8],
     pressures: &[f32],
 ) -> Vec<PartContact> {
-    let (rows, cols) = size;
     let mut sums = [(0usize, 0.0f64, nalgebra::Vector3::zeros()); 7];
-    for (i, (&p, point)) in pressures.iter().zip(&map.points).enumerate() {
-        if !(p > 0.0) || map.zeroed.binary_search(&i).is_ok() {
-            continue;
-        }
-        let Some((r, c)) = raster.pixel_of(*point) else {
-            continue;
-        };
-        let (r, c) = (r * rows / raster.rows().max(1), c * cols / raster.cols().max(1));
-        let Some(&label) = labels.get(r * cols + c) else {
-            continue;
-        };
+    for (i, label) in taxel_labels(map, raster, size, labels, pressures) {
         let Some(slot) = sums.get_mut(usize::from(label)) else {
             continue;
         };
+        let p = pressures[i];
         slot.0 += 1;
         slot.1 += f64::from(p);
         if let Some(x) = map.positions.get(i) {
@@ -66,6 +56,32 @@ pub fn part_contacts(
             centroid: (map.positions.len() == map.points.len()).then(|| Point3::from(moment / sum)),
         })
         .collect()
+}
+
+/// Each pressed taxel (positive reading, not zeroed in `map`) with the label of the output
+/// pixel of `labels` (rows, cols = `size`) its map position falls in: (taxel index in map order,
+/// label). Taxels off the image are left out. This is how a segmentation reaches the taxels, so
+/// it is also how a segmenter is scored against per-taxel truth.
+pub fn taxel_labels<'a>(
+    map: &'a TactileMap,
+    raster: &'a Rasterizer,
+    size: (usize, usize),
+    labels: &'a [u8],
+    pressures: &'a [f32],
+) -> impl Iterator<Item = (usize, u8)> + 'a {
+    let (rows, cols) = size;
+    pressures
+        .iter()
+        .zip(&map.points)
+        .enumerate()
+        .filter_map(move |(i, (&p, point))| {
+            if !(p > 0.0) || map.zeroed.binary_search(&i).is_ok() {
+                return None;
+            }
+            let (r, c) = raster.pixel_of(*point)?;
+            let (r, c) = (r * rows / raster.rows().max(1), c * cols / raster.cols().max(1));
+            labels.get(r * cols + c).map(|&label| (i, label))
+        })
 }
 
 #[cfg(test)]
@@ -102,6 +118,12 @@ mod tests {
                 expected[half].push(i);
             }
         }
+        // Only the pressed taxels reach the segmentation, each with its half's label.
+        let got: Vec<(usize, u8)> = taxel_labels(&map, &raster, size, &labels, &pressures).collect();
+        let mut want: Vec<(usize, u8)> = expected[0].iter().map(|&i| (i, 1)).collect();
+        want.extend(expected[1].iter().map(|&i| (i, 6)));
+        want.sort_unstable();
+        assert_eq!(got, want);
         let parts = part_contacts(&map, &raster, size, &labels, &pressures);
         assert_eq!(parts.len(), 2);
         for (pc, taxels) in parts.iter().zip(&expected) {
