@@ -1173,7 +1173,7 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
             .unwrap_or_else(|| panic!("{key}: {per_taxel}"))
     };
     assert!(after("per taxel (") > 0.0, "{per_taxel}");
-    assert!((0.0..=100.0).contains(&after("the same way: Acc")), "{per_taxel}");
+    assert!(after("the same way: Acc") >= 98.0, "{per_taxel}");
     assert!((0.0..=100.0).contains(&after("does): Acc")), "{per_taxel}");
     let mirrors = eval(&["--mirrors"]);
     // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).

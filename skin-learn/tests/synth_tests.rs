@@ -6,7 +6,8 @@
 use nalgebra::{Point3, Unit, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
-use skin_geom::{FlattenOptions, TactileMap};
+use skin_geom::{FlattenOptions, Grid, Rasterizer, TactileMap};
+use skin_learn::parts::taxel_labels;
 use skin_learn::synth::{Kind, Part, SynthOptions, Synthesizer};
 
 /// A half cylinder like a forearm cover (radius 80 mm, 300 mm long), taxels ~10 mm apart.
@@ -77,6 +78,35 @@ fn one_seed_one_sample_and_labels_follow_the_image() {
         "the palm shows in most hand contacts: {palms} of {hands}"
     );
     assert_ne!(synth.sample(11, 0, 0), synth.sample(12, 0, 0));
+}
+
+#[test]
+fn the_mask_gives_each_pressed_taxel_its_own_part() {
+    // A segmentation reaches the taxels through the pixel each one falls in (the per-part
+    // table); the true mask read that way must give each taxel the part that pressed it, not a
+    // brighter neighbour's part spread by the image's dilation.
+    let map = forearm();
+    let options = SynthOptions {
+        hand_fraction: 1.0,
+        ..SynthOptions::default()
+    };
+    let raster = Rasterizer::new(&map, Grid::StepMm(options.step_mm)).unwrap();
+    let mut synth = Synthesizer::new(&map, options).unwrap();
+    let (mut same, mut all) = (0usize, 0usize);
+    for k in 0..60 {
+        let s = synth.sample(5, k / 6, k % 6);
+        for (i, label) in taxel_labels(&map, &raster, options.image_size, &s.mask, &s.pressures) {
+            if s.taxel_parts[i] > 0 {
+                all += 1;
+                same += usize::from(label == s.taxel_parts[i]);
+            }
+        }
+    }
+    assert!(all > 1000, "{all} pressed taxels");
+    assert!(
+        same * 100 >= all * 98,
+        "{same} of {all} taxels read their own part"
+    );
 }
 
 #[test]

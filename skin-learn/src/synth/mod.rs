@@ -394,10 +394,15 @@ impl Synthesizer {
     /// The tactile image of `pressures` through the real pipeline, and its part mask.
     ///
     /// The mask follows the image: a pixel of the full grid takes the part of the taxel that
-    /// contributes most to it (barycentric weight x reading); erosion keeps pixels whose
-    /// neighbourhood is lit; dilation copies into each pixel the part of the brightest eroded
-    /// pixel within its disk (the pixel whose value the dilation copied); resizing takes the
-    /// majority part of each output pixel's block; black output pixels are background.
+    /// contributes most to it (barycentric weight x reading); a pixel that only the dilation
+    /// lights takes the part of the brightest eroded pixel within its disk (the pixel whose value
+    /// the dilation copied); resizing takes the majority part of each output pixel's block; black
+    /// output pixels are background.
+    ///
+    /// A lit pixel keeps its own taxel's part even where the dilation paints it with a brighter
+    /// neighbour's value: otherwise a bright finger's part spreads 4 mm over the palm's taxels,
+    /// and the mask read at the taxels (as `parts::part_contacts` reads a segmentation) gave
+    /// 8.4% of the pressed taxels another part than the one pressing them.
     fn image_and_mask(&mut self, pressures: &[f32], parts: &[u8]) -> (Vec<u8>, Vec<u8>) {
         let image = match self.imager.process(pressures) {
             Ok(img) => img.to_vec(),
@@ -426,7 +431,12 @@ impl Synthesizer {
         }
         let (rows, cols) = (self.rows, self.cols);
         let eroded = skin_geom::erode_disk(&self.grey, rows, cols, TactileImager::EROSION_RADIUS);
-        let dilated = dilate_labels(&eroded, &self.labels, rows, cols, TactileImager::DILATION_RADIUS);
+        let mut dilated = dilate_labels(&eroded, &self.labels, rows, cols, TactileImager::DILATION_RADIUS);
+        for (d, &own) in dilated.iter_mut().zip(&self.labels) {
+            if own > 0 {
+                *d = own;
+            }
+        }
         let (out_rows, out_cols) = self.options.image_size;
         let mut mask = vec![0u8; out_rows * out_cols];
         for (o, m) in mask.iter_mut().enumerate() {
