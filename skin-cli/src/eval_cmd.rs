@@ -36,7 +36,9 @@ use std::time::Instant;
 /// its wrong pixels are split between parts it named wrong as a whole (a true part region most
 /// of whose pixels it gave another part's name) and the borders of parts it named right; and it
 /// is scored as if each hand's side (left or right) were known, and as if every part region
-/// were named right.
+/// were named right. Where the dataset has map.json, frames.txt and taxel_parts.txt, it is also
+/// scored per taxel: each pressed taxel takes its pixel's part, as skin segment's per-part table
+/// does, against the taxel's true part.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
