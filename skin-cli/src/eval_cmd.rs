@@ -2,6 +2,7 @@
 //! thesis Ch. 5 (Test A: blind spots; Test B: removed taxels).
 
 use anyhow::{Context as _, Result, bail};
+use skin_core::TaxelId;
 use skin_core::format::recording;
 use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 use skin_learn::classify::{Classifier, ModelError};
@@ -259,16 +260,7 @@ pub fn run(args: Args) -> Result<()> {
                 true,
                 Some(size),
             )?;
-            let cols: Vec<usize> = degraded
-                .ids
-                .iter()
-                .map(|id| {
-                    column
-                        .get(id)
-                        .copied()
-                        .context("a degraded map's taxel is not in frames.txt")
-                })
-                .collect::<Result<_>>()?;
+            let cols = columns_of(&degraded.ids, &column, "frames.txt", "a degraded map")?;
             let mut pressures = vec![0.0f32; cols.len()];
             let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
             let (mut kept, mut before) = (0usize, 0usize);
@@ -421,6 +413,24 @@ fn seam_distance(truth: &[u8], rows: usize, cols: usize) -> Vec<u8> {
     out
 }
 
+/// The column of a recording (`file`) that holds each of `ids` (the taxels of `whose` map), by
+/// `column`: taxel id -> column.
+fn columns_of(
+    ids: &[TaxelId],
+    column: &HashMap<TaxelId, usize>,
+    file: &str,
+    whose: &str,
+) -> Result<Vec<usize>> {
+    ids.iter()
+        .map(|id| {
+            column
+                .get(id)
+                .copied()
+                .with_context(|| format!("{file}: no column for taxel {id} of {whose}"))
+        })
+        .collect()
+}
+
 /// The per-taxel truth of a dataset's test images: the map, the raster its images were made on
 /// (1 mm grid, as `skin synth` draws them), and per test image its readings and each taxel's
 /// true part, in map order.
@@ -451,16 +461,7 @@ fn taxel_truth(data: &Dataset, test: &[usize]) -> Result<Option<TaxelTruth>> {
             );
         }
         let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(k, id)| (*id, k)).collect();
-        let cols: Vec<usize> = map
-            .ids
-            .iter()
-            .map(|id| {
-                column
-                    .get(id)
-                    .copied()
-                    .with_context(|| format!("{}: no column for taxel {id} of map.json", path.display()))
-            })
-            .collect::<Result<_>>()?;
+        let cols = columns_of(&map.ids, &column, &path.display().to_string(), "map.json")?;
         Ok(test
             .iter()
             .map(|&i| cols.iter().map(|&c| rec.frames[i].values[c]).collect())

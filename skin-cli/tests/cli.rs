@@ -1015,6 +1015,19 @@ fn eval_scores_the_matlab_handsnet_and_runs_test_a() {
     assert!(err.contains("per-pixel class scores"), "{err}");
 }
 
+/// The number that follows `key` in `line`.
+#[cfg(feature = "onnx")]
+fn number_after(line: &str, key: &str) -> f64 {
+    line.split(key)
+        .nth(1)
+        .unwrap_or_else(|| panic!("no '{key}' in: {line}"))
+        .trim_start()
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no number after '{key}' in: {line}"))
+}
+
 #[cfg(feature = "onnx")]
 #[test]
 fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
@@ -1099,17 +1112,7 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         .lines()
         .find(|l| l.starts_with("part regions"))
         .unwrap_or_else(|| panic!("no part-regions line:\n{plain}"));
-    let number_after = |key: &str| -> f64 {
-        naming
-            .split(key)
-            .nth(1)
-            .unwrap_or_else(|| panic!("{naming}"))
-            .trim_start()
-            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
-            .next()
-            .and_then(|n| n.parse().ok())
-            .unwrap_or_else(|| panic!("{key}: {naming}"))
-    };
+    let in_naming = |key: &str| number_after(naming, key);
     // "... part): M of N named as another part ..."
     let counts: Vec<f64> = naming
         .split("part):")
@@ -1123,9 +1126,9 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         panic!("{naming}")
     };
     assert!(regions >= 1.0 && misnamed <= regions, "{naming}");
-    let (in_misnamed, elsewhere) = (number_after("they hold"), number_after("the other"));
+    let (in_misnamed, elsewhere) = (in_naming("they hold"), in_naming("the other"));
     assert!((in_misnamed + elsewhere - 100.0).abs() < 0.02, "{naming}");
-    assert!(number_after("named right: Acc") >= plain_acc, "{naming}\n{plain}");
+    assert!(in_naming("named right: Acc") >= plain_acc, "{naming}\n{plain}");
     // Where the errors lie: every wrong pixel is in one distance bin.
     let row = |name: &str| -> Vec<f64> {
         let line = plain
@@ -1161,17 +1164,7 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         .lines()
         .find(|l| l.starts_with("per taxel ("))
         .unwrap_or_else(|| panic!("no per-taxel line:\n{plain}"));
-    let after = |key: &str| -> f64 {
-        per_taxel
-            .split(key)
-            .nth(1)
-            .unwrap_or_else(|| panic!("{key}: {per_taxel}"))
-            .trim_start()
-            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
-            .next()
-            .and_then(|n| n.parse().ok())
-            .unwrap_or_else(|| panic!("{key}: {per_taxel}"))
-    };
+    let after = |key: &str| number_after(per_taxel, key);
     assert!(after("per taxel (") > 0.0, "{per_taxel}");
     assert!(after("the same way: Acc") >= 98.0, "{per_taxel}");
     assert!((0.0..=100.0).contains(&after("does): Acc")), "{per_taxel}");
