@@ -431,12 +431,7 @@ impl Synthesizer {
         }
         let (rows, cols) = (self.rows, self.cols);
         let eroded = skin_geom::erode_disk(&self.grey, rows, cols, TactileImager::EROSION_RADIUS);
-        let mut dilated = dilate_labels(&eroded, &self.labels, rows, cols, TactileImager::DILATION_RADIUS);
-        for (d, &own) in dilated.iter_mut().zip(&self.labels) {
-            if own > 0 {
-                *d = own;
-            }
-        }
+        let dilated = dilate_labels(&eroded, &self.labels, rows, cols, TactileImager::DILATION_RADIUS);
         let (out_rows, out_cols) = self.options.image_size;
         let mut mask = vec![0u8; out_rows * out_cols];
         for (o, m) in mask.iter_mut().enumerate() {
@@ -489,8 +484,9 @@ fn block(i: usize, n_src: usize, n_out: usize) -> (usize, usize) {
     (start, end.min(n_src))
 }
 
-/// Grey dilation with a disk of `radius`, carrying labels: each pixel takes the label of the
-/// brightest `grey` pixel within the disk (first in raster order on ties), or 0 if all are black.
+/// The labels of a grey dilation with a disk of `radius`: a pixel with a label of its own keeps
+/// it; any other takes the label of the brightest `grey` pixel within the disk (first in raster
+/// order on ties), or 0 if all are black.
 fn dilate_labels(grey: &[u8], labels: &[u8], rows: usize, cols: usize, radius: usize) -> Vec<u8> {
     let r = radius as isize;
     let offsets: Vec<(isize, isize)> = (-r..=r)
@@ -500,6 +496,11 @@ fn dilate_labels(grey: &[u8], labels: &[u8], rows: usize, cols: usize, radius: u
     let mut out = vec![0u8; rows * cols];
     for y in 0..rows as isize {
         for x in 0..cols as isize {
+            let own = labels[y as usize * cols + x as usize];
+            if own > 0 {
+                out[y as usize * cols + x as usize] = own;
+                continue;
+            }
             let mut best = (0u8, 0u8);
             for &(dy, dx) in &offsets {
                 let (yy, xx) = (y + dy, x + dx);
