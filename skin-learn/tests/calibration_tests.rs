@@ -292,7 +292,8 @@ mod properties {
             for (x, y) in a.taxels.iter().zip(&b.taxels) {
                 // The same verdict for every taxel. (The distance quoted by a "centre far outside
                 // the contacts" flag is where a diverging fit stopped: rounding in the moved
-                // coordinates changes it, not the verdict.)
+                // coordinates changes it, and whether the runaway met the stopping rule, not the
+                // verdict. Seed 795's taxel 30 is such a runaway.)
                 prop_assert_eq!(std::mem::discriminant(&x.status), std::mem::discriminant(&y.status), "{}: {} vs {}", x.id, x.status, y.status);
                 if let (Some(p), Some(q)) = (x.position, y.position) {
                     prop_assert!((motion * p - q).norm() < 1e-7, "{} moved by {} m", x.id, (motion * p - q).norm());

@@ -105,9 +105,11 @@ pub enum Status {
     },
     /// The taxel answered, but every response was zero.
     NoResponse,
-    /// The contacts cannot determine a pose (at one point, on a line, a centre far outside them).
+    /// The contacts cannot determine a pose (at one point, on a line, or a fit whose centre is,
+    /// or ran off, farther than `max_extrapolation_mm` from every contact).
     Degenerate(String),
-    /// The fit did not meet the stopping rule within the iteration budget.
+    /// The fit did not meet the stopping rule within the iteration budget, while still near its
+    /// contacts.
     NotConverged {
         /// Iterations spent.
         iterations: usize,

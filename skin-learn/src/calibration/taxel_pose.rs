@@ -117,26 +117,34 @@ pub(crate) fn estimate(
     let Some(fit) = GaussianFit::fit(&xs, &ts, start, &fit_options) else {
         return Pose::flagged(Status::Degenerate("the fit left the real numbers".into()));
     };
+    // A centre far outside the contacts that made the taxel answer is an extrapolation, not a
+    // measurement. This is checked before convergence: a fit that ran off far from its contacts
+    // cannot be placed by them whether or not it stopped within the budget (where a runaway stops
+    // is rounding, so the verdict must not depend on it), and more iterations would not help.
+    let reach = xs
+        .iter()
+        .map(|x| ((x[0] - fit.beta[0]).powi(2) + (x[1] - fit.beta[1]).powi(2)).sqrt())
+        .fold(f64::INFINITY, f64::min);
+    if reach > options.max_extrapolation_mm {
+        let why = if fit.converged {
+            format!("the fitted centre is {reach:.1} mm from the nearest contact")
+        } else {
+            format!(
+                "the fit ran off {reach:.1} mm from the nearest contact (not converged after {} iterations)",
+                fit.iterations
+            )
+        };
+        return Pose {
+            fit: Some(fit),
+            ..Pose::flagged(Status::Degenerate(why))
+        };
+    }
     if !fit.converged {
         return Pose {
             fit: Some(fit),
             ..Pose::flagged(Status::NotConverged {
                 iterations: fit.iterations,
             })
-        };
-    }
-    // A centre far outside the contacts that made the taxel answer is an extrapolation, not a
-    // measurement.
-    let reach = xs
-        .iter()
-        .map(|x| ((x[0] - fit.beta[0]).powi(2) + (x[1] - fit.beta[1]).powi(2)).sqrt())
-        .fold(f64::INFINITY, f64::min);
-    if reach > options.max_extrapolation_mm {
-        return Pose {
-            fit: Some(fit),
-            ..Pose::flagged(Status::Degenerate(format!(
-                "the fitted centre is {reach:.1} mm from the nearest contact"
-            )))
         };
     }
     // Back to 3D: x~ = [v1 v2 v3] [b1, b2, 0]^T + v3 v3^T x*, with x* the mean centroid.
