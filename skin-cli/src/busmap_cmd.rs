@@ -17,7 +17,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Format::Skin16)]
     format: Format,
     /// Number of buses.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = crate::numbers::count::<1, 64>)]
     buses: usize,
     /// Where to write the map (default: standard output).
     #[arg(short, long, value_name = "MAP.toml")]
@@ -31,18 +31,22 @@ enum Format {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let link = crate::flatten::load_input(&args.layout)?;
+    let inputs = crate::output::Inputs::new([&args.layout]);
+    if let Some(out) = &args.output {
+        inputs.check(out)?;
+    }
+    let ids = crate::flatten::load_all_ids(&args.layout)?;
     let format = match args.format {
         Format::Skin16 => WireFormat::Skin16,
         Format::Icub8 => WireFormat::Icub8,
     };
-    let map = match BusMap::for_taxels(&link.ids(), format, args.buses) {
+    let map = match BusMap::for_taxels(&ids, format, args.buses) {
         Ok(m) => m,
         Err(e) => bail!("{}: {e}", args.layout.display()),
     };
     match &args.output {
         Some(out) => {
-            crate::write_atomic(out, map.to_toml().as_bytes())?;
+            crate::output::write_file(out, map.to_toml().as_bytes(), &inputs)?;
             crate::say!("wrote {}", out.display());
         }
         None => crate::say!("{}", map.to_toml()),

@@ -1,7 +1,7 @@
 //! `skin calibrate` and `skin probe-sim`: taxel positions from probe contacts, and simulated
 //! probe datasets.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use skin_core::format::{cyskin, native};
 use skin_core::{LinkSkin, SkinLayout};
 use skin_learn::calibration::{
@@ -38,7 +38,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "curve.svg")]
     plot: Option<PathBuf>,
     /// Taxels with fewer answered contacts are flagged.
-    #[arg(long, default_value_t = 8, value_name = "N")]
+    #[arg(long, default_value_t = 8, value_name = "N", value_parser = crate::numbers::count::<1, 1_000_000>)]
     min_responses: usize,
     /// Name of the link in the written layout (default: the file name of PROBES).
     #[arg(long)]
@@ -62,7 +62,7 @@ pub struct ProbeSimArgs {
     #[arg(long, value_name = "L.json")]
     layout: PathBuf,
     /// Number of probe contacts.
-    #[arg(long, default_value_t = 350)]
+    #[arg(long, default_value_t = 350, value_parser = crate::numbers::count::<1, 1_000_000>)]
     contacts: usize,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
@@ -94,6 +94,8 @@ pub struct ProbeSimArgs {
 }
 
 pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
+    let inputs = crate::output::Inputs::new([&args.layout]);
+    inputs.check(&args.output)?;
     let link = crate::flatten::load_input(&args.layout)?;
     if link.taxels.is_empty() {
         bail!("{}: no taxels", args.layout.display());
@@ -127,7 +129,7 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
     let dataset = sim.run(&link, args.contacts, args.seed);
     let rows: usize = dataset.contacts.iter().map(|c| c.responses.len()).sum();
     let silent = dataset.contacts.iter().filter(|c| c.responses.is_empty()).count();
-    crate::write_atomic(&args.output, dataset.to_csv().as_bytes())?;
+    crate::output::write_file(&args.output, dataset.to_csv().as_bytes(), &inputs)?;
     crate::say!(
         "{} contacts on {} taxels: {rows} responses ({:.1} per taxel){}",
         args.contacts,
@@ -144,6 +146,11 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
 }
 
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
+    let inputs = crate::output::Inputs::new([Some(&args.probes), args.truth.as_ref()].into_iter().flatten());
+    crate::output::distinct(&[("-o", Some(&args.output)), ("--plot", args.plot.as_ref())])?;
+    for out in [Some(&args.output), args.plot.as_ref()].into_iter().flatten() {
+        inputs.check(out)?;
+    }
     let dataset = ProbeDataset::read(&args.probes)?;
     if args.plot.is_some() && args.truth.is_none() {
         bail!("--plot draws the error against the truth: give --truth too");
@@ -198,7 +205,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         LayoutFormat::Native => native::to_string(&SkinLayout { links: vec![link] }),
         LayoutFormat::Cyskin => cyskin::skin_to_string(&link),
     };
-    crate::write_atomic(&args.output, text.as_bytes())?;
+    crate::output::write_file(&args.output, text.as_bytes(), &inputs)?;
     crate::say!("wrote {}", args.output.display());
 
     if let Some(truth) = &truth {
@@ -235,8 +242,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
                 );
             }
             let title = format!("Position error vs samples per taxel ({})", args.probes.display());
-            crate::write_atomic(plot, curve_svg(&curve, &title).as_bytes())
-                .with_context(|| format!("{}", plot.display()))?;
+            crate::output::write_file(plot, curve_svg(&curve, &title).as_bytes(), &inputs)?;
             crate::say!("wrote {}", plot.display());
         }
     }

@@ -41,9 +41,9 @@ pub(crate) struct ModelInputs {
     /// Tactile map (or layout) of the recordings: run the model on their touched frames.
     #[arg(long, value_name = "MAP.json")]
     pub(crate) map: Option<PathBuf>,
-    /// With --map: readings at or below this count as no contact.
-    #[arg(long, default_value_t = 10.0)]
-    pub(crate) threshold: f32,
+    /// With --map: readings at or below this count as no contact (the recording's units).
+    #[arg(long, default_value_t = 10.0, value_parser = crate::numbers::within(-1e9, 1e9))]
+    pub(crate) threshold: f64,
     /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1). Default: what the
     /// model card (MODEL.md beside MODEL.onnx) says, else 255.
     #[arg(long, value_enum)]
@@ -63,9 +63,16 @@ pub(crate) enum Scale {
 
 /// A grey PNG of the model's input size (rows, cols), as row-major pixels.
 pub(crate) fn read_model_image(path: &std::path::Path, (h, w): (usize, usize)) -> Result<Vec<u8>> {
-    let img = image::open(path)
-        .with_context(|| format!("cannot read {} as an image", path.display()))?
-        .into_luma8();
+    let img = image::open(path).with_context(|| format!("cannot read {} as an image", path.display()))?;
+    // A colour or 16-bit image is not a tactile image: converting it would hide the mistake.
+    if img.color() != image::ColorType::L8 {
+        bail!(
+            "{}: a {:?} image; the model takes 8-bit grey tactile images (make them with `skin image`)",
+            path.display(),
+            img.color()
+        );
+    }
+    let img = img.into_luma8();
     let (iw, ih) = img.dimensions();
     if (ih as usize, iw as usize) != (h, w) {
         bail!(
@@ -142,7 +149,7 @@ pub fn run(args: Args) -> Result<()> {
             let quiet = crate::image_cmd::each_touched_frame(
                 &inputs,
                 &mut imager,
-                args.run.threshold,
+                args.run.threshold as f32,
                 |input, f, _, grey| {
                     let name = format!(
                         "{} frame {} ({:.2} s)",

@@ -19,13 +19,13 @@ pub struct Args {
     #[arg(long, value_name = "MAP.json")]
     map: PathBuf,
     /// Number of blind spots.
-    #[arg(long, value_name = "N", requires = "radius_mm", conflicts_with = "remove")]
+    #[arg(long, value_name = "N", requires = "radius_mm", conflicts_with = "remove", value_parser = crate::numbers::count::<1, 1_000_000>)]
     blind_spots: Option<usize>,
     /// Radius of each blind spot, millimetres.
-    #[arg(long, value_name = "R", requires = "blind_spots")]
+    #[arg(long, value_name = "R", requires = "blind_spots", value_parser = crate::numbers::above(0.0, 1e4))]
     radius_mm: Option<f64>,
     /// Fraction of the taxels to remove, 0 to 1 (0.1 = 10 %).
-    #[arg(long, value_name = "FRACTION")]
+    #[arg(long, value_name = "FRACTION", value_parser = crate::numbers::within(0.0, 1.0))]
     remove: Option<f64>,
     /// Seed of the random pattern.
     #[arg(long, default_value_t = 0)]
@@ -39,6 +39,12 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let inputs = crate::output::Inputs::new([&args.map]);
+    crate::output::distinct(&[("-o", Some(&args.output)), ("--svg", args.svg.as_ref())])?;
+    inputs.check(&args.output)?;
+    if let Some(svg) = &args.svg {
+        inputs.check(svg)?;
+    }
     let map = crate::image_cmd::load_map(&args.map)?;
     let degraded = match (args.blind_spots, args.radius_mm, args.remove) {
         (Some(spots), Some(radius_mm), None) => {
@@ -76,10 +82,10 @@ pub fn run(args: Args) -> Result<()> {
         }
         _ => bail!("give either --blind-spots N --radius-mm R, or --remove FRACTION"),
     };
-    crate::write_atomic(&args.output, degraded.to_json().as_bytes())?;
+    crate::output::write_file(&args.output, degraded.to_json().as_bytes(), &inputs)?;
     crate::say!("wrote {}", args.output.display());
     if let Some(svg) = &args.svg {
-        crate::write_atomic(svg, degraded.to_svg().as_bytes())?;
+        crate::output::write_file(svg, degraded.to_svg().as_bytes(), &inputs)?;
         crate::say!("wrote {}", svg.display());
     }
     Ok(())

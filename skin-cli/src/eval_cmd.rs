@@ -51,7 +51,7 @@ pub struct Args {
     dataset: PathBuf,
     /// Fraction of the subjects (the last ones) that form the test set; 1 (or 0) for all
     /// samples, as for a dataset the model never saw any of.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = 0.3, value_parser = crate::numbers::within(0.0, 1.0))]
     test_fraction: f64,
     /// Test A: blind spots (1-4 spots of 10-40 mm).
     #[arg(long, conflicts_with = "test_b")]
@@ -60,13 +60,13 @@ pub struct Args {
     #[arg(long)]
     test_b: bool,
     /// Random degraded maps per cell of Test A / Test B (10 in the thesis).
-    #[arg(long, default_value_t = 10)]
-    patterns: u64,
+    #[arg(long, default_value_t = 10, value_parser = crate::numbers::count::<1, 10_000>)]
+    patterns: usize,
     /// Grey levels as the model expects them (default: from the model card, else 255).
     #[arg(long, value_enum)]
     input_scale: Option<crate::classify_cmd::Scale>,
     /// Threads for inference: each batch of 32 images is split between them.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = crate::numbers::threads)]
     threads: usize,
     /// A segmenter averages the part scores of each image and of its three mirror images
     /// (left-right, up-down, both): four times the inference.
@@ -254,7 +254,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     for (name, make) in &cells {
         let mut sums = [0.0f64; 5];
-        for seed in 0..args.patterns {
+        for seed in 0..args.patterns as u64 {
             let degraded = make(seed)?;
             let mut imager = TactileImager::new(
                 Rasterizer::new(&degraded, Grid::StepMm(1.0))?,

@@ -37,7 +37,7 @@ pub struct Args {
     #[arg(long)]
     triangulate: bool,
     /// Triangulation: an edge longer than this many local taxel pitches bridges a hole.
-    #[arg(long, default_value_t = 3.0, value_name = "PITCHES")]
+    #[arg(long, default_value_t = 3.0, value_name = "PITCHES", value_parser = crate::numbers::above(0.0, 1e3))]
     max_edge: f64,
 }
 
@@ -48,6 +48,12 @@ enum MapFormat {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let inputs = crate::output::Inputs::new([Some(&args.input), args.mesh.as_ref()].into_iter().flatten());
+    crate::output::distinct(&[("-o", Some(&args.output)), ("--svg", args.svg.as_ref())])?;
+    inputs.check(&args.output)?;
+    if let Some(svg) = &args.svg {
+        inputs.check(svg)?;
+    }
     let mut link = load_input(&args.input)?;
     if let Some(mesh_path) = &args.mesh {
         let mesh = load_mesh_file(mesh_path)?;
@@ -77,13 +83,21 @@ pub fn run(args: Args) -> Result<()> {
         MapFormat::Native => map.to_json(),
         MapFormat::Cyskin => cyskin::tactile_map_to_string(&map.to_cyskin()),
     };
-    crate::write_atomic(&args.output, text.as_bytes())?;
+    crate::output::write_file(&args.output, text.as_bytes(), &inputs)?;
     crate::say!("wrote {}", args.output.display());
     if let Some(svg) = &args.svg {
-        crate::write_atomic(svg, map.to_svg().as_bytes())?;
+        crate::output::write_file(svg, map.to_svg().as_bytes(), &inputs)?;
         crate::say!("wrote {}", svg.display());
     }
     Ok(())
+}
+
+/// Every taxel id of a layout: all links of a project layout, else the one link the file holds.
+pub(crate) fn load_all_ids(path: &Path) -> Result<Vec<skin_core::TaxelId>> {
+    if let Ok(layout) = skin_core::format::native::read_layout(path) {
+        return Ok(layout.links.iter().flat_map(|l| l.ids()).collect());
+    }
+    Ok(load_input(path)?.ids())
 }
 
 pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {

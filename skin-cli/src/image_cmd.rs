@@ -28,33 +28,39 @@ pub struct Args {
     /// Recordings to convert.
     #[arg(required = true, value_name = "FRAMES")]
     frames: Vec<PathBuf>,
-    /// Output folder (created if missing).
+    /// Output folder: created if missing; an existing one is written into only if it holds an
+    /// earlier output of `skin image` (or with --force).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
-    /// Pixel side on the map, millimetres.
-    #[arg(long, default_value_t = 1.0, value_name = "MM", conflicts_with = "grid")]
+    /// Write into an output folder that holds other files: only the files this command writes
+    /// are replaced, everything else stays.
+    #[arg(long)]
+    force: bool,
+    /// Pixel side on the map, millimetres (0.01 to 1000).
+    #[arg(long, default_value_t = 1.0, value_name = "MM", conflicts_with = "grid", value_parser = crate::numbers::within(0.01, 1000.0))]
     step_mm: f64,
-    /// Lay a grid of exactly ROWSxCOLS pixels on the map instead of a fixed step.
-    #[arg(long, value_name = "ROWSxCOLS", value_parser = parse_size)]
+    /// Lay a grid of exactly ROWSxCOLS pixels on the map instead of a fixed step (each side at
+    /// most 4096).
+    #[arg(long, value_name = "ROWSxCOLS", value_parser = crate::numbers::image_size)]
     grid: Option<(usize, usize)>,
     /// K_bar, the pressure shown as white: the sensor's full scale (needs --full-scale) or the
     /// largest pressure of each frame.
     #[arg(long, value_enum, default_value_t = Norm::ContactMax)]
     norm: Norm,
     /// Full-scale reading for --norm full-scale, in the recording's units (raw counts).
-    #[arg(long, value_name = "COUNTS")]
-    full_scale: Option<f32>,
+    #[arg(long, value_name = "COUNTS", value_parser = crate::numbers::above(0.0, f32::MAX as f64))]
+    full_scale: Option<f64>,
     /// Readings at or below this are noise and count as no pressure (the active-set threshold
     /// eps, in the recording's units). With --norm contact-max and no threshold, a frame without
     /// contact shows its noise at full contrast.
-    #[arg(long, default_value_t = 0.0, value_name = "COUNTS")]
-    threshold: f32,
+    #[arg(long, default_value_t = 0.0, value_name = "COUNTS", value_parser = crate::numbers::within(-1e9, 1e9))]
+    threshold: f64,
     /// Grey erosion with a disk of radius 2 px, then dilation with a disk of radius 4 px
     /// (thesis Ch. 4.5, the classifier's pre-processing).
     #[arg(long)]
     morph: bool,
-    /// Resize the image to ROWSxCOLS (68x100 for the hand classifier).
-    #[arg(long, value_name = "ROWSxCOLS", value_parser = parse_size)]
+    /// Resize the image to ROWSxCOLS (68x100 for the hand classifier; each side at most 4096).
+    #[arg(long, value_name = "ROWSxCOLS", value_parser = crate::numbers::image_size)]
     size: Option<(usize, usize)>,
     /// No progress bar.
     #[arg(long, short)]
@@ -67,24 +73,6 @@ enum Norm {
     ContactMax,
 }
 
-pub(crate) fn parse_size(s: &str) -> Result<(usize, usize), String> {
-    let (r, c) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("\"{s}\" is not ROWSxCOLS (e.g. 68x100)"))?;
-    let r: usize = r
-        .trim()
-        .parse()
-        .map_err(|_| format!("rows \"{r}\" is not a whole number"))?;
-    let c: usize = c
-        .trim()
-        .parse()
-        .map_err(|_| format!("cols \"{c}\" is not a whole number"))?;
-    if r == 0 || c == 0 {
-        return Err(format!("{s}: an image needs at least one row and one column"));
-    }
-    Ok((r, c))
-}
-
 /// One recording, with its readings reordered to map order.
 pub(crate) struct Input {
     /// The recording.
@@ -92,17 +80,41 @@ pub(crate) struct Input {
     pub(crate) dir: PathBuf,
     pub(crate) rec: Recording,
     pub(crate) columns: Vec<usize>,
+    /// Each frame's image file name: `frame_<number>.png`, and `frame_<number>_dup<k>.png` for
+    /// the k-th repeat of a frame number (a recording joined from two, a counter reset).
+    pub(crate) names: Vec<String>,
+}
+
+/// Image names for `frame_numbers`: repeats get a suffix instead of overwriting an image.
+pub(crate) fn frame_names(frame_numbers: &[u64]) -> (Vec<String>, usize) {
+    let mut seen: HashMap<u64, usize> = HashMap::new();
+    let mut repeats = 0;
+    let names = frame_numbers
+        .iter()
+        .map(|&n| {
+            let k = seen.entry(n).or_default();
+            *k += 1;
+            if *k == 1 {
+                format!("frame_{n:05}.png")
+            } else {
+                repeats += 1;
+                format!("frame_{n:05}_dup{}.png", *k - 1)
+            }
+        })
+        .collect();
+    (names, repeats)
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let sources = crate::output::Inputs::new(std::iter::once(&args.map).chain(&args.frames));
+    let out = crate::output::OutputDir::create(&args.output, "skin image", args.force, &sources)?;
     let map = load_map(&args.map)?;
     let grid = match args.grid {
         Some((rows, cols)) => Grid::Size { rows, cols },
         None => Grid::StepMm(args.step_mm),
     };
     let norm = match (args.norm, args.full_scale) {
-        (Norm::FullScale, Some(k)) if k > 0.0 && k.is_finite() => Normalisation::FullScale(k),
-        (Norm::FullScale, Some(k)) => bail!("--full-scale must be a positive number, got {k}"),
+        (Norm::FullScale, Some(k)) => Normalisation::FullScale(k as f32),
         (Norm::FullScale, None) => {
             bail!("--norm full-scale needs --full-scale COUNTS (the sensor's full-scale reading)")
         }
@@ -112,15 +124,12 @@ pub fn run(args: Args) -> Result<()> {
     let imager = TactileImager::new(raster, norm, args.morph, args.size)?;
     let (out_rows, out_cols) = imager.output_size();
 
-    let threshold = args.threshold;
-    if !threshold.is_finite() {
-        bail!("--threshold must be a number, got {threshold}");
-    }
-    let inputs = load_inputs(&args.frames, &map, &args.output)?;
+    let threshold = args.threshold as f32;
+    let inputs = load_inputs(&args.frames, &map, out.path())?;
     let total: usize = inputs.iter().map(|i| i.rec.frames.len()).sum();
     for input in &inputs {
         std::fs::create_dir_all(&input.dir)
-            .with_context(|| format!("cannot create {}", input.dir.display()))?;
+            .with_context(|| format!("cannot write into {}", args.output.display()))?;
     }
     let bar = if args.quiet {
         ProgressBar::hidden()
@@ -145,16 +154,17 @@ pub fn run(args: Args) -> Result<()> {
                 *p = if v > threshold { v } else { 0.0 };
             }
             let grey = imager.process(pressures)?;
-            let number = input.rec.frame_numbers[f];
-            let path = input.dir.join(format!("frame_{number:05}.png"));
+            let path = input.dir.join(&input.names[f]);
             let png = skin_geom::encode_png(grey, out_rows, out_cols)
-                .with_context(|| format!("cannot encode {}", path.display()))?;
-            crate::write_atomic(&path, &png)?;
+                .with_context(|| format!("cannot encode {}", input.names[f]))?;
+            std::fs::write(&path, &png)
+                .with_context(|| format!("cannot write {} in {}", input.names[f], args.output.display()))?;
             bar.inc(1);
             Ok(())
         },
     )?;
     bar.finish_and_clear();
+    out.commit()?;
     crate::say!(
         "{total} frames from {} recording(s) -> {out_rows} x {out_cols} px images in {}",
         inputs.len(),
@@ -213,21 +223,48 @@ pub(crate) fn each_touched_frame(
     Ok(quiet)
 }
 
-/// Reads the recordings and maps their columns onto the map's taxels; names each output folder
-/// after the recording (with its parent folder when two recordings share a name).
-pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
+/// One output name per input: its file stem, prefixed with its folder's name where two inputs
+/// share a stem; an error where even that leaves two alike (nothing is written over another).
+pub(crate) fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
     let stem = |p: &Path| {
         p.file_stem()
             .and_then(|s| s.to_str())
-            .unwrap_or("recording")
+            .unwrap_or("input")
             .to_string()
     };
     let mut count: HashMap<String, usize> = HashMap::new();
     for p in paths {
         *count.entry(stem(p)).or_default() += 1;
     }
+    let mut used: HashMap<String, &Path> = HashMap::new();
+    let mut names = Vec::with_capacity(paths.len());
+    for p in paths {
+        let mut name = stem(p);
+        if count[&name] > 1 {
+            let parent = p
+                .parent()
+                .and_then(|d| d.file_name())
+                .and_then(|s| s.to_str())
+                .unwrap_or("input");
+            name = format!("{parent}_{name}");
+        }
+        if let Some(first) = used.insert(name.clone(), p) {
+            bail!(
+                "{} and {}: both would be written as {name}; give inputs distinct names (or list each once)",
+                first.display(),
+                p.display()
+            );
+        }
+        names.push(name);
+    }
+    Ok(names)
+}
+
+/// Reads the recordings and maps their columns onto the map's taxels; names each output folder
+/// after the recording (with its parent folder when two recordings share a name).
+pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
+    let names = output_names(paths)?;
     let mut inputs = Vec::with_capacity(paths.len());
-    let mut used = std::collections::HashSet::new();
     for p in paths {
         let rec = recording::read(p)?;
         let index: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
@@ -254,18 +291,11 @@ pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Re
                 p.display()
             );
         }
-        let mut name = stem(p);
-        if count[&name] > 1 {
-            let parent = p
-                .parent()
-                .and_then(|d| d.file_name())
-                .and_then(|s| s.to_str())
-                .unwrap_or("input");
-            name = format!("{parent}_{name}");
-        }
-        if !used.insert(name.clone()) {
-            bail!(
-                "{}: two recordings would write to the same folder {name}",
+        let name = names[inputs.len()].clone();
+        let (files, repeats) = frame_names(&rec.frame_numbers);
+        if repeats > 0 {
+            crate::say!(
+                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
                 p.display()
             );
         }
@@ -274,6 +304,7 @@ pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Re
             dir: out.join(name),
             rec,
             columns,
+            names: files,
         });
     }
     Ok(inputs)

@@ -7,8 +7,7 @@ use skin_can::{AssembledFrame, Assembler, BusMap};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// Options shared by `skin live` and `skin record`.
@@ -68,8 +67,8 @@ pub struct RecordArgs {
 
 /// Where a session's frames go.
 struct Sinks {
-    /// Candump log being written: final path, temporary file.
-    log: Option<(PathBuf, PathBuf, std::io::BufWriter<std::fs::File>)>,
+    /// Candump log being written (moved into place when the session ends).
+    log: Option<crate::output::OutputFile>,
     csv: Option<(PathBuf, String)>,
     status: bool,
     /// One candump line, reused for every CAN frame.
@@ -93,6 +92,11 @@ pub fn record(args: RecordArgs) -> Result<()> {
 }
 
 fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: bool) -> Result<()> {
+    let inputs = crate::output::Inputs::new([&common.busmap]);
+    crate::output::distinct(&[
+        ("--record", record.map(Path::to_path_buf).as_ref()),
+        ("-o", csv.map(Path::to_path_buf).as_ref()),
+    ])?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
         bail!("--period-ms must be at least 0.1, not {}", common.period_ms);
@@ -112,16 +116,16 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
         sync_period: common.master.then_some(period),
         ..LiveOptions::default()
     };
-    let ports = open_ports(&names)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = Arc::clone(&stop);
-        ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed)).context("cannot catch Ctrl-C")?;
+    if let Some(csv) = csv {
+        inputs.check(csv)?;
     }
+    let mut sinks = Sinks::new(record, csv, &map, status, &inputs)?;
+    let ports = open_ports(&names)?;
+    crate::output::stop_gracefully();
+    let stop = crate::output::stop_flag();
     let deadline = common
         .duration
         .map(|d| Instant::now() + Duration::from_secs_f64(d));
-    let mut sinks = Sinks::new(record, csv, &map, status)?;
     crate::say!(
         "reading {} ({}){}; Ctrl-C stops",
         names.join(", "),
@@ -133,9 +137,9 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
         }
     );
     let summary = run(ports, options, &map, period, &mut sinks, || {
-        stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d)
+        stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d)
     })?;
-    sinks.finish(&summary)?;
+    sinks.finish(&summary, &inputs)?;
     Ok(())
 }
 
@@ -258,18 +262,15 @@ fn run<P: CanPort>(
 }
 
 impl Sinks {
-    fn new(record: Option<&Path>, csv: Option<&Path>, map: &BusMap, status: bool) -> Result<Sinks> {
+    fn new(
+        record: Option<&Path>,
+        csv: Option<&Path>,
+        map: &BusMap,
+        status: bool,
+        inputs: &crate::output::Inputs,
+    ) -> Result<Sinks> {
         let log = match record {
-            Some(path) => {
-                let tmp = crate::partial_path(path);
-                if let Some(dir) = tmp.parent() {
-                    std::fs::create_dir_all(dir)
-                        .with_context(|| format!("cannot create {}", dir.display()))?;
-                }
-                let file =
-                    std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
-                Some((path.to_owned(), tmp, std::io::BufWriter::new(file)))
-            }
+            Some(path) => Some(crate::output::OutputFile::create(path, inputs)?),
             None => None,
         };
         let csv = csv.map(|p| {
@@ -289,11 +290,11 @@ impl Sinks {
     }
 
     fn frame(&mut self, f: &CanFrame, interfaces: &[String]) -> Result<()> {
-        if let Some((_, tmp, out)) = &mut self.log {
+        if let Some(out) = &mut self.log {
             self.line.clear();
             write_line(&mut self.line, f, &interfaces[usize::from(f.bus)]);
             out.write_all(self.line.as_bytes())
-                .with_context(|| format!("cannot write {}", tmp.display()))?;
+                .with_context(|| format!("cannot write {}", out.path().display()))?;
         }
         Ok(())
     }
@@ -306,17 +307,14 @@ impl Sinks {
 
     /// Closes the recording (renamed into place only now, so an interrupted write never leaves a
     /// truncated log under the final name) and writes the CSV.
-    fn finish(self, summary: &Summary) -> Result<()> {
-        if let Some((path, tmp, out)) = self.log {
-            out.into_inner()
-                .map_err(|e| e.into_error())
-                .and_then(|f| f.sync_all())
-                .with_context(|| format!("cannot write {}", tmp.display()))?;
-            std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
+    fn finish(self, summary: &Summary, inputs: &crate::output::Inputs) -> Result<()> {
+        if let Some(out) = self.log {
+            let path = out.path().to_owned();
+            out.commit()?;
             crate::say!("wrote {} ({} CAN frames)", path.display(), summary.can_frames);
         }
         if let Some((path, csv)) = self.csv {
-            crate::write_atomic(&path, csv.as_bytes())?;
+            crate::output::write_file(&path, csv.as_bytes(), inputs)?;
             crate::say!("wrote {}", path.display());
         }
         Ok(())
@@ -350,18 +348,15 @@ pub(crate) fn run_frames(
         ..LiveOptions::default()
     };
     let ports = open_ports(&names)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = Arc::clone(&stop);
-        ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed)).context("cannot catch Ctrl-C")?;
-    }
+    crate::output::stop_gracefully();
+    let stop = crate::output::stop_flag();
     let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
     pump_frames(
         ports,
         options,
         map,
         period,
-        || stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d),
+        || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d),
         each,
     );
     Ok(())
@@ -469,7 +464,7 @@ mod tests {
         .unwrap();
         let dir = tempfile::tempdir().unwrap();
         let (log, csv) = (dir.path().join("s.log"), dir.path().join("live.csv"));
-        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false).unwrap();
+        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false, &Default::default()).unwrap();
         let (period, options, bus) = master_and_module_2();
         let mut calls = 0;
         // Stop after a number of loop turns, not a time: the test must not depend on speed.
@@ -479,7 +474,7 @@ mod tests {
         })
         .unwrap();
         assert!(!log.exists(), "the log appears only when complete");
-        sinks.finish(&summary).unwrap();
+        sinks.finish(&summary, &Default::default()).unwrap();
         let live_csv = std::fs::read_to_string(&csv).unwrap();
         assert!(live_csv.lines().count() > 2, "{live_csv}");
         // The recording replays, offline, to the same frames.

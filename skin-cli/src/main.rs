@@ -22,6 +22,8 @@ mod eval_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
+mod numbers;
+mod output;
 mod phri_cmd;
 mod reach_cmd;
 mod replay;
@@ -80,6 +82,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    output::install_interrupt_handler();
     let result = match cli.command {
         Command::Flatten(args) => flatten::run(args),
         Command::Image(args) => image_cmd::run(args),
@@ -110,27 +113,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// Writes `contents` to `path` (creating its folder) through a temporary file in the same folder,
-/// so that a failure never leaves a half-written output behind.
-pub(crate) fn write_atomic(path: &std::path::Path, contents: &[u8]) -> anyhow::Result<()> {
-    use anyhow::Context as _;
-    let tmp = partial_path(path);
-    if let Some(dir) = tmp.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
-}
-
-/// The temporary file an output is written to before it is renamed into place.
-pub(crate) fn partial_path(path: &std::path::Path) -> std::path::PathBuf {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("output");
-    dir.join(format!(".{name}.partial"))
 }

@@ -1,6 +1,6 @@
 //! `skin phri`: the physical-interaction experiment in simulation (thesis Ch. 9.3, Experiment 2).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 use skin_control::sim::phri::{self, PhriRun, PhriScript};
 use std::path::PathBuf;
@@ -33,6 +33,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let inputs = crate::output::Inputs::new(args.scene.as_ref());
+    crate::output::distinct(&[("--svg", args.svg.as_ref()), ("--csv", args.csv.as_ref())])?;
+    for out in [&args.svg, &args.csv].into_iter().flatten() {
+        inputs.check(out)?;
+    }
     let scene = match &args.scene {
         Some(p) => skin_control::sim::Scene::from_file(p)?,
         None => phri::default_scene()?,
@@ -47,7 +52,7 @@ pub fn run(args: Args) -> Result<()> {
     report(&run);
     if let Some(path) = &args.svg {
         let svg = plot(&run)?;
-        crate::write_atomic(path, svg.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_file(path, svg.as_bytes(), &inputs)?;
         crate::say!("timeline plotted to {}", path.display());
     }
     if let Some(path) = &args.csv {
@@ -67,7 +72,7 @@ pub fn run(args: Args) -> Result<()> {
                 s.progress
             ));
         }
-        crate::write_atomic(path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_file(path, text.as_bytes(), &inputs)?;
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! `skin reach`: the reach-through-clutter experiment in simulation (thesis Ch. 8.5-8.6).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use rayon::prelude::*;
 use skin_control::sim::{ReachExperiment, ReachOptions, Scene, Trial, stats};
 use std::path::PathBuf;
@@ -27,10 +27,10 @@ pub struct Args {
     #[arg(long, value_name = "SCENE.json")]
     scene: Option<PathBuf>,
     /// F_thresh: the largest contact force allowed, newtons (also scales the activations).
-    #[arg(long, default_value_t = 15.0, value_name = "NEWTONS")]
+    #[arg(long, default_value_t = 15.0, value_name = "NEWTONS", value_parser = crate::numbers::above(0.0, 1e6))]
     threshold: f64,
     /// Starting postures per goal (default: the scene's random_starts, or its list of starts).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = crate::numbers::count::<1, 100_000>)]
     trials: Option<usize>,
     /// Seed of the random starting postures (default: the scene's).
     #[arg(long)]
@@ -51,11 +51,10 @@ pub(crate) fn load_scene(path: &Option<PathBuf>) -> Result<Scene> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    anyhow::ensure!(
-        args.threshold.is_finite() && args.threshold > 0.0,
-        "--threshold must be a positive number of newtons, not {}",
-        args.threshold
-    );
+    let inputs = crate::output::Inputs::new(args.scene.as_ref());
+    if let Some(out) = &args.csv {
+        inputs.check(out)?;
+    }
     let mut scene = load_scene(&args.scene)?;
     if let Some(seed) = args.seed {
         scene.seed = seed;
@@ -97,7 +96,7 @@ pub fn run(args: Args) -> Result<()> {
                 t.distance
             ));
         }
-        crate::write_atomic(path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_file(path, text.as_bytes(), &inputs)?;
     }
     Ok(())
 }

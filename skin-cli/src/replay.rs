@@ -1,6 +1,6 @@
 //! `skin replay`: a candump log -> assembled skin frames (summary, CSV).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use skin_can::candump::CandumpLog;
 use skin_can::{AssembledFrame, Assembler, AssemblyStats, BusMap, WireFormat};
 use std::collections::BTreeMap;
@@ -155,6 +155,14 @@ pub fn run(args: Args) -> Result<()> {
             args.window_ms
         );
     }
+    let inputs = crate::output::Inputs::new(
+        [Some(&args.log), Some(&args.busmap), args.layout.as_ref()]
+            .into_iter()
+            .flatten(),
+    );
+    if let Some(out) = &args.output {
+        inputs.check(out)?;
+    }
     let map = BusMap::read(&args.busmap)?;
     if let Some(layout) = &args.layout {
         check_layout(&map, &args.busmap, layout)?;
@@ -225,7 +233,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     tally.report(&map, s);
     if let Some(out) = &args.output {
-        crate::write_atomic(out, csv.as_bytes()).with_context(|| format!("{}", out.display()))?;
+        crate::output::write_file(out, csv.as_bytes(), &inputs)?;
         crate::say!("wrote {}", out.display());
     }
     Ok(())

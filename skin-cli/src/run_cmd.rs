@@ -1,5 +1,6 @@
 //! `skin run`: the whole pipeline, from CAN traffic to touch decisions, offline or live.
 
+use crate::output::{Inputs, OutputDir};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Deserialize;
@@ -39,7 +40,7 @@ use std::time::{Duration, Instant};
 ///     release_frames = 2              # frames without contact that end a touch
 ///     reclassify_growth = 1.25        # classify again when the touch grows by this factor
 ///     [gate]                          # optional: what the robot should do
-///     hand = "comply"
+///     hand = "comply"                 # stop, comply, slow or resume
 ///     non_hand = "stop"
 ///     [stitch]                        # optional: links stitched across joints (Ch. 6)
 ///     poses = "poses.json"            # skin-poses/1: every link's pose over time
@@ -79,11 +80,16 @@ pub struct Args {
     #[arg(long, requires = "can")]
     master: bool,
     /// Live: stop after this many seconds (default: at Ctrl-C).
-    #[arg(long, value_name = "S", requires = "can")]
+    #[arg(long, value_name = "S", requires = "can", value_parser = crate::numbers::above(0.0, 1e7))]
     duration: Option<f64>,
-    /// Output folder (offline: required; live: optional).
+    /// Output folder (offline: required; live: optional): created if missing; an existing one
+    /// is written into only if it holds an earlier output of `skin run` (or with --force).
     #[arg(short, long, value_name = "DIR", required_unless_present = "can")]
     output: Option<PathBuf>,
+    /// Write into an output folder that holds other files: only the files this command writes
+    /// are replaced, everything else stays.
+    #[arg(long)]
+    force: bool,
     /// Also write the tactile image of every frame with contact.
     #[arg(long)]
     frames: bool,
@@ -124,14 +130,39 @@ struct StitchConfig {
 #[serde(deny_unknown_fields, default)]
 struct BaselineConfig {
     frames: usize,
-    polarity: String,
+    polarity: Polarity,
+}
+
+/// What the robot should do while a touch of a class is in progress (`[gate]`).
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq, Debug)]
+#[serde(rename_all = "snake_case")]
+enum GateAction {
+    /// Stop the motion (the most severe: it wins over any other touch in progress).
+    Stop,
+    /// Yield to the contact (compliance).
+    Comply,
+    /// Go on more slowly.
+    Slow,
+    /// Go on as before.
+    Resume,
+}
+
+impl GateAction {
+    fn name(self) -> &'static str {
+        match self {
+            GateAction::Stop => "stop",
+            GateAction::Comply => "comply",
+            GateAction::Slow => "slow",
+            GateAction::Resume => "resume",
+        }
+    }
 }
 
 impl Default for BaselineConfig {
     fn default() -> Self {
         BaselineConfig {
             frames: 20,
-            polarity: "rising".into(),
+            polarity: Polarity::Rising,
         }
     }
 }
@@ -162,12 +193,14 @@ impl Default for TouchConfig {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct GateConfig {
-    hand: Option<String>,
-    non_hand: Option<String>,
+    hand: Option<GateAction>,
+    non_hand: Option<GateAction>,
 }
 
 /// Everything the per-frame path needs, built once.
 struct Setup {
+    /// Every file the configuration names (no output may land on one).
+    inputs: Vec<PathBuf>,
     config_path: PathBuf,
     links: Vec<LinkSkin>,
     busmap: BusMap,
@@ -218,7 +251,7 @@ struct Session {
     last_time: f64,
     frames: u64,
     incomplete: u64,
-    gate: Option<String>,
+    gate: Option<GateAction>,
     /// Contacts that spanned a joint (each counted once, when it began).
     across: u64,
     stage: Stages,
@@ -233,8 +266,8 @@ struct Stages {
 
 /// Where events and images go.
 struct Output {
-    /// Final folder and the temporary one being written.
-    dir: Option<(PathBuf, PathBuf)>,
+    /// The output folder being built.
+    dir: Option<OutputDir>,
     events: Option<std::io::BufWriter<std::fs::File>>,
     stdout: bool,
     frames: bool,
@@ -243,7 +276,17 @@ struct Output {
 
 pub fn run(args: Args) -> Result<()> {
     let mut setup = load(&args.config)?;
-    let output = Output::new(args.output.as_deref(), args.log.is_none(), args.frames)?;
+    let mut inputs = Inputs::new(std::iter::once(&args.config).chain(&args.log));
+    for p in &setup.inputs {
+        inputs.add(p);
+    }
+    let output = Output::new(
+        args.output.as_deref(),
+        args.force,
+        &inputs,
+        args.log.is_none(),
+        args.frames,
+    )?;
     let mut session = Session::new(&setup, output);
     let result = match &args.log {
         Some(log) => offline(&mut setup, &mut session, log, args.quiet),
@@ -305,30 +348,42 @@ fn load(config_path: &Path) -> Result<Setup> {
         .as_ref()
         .map(|s| resolve("[stitch] poses", &s.poses))
         .transpose()?;
-    match config.baseline.polarity.as_str() {
-        "rising" | "falling" => {}
-        other => bail!(
-            "{}: [baseline] polarity = \"{other}\": expected \"rising\" (Cyskin) or \"falling\" (iCub)",
-            config_path.display()
-        ),
-    }
-    if config.baseline.frames < 2 {
+    if !(2..=100_000).contains(&config.baseline.frames) {
         bail!(
-            "{}: [baseline] frames = {}: at least 2 untouched frames are needed to measure noise",
+            "{}: [baseline] frames = {}: expected 2 to 100000 untouched frames (2 at least to measure noise)",
             config_path.display(),
             config.baseline.frames
         );
     }
     let t = &config.touch;
-    if !(t.threshold.is_finite() && t.threshold >= 0.0) {
+    if !(t.threshold.is_finite() && (0.0..=1e9).contains(&t.threshold)) {
         bail!(
-            "{}: [touch] threshold = {}: expected counts >= 0",
+            "{}: [touch] threshold = {}: expected counts from 0 to 1e9",
             config_path.display(),
             t.threshold
         );
     }
+    if !(t.reclassify_growth.is_finite() && (1.0..=1e6).contains(&t.reclassify_growth)) {
+        bail!(
+            "{}: [touch] reclassify_growth = {}: expected a factor from 1 to 1e6",
+            config_path.display(),
+            t.reclassify_growth
+        );
+    }
+    for (field, v, lo) in [
+        ("min_taxels", t.min_taxels, 1),
+        ("decide_frames", t.decide_frames, 1),
+        ("release_frames", t.release_frames, 1),
+    ] {
+        if !(lo..=1_000_000).contains(&v) {
+            bail!(
+                "{}: [touch] {field} = {v}: expected {lo} to 1000000",
+                config_path.display()
+            );
+        }
+    }
     let size = match &config.image_size {
-        Some(s) => crate::image_cmd::parse_size(s)
+        Some(s) => crate::numbers::image_size(s)
             .map_err(|e| anyhow::anyhow!("{}: image_size: {e}", config_path.display()))?,
         None => (68, 100),
     };
@@ -418,7 +473,14 @@ fn load(config_path: &Path) -> Result<Setup> {
     };
     let pipeline = TouchPipeline::new(maps, classifier, segmenter, options)?;
     let truth = truth_path.as_deref().map(read_truth).transpose()?;
+    let inputs = [Some(&layout_path), Some(&busmap_path)]
+        .into_iter()
+        .chain([&classifier_path, &segmenter_path, &truth_path, &poses_path].map(Option::as_ref))
+        .flatten()
+        .cloned()
+        .collect();
     Ok(Setup {
+        inputs,
         config_path: config_path.to_owned(),
         links,
         busmap,
@@ -495,7 +557,7 @@ fn cached_map(layout: &Path, layout_hash: u64, cache: &Path, link: &LinkSkin) ->
     }
     let map = TactileMap::flatten(link, &skin_geom::FlattenOptions::default())
         .with_context(|| format!("{}: link {}", layout.display(), link.name))?;
-    crate::write_atomic(&path, map.to_json().as_bytes())?;
+    crate::output::write_file(&path, map.to_json().as_bytes(), &Inputs::default())?;
     Ok(map)
 }
 
@@ -635,30 +697,20 @@ fn live(setup: &mut Setup, session: &mut Session, args: &Args) -> Result<f64> {
 }
 
 impl Output {
-    fn new(dir: Option<&Path>, live: bool, frames: bool) -> Result<Output> {
+    fn new(dir: Option<&Path>, force: bool, inputs: &Inputs, live: bool, frames: bool) -> Result<Output> {
         let dir = match dir {
             Some(d) => {
-                let name = d.file_name().and_then(|n| n.to_str()).unwrap_or("run");
-                let parent = d
-                    .parent()
-                    .filter(|p| !p.as_os_str().is_empty())
-                    .unwrap_or(Path::new("."));
-                let tmp = parent.join(format!(".{name}.partial"));
-                if tmp.exists() {
-                    std::fs::remove_dir_all(&tmp)
-                        .with_context(|| format!("cannot clear {}", tmp.display()))?;
-                }
-                std::fs::create_dir_all(tmp.join("touches"))
-                    .with_context(|| format!("cannot create {}", tmp.display()))?;
-                Some((d.to_owned(), tmp))
+                let out = OutputDir::create(d, "skin run", force, inputs)?;
+                std::fs::create_dir(out.path().join("touches"))
+                    .with_context(|| format!("cannot write into {}", d.display()))?;
+                Some(out)
             }
             None => None,
         };
         let events = match &dir {
-            Some((_, tmp)) => {
-                let path = tmp.join("events.jsonl");
-                let file = std::fs::File::create(&path)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+            Some(out) => {
+                let file = std::fs::File::create(out.path().join("events.jsonl"))
+                    .with_context(|| format!("cannot write events.jsonl in {}", out.dir().display()))?;
                 Some(std::io::BufWriter::new(file))
             }
             None => None,
@@ -687,39 +739,37 @@ impl Output {
     }
 
     fn png(&self, relative: &str, grey: &[u8], (rows, cols): (usize, usize)) -> Result<()> {
-        let Some((_, tmp)) = &self.dir else {
+        let Some(out) = &self.dir else {
             return Ok(());
         };
-        let path = tmp.join(relative);
+        let path = out.path().join(relative);
         if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("cannot write into {}", out.dir().display()))?;
         }
-        Ok(skin_geom::write_png(&path, grey, rows, cols)?)
+        skin_geom::write_png(&path, grey, rows, cols)
+            .with_context(|| format!("cannot write {relative} in {}", out.dir().display()))
     }
 
-    /// Moves the finished folder into place (replacing an older run's).
+    /// Moves the finished folder into place (only skin run's own files are replaced).
     fn finish(&mut self, summary: &str) -> Result<()> {
         if let Some(mut events) = self.events.take() {
             events.flush().context("cannot write events.jsonl")?;
         }
-        if let Some((dir, tmp)) = self.dir.take() {
-            std::fs::write(tmp.join("summary.txt"), summary)
-                .with_context(|| format!("cannot write {}", tmp.join("summary.txt").display()))?;
-            if dir.exists() {
-                std::fs::remove_dir_all(&dir).with_context(|| format!("cannot replace {}", dir.display()))?;
-            }
-            std::fs::rename(&tmp, &dir).with_context(|| format!("cannot write {}", dir.display()))?;
+        if let Some(out) = self.dir.take() {
+            let dir = out.dir().to_owned();
+            std::fs::write(out.path().join("summary.txt"), summary)
+                .with_context(|| format!("cannot write summary.txt in {}", dir.display()))?;
+            out.commit()?;
             crate::say!("wrote {}", dir.display());
         }
         Ok(())
     }
 
-    /// Removes the half-written folder of a failed run.
+    /// Removes the half-written output of a failed run (the previous output stays).
     fn abandon(&mut self) {
         self.events = None;
-        if let Some((_, tmp)) = self.dir.take() {
-            let _ = std::fs::remove_dir_all(tmp);
-        }
+        self.dir = None;
     }
 }
 
@@ -841,13 +891,8 @@ impl Session {
     }
 
     fn learn_baseline(&mut self, setup: &Setup) -> Result<()> {
-        let polarity = if setup.baseline.polarity == "falling" {
-            Polarity::Falling
-        } else {
-            Polarity::Rising
-        };
         let options = BaselineOptions {
-            polarity,
+            polarity: setup.baseline.polarity,
             ..BaselineOptions::default()
         };
         for frames in &self.idle {
@@ -952,22 +997,25 @@ impl Session {
         let Some(gate) = &setup.gate else {
             return Ok(());
         };
-        let action = setup.pipeline.open_classes().fold(None::<String>, |acc, class| {
-            let name = class_name(&setup.classes, class);
-            let a = match name {
-                "hand" => gate.hand.clone(),
-                _ => gate.non_hand.clone(),
-            };
-            match (acc, a) {
-                (Some(x), _) if x == "stop" => Some(x),
-                (_, Some(a)) => Some(a),
-                (acc, None) => acc,
-            }
-        });
-        let action = action.unwrap_or_else(|| "resume".into());
-        if self.gate.as_deref() != Some(action.as_str()) {
+        let action = setup
+            .pipeline
+            .open_classes()
+            .fold(None::<GateAction>, |acc, class| {
+                let name = class_name(&setup.classes, class);
+                let a = match name {
+                    "hand" => gate.hand,
+                    _ => gate.non_hand,
+                };
+                match (acc, a) {
+                    (Some(GateAction::Stop), _) => Some(GateAction::Stop),
+                    (_, Some(a)) => Some(a),
+                    (acc, None) => acc,
+                }
+            });
+        let action = action.unwrap_or(GateAction::Resume);
+        if self.gate != Some(action) {
             self.out
-                .event(&json!({"event": "gate", "time": round(time, 3), "action": action}))?;
+                .event(&json!({"event": "gate", "time": round(time, 3), "action": action.name()}))?;
             self.gate = Some(action);
         }
         Ok(())

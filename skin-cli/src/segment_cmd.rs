@@ -27,9 +27,14 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     #[command(flatten)]
     run: crate::classify_cmd::ModelInputs,
-    /// Where to write the coloured part images.
+    /// Where to write the coloured part images: a folder, created if missing; an existing one
+    /// is written into only if it holds an earlier output of `skin segment` (or with --force).
     #[arg(short, long, value_name = "DIR", default_value = "segments")]
     output: PathBuf,
+    /// Write into an output folder that holds other files: only the files this command writes
+    /// are replaced, everything else stays.
+    #[arg(long)]
+    force: bool,
     /// Average the part scores of each image and of its mirror images (left-right, up-down,
     /// both); for models trained on mirrored images, as the shipped ones are.
     #[arg(long)]
@@ -51,8 +56,13 @@ pub fn run(args: Args) -> Result<()> {
     let scale = crate::classify_cmd::input_scale(&args.run.model, args.run.input_scale);
     let mut net = Segmenter::load(&args.run.model, scale)?.with_mirror_averaging(args.mirrors);
     let (h, w) = net.input_size();
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create {}", args.output.display()))?;
+    let sources = crate::output::Inputs::new(
+        [&args.run.model]
+            .into_iter()
+            .chain(&args.run.inputs)
+            .chain(&args.run.map),
+    );
+    let out = crate::output::OutputDir::create(&args.output, "skin segment", args.force, &sources)?;
     crate::say!(
         "{}: [N, 1, {h}, {w}] -> {} classes per pixel",
         args.run.model.display(),
@@ -60,13 +70,18 @@ pub fn run(args: Args) -> Result<()> {
     );
     match &args.run.map {
         None => {
-            for path in &args.run.inputs {
+            let names = crate::image_cmd::output_names(&args.run.inputs)?;
+            for (path, name) in args.run.inputs.iter().zip(&names) {
                 let img = crate::classify_cmd::read_model_image(path, (h, w))?;
                 let labels = net.segment(&img)?;
-                let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("image");
-                let out = args.output.join(format!("{stem}_parts.png"));
-                write_colour(&out, &labels, h, w)?;
-                crate::say!("{}: {}  -> {}", path.display(), shares(&labels), out.display());
+                let file = format!("{name}_parts.png");
+                write_colour(&out.path().join(&file), &labels, h, w)?;
+                crate::say!(
+                    "{}: {}  -> {}",
+                    path.display(),
+                    shares(&labels),
+                    args.output.join(&file).display()
+                );
             }
         }
         Some(map_path) => {
@@ -74,25 +89,25 @@ pub fn run(args: Args) -> Result<()> {
             let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, &args.output)?;
+            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, out.path())?;
             // The per-part table needs the grid while the imager is busy.
             let raster = imager.raster().clone();
             for input in &inputs {
                 std::fs::create_dir_all(&input.dir)
-                    .with_context(|| format!("cannot create {}", input.dir.display()))?;
+                    .with_context(|| format!("cannot write into {}", args.output.display()))?;
             }
             let quiet = crate::image_cmd::each_touched_frame(
                 &inputs,
                 &mut imager,
-                args.run.threshold,
+                args.run.threshold as f32,
                 |input, f, pressures, grey| {
                     let number = input.rec.frame_numbers[f];
                     let labels = net.segment(grey)?;
-                    let out = input.dir.join(format!("frame_{number:05}_parts.png"));
-                    write_colour(&out, &labels, h, w)?;
+                    let file = input.names[f].replace(".png", "_parts.png");
+                    write_colour(&input.dir.join(file), &labels, h, w)?;
                     crate::say!(
                         "{} frame {number} ({:.2} s): {}",
-                        input.dir.display(),
+                        input.path.display(),
                         input.rec.frames[f].time,
                         shares(&labels)
                     );
@@ -114,6 +129,8 @@ pub fn run(args: Args) -> Result<()> {
             crate::say!("{quiet} frame(s) with no contact above {}", args.run.threshold);
         }
     }
+    out.commit()?;
+    crate::say!("wrote {}", args.output.display());
     Ok(())
 }
 
@@ -145,6 +162,8 @@ fn write_colour(path: &Path, labels: &[u8], h: usize, w: usize) -> Result<()> {
         .iter()
         .flat_map(|&l| COLOURS.get(usize::from(l)).copied().unwrap_or([255, 255, 255]))
         .collect();
-    image::save_buffer(path, &rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("cannot write {}", path.display()))
+    image::save_buffer(path, &rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8).with_context(|| {
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        format!("cannot write {name}")
+    })
 }

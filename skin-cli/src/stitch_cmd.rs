@@ -35,15 +35,20 @@ pub struct Args {
     /// Recordings to turn into stitched tactile images.
     #[arg(value_name = "FRAMES")]
     frames: Vec<PathBuf>,
-    /// Output folder (created if missing).
+    /// Output folder: created if missing; an existing one is written into only if it holds an
+    /// earlier output of `skin stitch` (or with --force).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
-    /// Pixel side, millimetres.
-    #[arg(long, default_value_t = 1.0, value_name = "MM")]
+    /// Write into an output folder that holds other files: only the files this command writes
+    /// are replaced, everything else stays.
+    #[arg(long)]
+    force: bool,
+    /// Pixel side, millimetres (0.01 to 1000).
+    #[arg(long, default_value_t = 1.0, value_name = "MM", value_parser = crate::numbers::within(0.01, 1000.0))]
     step_mm: f64,
     /// Readings at or below this are no pressure, in the recording's units.
-    #[arg(long, default_value_t = 0.0, value_name = "COUNTS")]
-    threshold: f32,
+    #[arg(long, default_value_t = 0.0, value_name = "COUNTS", value_parser = crate::numbers::within(-1e9, 1e9))]
+    threshold: f64,
     /// Grey erosion (disk of 2 px) then dilation (disk of 4 px), as for the classifier.
     #[arg(long)]
     morph: bool,
@@ -51,17 +56,15 @@ pub struct Args {
     #[arg(long)]
     svg: bool,
     /// Cross-boundary edges longer than this are dropped, millimetres.
-    #[arg(long, default_value_t = 30.0, value_name = "MM")]
+    #[arg(long, default_value_t = 30.0, value_name = "MM", value_parser = crate::numbers::above(0.0, 1e4))]
     max_edge_mm: f64,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if !(args.step_mm.is_finite() && args.step_mm > 0.0) {
-        bail!(
-            "--step-mm must be a positive number of millimetres, not {}",
-            args.step_mm
-        );
-    }
+    let sources = crate::output::Inputs::new([&args.layout, &args.poses].into_iter().chain(&args.frames));
+    let out = crate::output::OutputDir::create(&args.output, "skin stitch", args.force, &sources)?;
+    let stems = crate::image_cmd::output_names(&args.frames)?;
+    let threshold = args.threshold as f32;
     let layout = native::read_layout(&args.layout)?;
     let names: Vec<&str> = layout.links.iter().map(|l| l.name.as_str()).collect();
     let postures = read_postures(&args.poses, &args.layout, &names)?;
@@ -117,18 +120,18 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
         if args.svg {
-            let path = args.output.join(format!("stitched_{}.svg", file_name(&p.name)));
-            crate::write_atomic(
-                &path,
+            let name = format!("stitched_{}.svg", file_name(&p.name));
+            std::fs::write(
+                out.path().join(&name),
                 stitched_svg(stitcher.maps(), &report.placements).as_bytes(),
-            )?;
-            crate::say!("wrote {}", path.display());
+            )
+            .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
         }
         solved.push(report);
     }
     let maps = stitcher.maps();
     let mut raster = StitchedRasterizer::new(maps, args.step_mm)?;
-    for rec_path in &args.frames {
+    for (rec_path, stem) in args.frames.iter().zip(&stems) {
         let rec = recording::read(rec_path)?;
         // Each link's taxels among the recording's columns.
         let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
@@ -149,16 +152,20 @@ pub fn run(args: Args) -> Result<()> {
                 .collect::<Result<_>>()?;
             columns.push(cols);
         }
-        let stem = rec_path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("recording");
-        let dir = args.output.join(stem);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let dir = out.path().join(stem);
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot write into {}", args.output.display()))?;
+        let (files, repeats) = crate::image_cmd::frame_names(&rec.frame_numbers);
+        if repeats > 0 {
+            crate::say!(
+                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
+                rec_path.display()
+            );
+        }
         let mut placed: Option<usize> = None;
         let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.len()]).collect();
         let (mut image, mut grey) = (Vec::new(), Vec::new());
-        for (n, frame) in rec.frame_numbers.iter().zip(&rec.frames) {
+        for (file, frame) in files.iter().zip(&rec.frames) {
             let k = postures.at(frame.time);
             if placed != Some(k) {
                 raster.place(&solved[k].placements, &solved[k].bridges)?;
@@ -167,7 +174,7 @@ pub fn run(args: Args) -> Result<()> {
             for (p, cols) in pressures.iter_mut().zip(&columns) {
                 for (v, &c) in p.iter_mut().zip(cols) {
                     let r = frame.values[c];
-                    *v = if r > args.threshold { r } else { 0.0 };
+                    *v = if r > threshold { r } else { 0.0 };
                 }
             }
             let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
@@ -177,17 +184,22 @@ pub fn run(args: Args) -> Result<()> {
             to_grey(&image, Normalisation::ContactMax, &mut grey);
             if args.morph {
                 let morphed = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
-                write_png(&dir.join(format!("frame_{n:05}.png")), &morphed, rows, cols)?;
+                write_png(&dir.join(file), &morphed, rows, cols)
             } else {
-                write_png(&dir.join(format!("frame_{n:05}.png")), &grey, rows, cols)?;
+                write_png(&dir.join(file), &grey, rows, cols)
             }
+            .with_context(|| format!("cannot write {stem}/{file} in {}", args.output.display()))?;
         }
         crate::say!(
             "{}: {} stitched frames -> {}",
             rec_path.display(),
             rec.frames.len(),
-            dir.display()
+            args.output.join(stem).display()
         );
+    }
+    out.commit()?;
+    if args.svg {
+        crate::say!("wrote the stitched maps to {}", args.output.display());
     }
     Ok(())
 }

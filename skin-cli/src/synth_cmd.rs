@@ -31,37 +31,51 @@ pub struct Args {
     /// Skin layout (JSON, Cyskin, iCub) or tactile map (JSON from `skin flatten`).
     #[arg(long, value_name = "LAYOUT.json")]
     layout: PathBuf,
-    /// Number of samples.
-    #[arg(long, value_name = "N")]
+    /// Number of samples (1 to 1,000,000; they are held in memory until written).
+    #[arg(long, value_name = "N", value_parser = crate::numbers::count::<1, 1_000_000>)]
     count: usize,
     /// Number of subjects the samples are shared among (default: one per 40 samples, as the
     /// thesis' 90 subjects for 3,530 images).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = crate::numbers::count::<1, 1_000_000>)]
     subjects: Option<usize>,
     /// Fraction of hand samples, 0 to 1.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = crate::numbers::within(0.0, 1.0))]
     hand_fraction: f64,
     /// Seed of the whole dataset.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Output image size ROWSxCOLS.
-    #[arg(long, value_name = "ROWSxCOLS", default_value = "68x100", value_parser = crate::image_cmd::parse_size)]
+    #[arg(long, value_name = "ROWSxCOLS", default_value = "68x100", value_parser = crate::numbers::image_size)]
     size: (usize, usize),
-    /// Output directory (created).
+    /// Output folder: created if missing; an existing one is written into only if it holds an
+    /// earlier output of `skin synth` (whose files this one replaces, stale ones removed), or
+    /// with --force.
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
+    /// Write into an output folder that holds other files: only the files this command writes
+    /// are replaced, everything else stays.
+    #[arg(long)]
+    force: bool,
 }
 
+/// The most memory the samples may take before they are written, bytes.
+const MAX_SAMPLE_BYTES: usize = 8 << 30;
+
 pub fn run(args: Args) -> Result<()> {
-    if args.count == 0 {
-        bail!("--count must be at least 1");
-    }
-    if !(0.0..=1.0).contains(&args.hand_fraction) {
+    // Each sample holds its image and its mask until the dataset is written.
+    let bytes = args.count.saturating_mul(args.size.0 * args.size.1 * 2);
+    if bytes > MAX_SAMPLE_BYTES {
         bail!(
-            "--hand-fraction must be between 0 and 1, not {}",
-            args.hand_fraction
+            "--count {} of {}x{} images would hold {:.1} GB in memory; at most {} GB: make fewer or smaller samples, or several datasets",
+            args.count,
+            args.size.0,
+            args.size.1,
+            bytes as f64 / 1e9,
+            MAX_SAMPLE_BYTES >> 30
         );
     }
+    let sources = crate::output::Inputs::new([&args.layout]);
+    let out = crate::output::OutputDir::create(&args.output, "skin synth", args.force, &sources)?;
     let subjects = args
         .subjects
         .unwrap_or(args.count.div_ceil(40))
@@ -101,17 +115,19 @@ pub fn run(args: Args) -> Result<()> {
         .collect();
     bar.finish_and_clear();
 
-    let mut writer = DatasetWriter::create(&args.output, &map.ids, &map.to_json(), args.size)?;
+    let mut writer = DatasetWriter::create(out.path(), &map.ids, &map.to_json(), args.size)
+        .map_err(|e| out.user_error(e.into()))?;
     let mut kinds: BTreeMap<(bool, &str), usize> = BTreeMap::new();
     let (mut partial, mut tips, mut hands) = (0, 0, 0);
     for (i, s) in &samples {
-        writer.add(*i, s)?;
+        writer.add(*i, s).map_err(|e| out.user_error(e.into()))?;
         *kinds.entry((!s.kind.is_hand(), s.kind.name())).or_default() += 1;
         hands += usize::from(s.kind.is_hand());
         partial += usize::from(s.partial);
         tips += usize::from(s.fingertips_only);
     }
-    writer.finish()?;
+    writer.finish().map_err(|e| out.user_error(e.into()))?;
+    out.commit()?;
     crate::say!(
         "{}: {} samples of {subjects} subjects on {} ({} taxels): {hands} hands, {} other contacts; {partial} partly off the skin, {tips} fingertips only",
         args.output.display(),

@@ -15,8 +15,9 @@
 use crate::{Error, Result};
 use std::path::Path;
 
-/// Which way pressure moves a raw reading.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Which way pressure moves a raw reading (`"rising"` or `"falling"` in configuration files).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Polarity {
     /// Pressure raises the reading (Cyskin, skin16).
     Rising,
