@@ -76,6 +76,42 @@ pub struct AssemblyStats {
     pub skipped: u64,
     /// Malformed frames, by what was wrong.
     pub malformed: Vec<(&'static str, u64)>,
+    /// Sync counters that went back or jumped ahead on a bus faster than time allows (two
+    /// recordings joined, a hub reset). The cycles after it are kept, numbered on from the last
+    /// one by the time that passed.
+    pub counter_resets: u64,
+    /// The latest such restart.
+    pub last_reset: Option<CounterReset>,
+    /// Remote requests (no data: never skin readings), skipped.
+    pub remote: u64,
+    /// Frames stamped earlier than the frame before them on the same interface (kept, in the
+    /// order they came).
+    pub time_backwards: u64,
+}
+
+/// A sync counter that restarted or jumped on one bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CounterReset {
+    /// Bus index in the bus map.
+    pub bus: u16,
+    /// Time of the sync that restarted, microseconds.
+    pub time_us: u64,
+    /// The bus's counter before, and the one it restarted at.
+    pub from: u8,
+    /// See `from`.
+    pub to: u8,
+    /// The cycle number given to the restarted sync.
+    pub cycle: u64,
+}
+
+/// One bus's latest sync, to tell a restarted counter from lost syncs.
+#[derive(Debug, Clone, Copy)]
+struct BusSync {
+    counter: u8,
+    cycle: u64,
+    time_us: u64,
+    /// The latest interval between two consecutive counters, microseconds.
+    period_us: Option<u64>,
 }
 
 /// Where one module's slots go.
@@ -118,6 +154,10 @@ pub struct Assembler<D: Decoder> {
     columns: usize,
     /// Per map bus, the cycle it is in.
     bus_cycle: Vec<Option<u64>>,
+    /// Per map bus, its latest sync.
+    bus_sync: Vec<Option<BusSync>>,
+    /// Per log interface, the latest timestamp.
+    last_time: Vec<u64>,
     latest: Option<u64>,
     pending: VecDeque<Pending>,
     spare: Vec<Pending>,
@@ -213,6 +253,8 @@ impl<D: Decoder> Assembler<D> {
             expected,
             columns: column as usize,
             bus_cycle: vec![None; map.buses.len()],
+            bus_sync: vec![None; map.buses.len()],
+            last_time: vec![0; interfaces.len()],
             latest: None,
             pending: VecDeque::new(),
             spare: Vec::new(),
@@ -228,6 +270,16 @@ impl<D: Decoder> Assembler<D> {
 
     /// Feeds one CAN frame; calls `emit` for every frame it completes.
     pub fn push(&mut self, frame: &CanFrame, emit: &mut dyn FnMut(&AssembledFrame)) {
+        if let Some(last) = self.last_time.get_mut(usize::from(frame.bus)) {
+            if frame.time_us < *last {
+                self.stats.time_backwards += 1;
+            }
+            *last = frame.time_us;
+        }
+        if frame.remote {
+            self.stats.remote += 1;
+            return;
+        }
         let Some(&Some(bus)) = self.bus_of_interface.get(usize::from(frame.bus)) else {
             self.stats.ignored += 1;
             return;
@@ -310,14 +362,51 @@ impl<D: Decoder> Assembler<D> {
     }
 
     fn sync(&mut self, bus: u16, counter: u8, time_us: u64, emit: &mut dyn FnMut(&AssembledFrame)) {
-        // The cycle number nearest the latest one with this counter modulo 256.
-        let cycle = match self.latest {
-            None => u64::from(counter),
-            Some(latest) => {
-                let delta = i64::from(counter.wrapping_sub(latest as u8) as i8);
-                latest.saturating_add_signed(delta)
+        let b = usize::from(bus);
+        let mut period_us = None;
+        let cycle = match self.bus_sync[b] {
+            // This bus spoke before: its own counter says how many cycles passed, unless the
+            // counter went back, or jumped further than the time since its last sync allows.
+            Some(last) => {
+                period_us = last.period_us;
+                let d = i64::from(counter.wrapping_sub(last.counter) as i8);
+                let elapsed = time_us.saturating_sub(last.time_us);
+                let jumped = matches!(last.period_us, Some(p) if d >= 3 && elapsed.saturating_mul(2) < d as u64 * p);
+                if d < 0 || jumped {
+                    let steps = last.period_us.filter(|&p| p > 0).map_or(1, |p| ((elapsed + p / 2) / p).max(1));
+                    let cycle = last.cycle + steps;
+                    self.stats.counter_resets += 1;
+                    self.stats.last_reset = Some(CounterReset {
+                        bus,
+                        time_us,
+                        from: last.counter,
+                        to: counter,
+                        cycle,
+                    });
+                    cycle
+                } else {
+                    if d == 1 && elapsed > 0 {
+                        period_us = Some(elapsed);
+                    }
+                    last.cycle + d as u64
+                }
             }
+            // A bus's first sync: the cycle number nearest the latest one with this counter
+            // modulo 256, so that every bus numbers the same cycle alike.
+            None => match self.latest {
+                None => u64::from(counter),
+                Some(latest) => {
+                    let delta = i64::from(counter.wrapping_sub(latest as u8) as i8);
+                    latest.saturating_add_signed(delta)
+                }
+            },
         };
+        self.bus_sync[b] = Some(BusSync {
+            counter,
+            cycle,
+            time_us,
+            period_us,
+        });
         self.latest = Some(self.latest.map_or(cycle, |l| l.max(cycle)));
         self.bus_cycle[usize::from(bus)] = Some(cycle);
         self.open(cycle, time_us);

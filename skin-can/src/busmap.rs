@@ -93,9 +93,8 @@ impl BusMap {
                 message: e.message().to_string(),
             }
         })?;
-        map.check().map_err(|message| Error::Line {
+        map.check().map_err(|message| Error::Invalid {
             path: path.to_owned(),
-            line: 0,
             message,
         })?;
         Ok(map)
@@ -182,6 +181,13 @@ impl BusMap {
                 return Err(format!("taxel {id} appears twice"));
             }
             slots[channel] = i64::from(id.0);
+        }
+        if buses > modules.len().max(1) {
+            return Err(format!(
+                "{buses} buses for {} module(s) would leave buses empty: give at most {}",
+                modules.len(),
+                modules.len().max(1)
+            ));
         }
         let per_bus = modules.len().div_ceil(buses).max(1);
         let limit = match format {

@@ -61,6 +61,9 @@ pub struct CandumpLog {
     pub interfaces: Vec<String>,
     /// The frames.
     pub frames: Vec<CanFrame>,
+    /// Error frames (identifier with the CAN_ERR_FLAG bit 0x20000000, as SocketCAN's candump
+    /// writes bus errors), counted and skipped: they carry no skin data.
+    pub error_frames: usize,
 }
 
 impl CandumpLog {
@@ -80,12 +83,17 @@ impl CandumpLog {
             if line.trim().is_empty() {
                 continue;
             }
-            let frame = parse_line(line, &mut log.interfaces).map_err(|message| Error::Line {
-                path: path.to_owned(),
-                line: i + 1,
-                message,
-            })?;
-            log.frames.push(frame);
+            match parse_line(line, &mut log.interfaces) {
+                Ok(frame) => log.frames.push(frame),
+                Err(Bad::ErrorFrame) => log.error_frames += 1,
+                Err(Bad::Line(message)) => {
+                    return Err(Error::Line {
+                        path: path.to_owned(),
+                        line: i + 1,
+                        message,
+                    });
+                }
+            }
         }
         Ok(log)
     }
@@ -155,15 +163,37 @@ pub fn write_line(out: &mut String, f: &CanFrame, iface: &str) {
     out.push('\n');
 }
 
-fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<CanFrame, String> {
+/// Why a line gave no frame.
+enum Bad {
+    /// A SocketCAN error frame: counted, not an error of the log.
+    ErrorFrame,
+    /// What is wrong with the line.
+    Line(String),
+}
+
+impl<T: Into<String>> From<T> for Bad {
+    fn from(message: T) -> Bad {
+        Bad::Line(message.into())
+    }
+}
+
+/// The CAN_ERR_FLAG bit of a SocketCAN identifier.
+const ERROR_FLAG: u32 = 0x2000_0000;
+
+/// At most this many characters of a bad field are quoted in a message.
+fn excerpt(s: &str) -> String {
+    skin_core::format::excerpt(s)
+}
+
+fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<CanFrame, Bad> {
     let mut fields = line.split_ascii_whitespace();
     let stamp = fields.next().ok_or("empty line")?;
     let stamp = stamp
         .strip_prefix('(')
         .and_then(|s| s.strip_suffix(')'))
-        .ok_or_else(|| format!("timestamp \"{stamp}\" is not of the form (seconds.micros)"))?;
+        .ok_or_else(|| format!("timestamp \"{}\" is not of the form (seconds.micros)", excerpt(stamp)))?;
     let time_us =
-        parse_time(stamp).ok_or_else(|| format!("timestamp \"{stamp}\" is not a number of seconds"))?;
+        parse_time(stamp).ok_or_else(|| format!("timestamp \"{}\" is not a number of seconds", excerpt(stamp)))?;
     let iface = fields.next().ok_or("no interface after the timestamp")?;
     let frame = fields.next().ok_or("no ID#DATA after the interface")?;
     let direction = match fields.next() {
@@ -172,16 +202,18 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
         Some("T") => Some(Direction::Transmitted),
         Some(other) => {
             return Err(format!(
-                "unexpected \"{other}\" after the frame (only R or T may follow)"
-            ));
+                "unexpected \"{}\" after the frame (only R or T may follow)",
+                excerpt(other)
+            )
+            .into());
         }
     };
     if let Some(extra) = fields.next() {
-        return Err(format!("unexpected \"{extra}\" at the end of the line"));
+        return Err(format!("unexpected \"{}\" at the end of the line", excerpt(extra)).into());
     }
     let (id_hex, data_hex) = frame
         .split_once('#')
-        .ok_or_else(|| format!("frame \"{frame}\" has no '#' between identifier and data"))?;
+        .ok_or_else(|| format!("frame \"{}\" has no '#' between identifier and data", excerpt(frame)))?;
     if data_hex.starts_with('#') {
         return Err("CAN FD frames (##) are not supported; skin traffic is classic CAN".into());
     }
@@ -190,14 +222,19 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
         8 => true,
         n => {
             return Err(format!(
-                "identifier \"{id_hex}\" has {n} hex digits (3 for standard, 8 for extended)"
-            ));
+                "identifier \"{}\" has {n} hex digits (3 for standard, 8 for extended)",
+                excerpt(id_hex)
+            )
+            .into());
         }
     };
     let id =
-        u32::from_str_radix(id_hex, 16).map_err(|_| format!("identifier \"{id_hex}\" is not hexadecimal"))?;
+        u32::from_str_radix(id_hex, 16).map_err(|_| format!("identifier \"{}\" is not hexadecimal", excerpt(id_hex)))?;
+    if extended && id & ERROR_FLAG != 0 {
+        return Err(Bad::ErrorFrame);
+    }
     if (!extended && id > 0x7FF) || id > 0x1FFF_FFFF {
-        return Err(format!("identifier {id_hex} is out of range"));
+        return Err(format!("identifier {id_hex} is out of range").into());
     }
     let mut f = CanFrame {
         time_us,
@@ -214,7 +251,7 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
         return Ok(f);
     }
     if data_hex.len() % 2 != 0 || data_hex.len() > 16 {
-        return Err(format!("data \"{data_hex}\" is not 0 to 8 bytes of hex"));
+        return Err(format!("data \"{}\" is not 0 to 8 bytes of hex", excerpt(data_hex)).into());
     }
     for (k, pair) in data_hex.as_bytes().chunks(2).enumerate() {
         let s = std::str::from_utf8(pair).map_err(|_| "data is not ASCII hex".to_string())?;

@@ -11,6 +11,14 @@ pub enum Error {
         /// What the operating system said.
         source: std::io::Error,
     },
+    /// The file parses but its content is wrong; the message names the bus, module or slot.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, and where.
+        message: String,
+    },
     /// A line of a log is not a CAN frame in the expected form.
     #[error("{}: line {line}: {message}", path.display())]
     Line {

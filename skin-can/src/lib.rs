@@ -35,6 +35,6 @@ pub mod decode;
 mod error;
 pub mod live;
 
-pub use assembler::{AssembledFrame, Assembler, AssemblyStats, DEFAULT_WINDOW_US, ModuleRef};
+pub use assembler::{AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, ModuleRef};
 pub use busmap::{BusMap, WireFormat};
 pub use error::{Error, Result};

@@ -91,6 +91,21 @@ impl Tally {
         if s.skipped > 0 {
             crate::say!("cycles in which nothing arrived: {}", s.skipped);
         }
+        if s.counter_resets > 0 {
+            crate::say!(
+                "sync counter restarted {} time(s) (recordings joined or a hub reset); the cycles after it are kept, numbered on by time",
+                s.counter_resets
+            );
+        }
+        if s.remote > 0 {
+            crate::say!("remote requests (no data), skipped: {}", s.remote);
+        }
+        if s.time_backwards > 0 {
+            crate::say!(
+                "CAN frames stamped earlier than the frame before them on their interface (kept in log order): {}",
+                s.time_backwards
+            );
+        }
     }
 }
 
@@ -232,6 +247,9 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!("bus \"{name}\" of the map is not in the log: its modules are missing in every frame");
     }
     tally.report(&map, s);
+    if log.error_frames > 0 {
+        crate::say!("CAN error frames in the log, skipped: {}", log.error_frames);
+    }
     if let Some(out) = &args.output {
         crate::output::write_file(out, csv.as_bytes(), &inputs)?;
         crate::say!("wrote {}", out.display());

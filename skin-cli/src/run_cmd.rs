@@ -247,6 +247,10 @@ struct Session {
     done: Vec<Done>,
     out: Output,
     t0_us: Option<u64>,
+    /// Sync counter restarts reported so far.
+    resets: u64,
+    /// Lines for the summary about the traffic itself (skipped or odd CAN frames).
+    notes: Vec<String>,
     /// Time of the latest frame, seconds from the first.
     last_time: f64,
     frames: u64,
@@ -629,6 +633,13 @@ fn offline(setup: &mut Setup, session: &mut Session, log_path: &Path, quiet: boo
                 inside += t.elapsed();
             }
         });
+        if error.is_none()
+            && assembler.stats().counter_resets > session.resets
+            && let Some(reset) = assembler.stats().last_reset
+            && let Err(e) = session.counter_reset(setup, &reset)
+        {
+            error = Some(e);
+        }
         if error.is_some() {
             break;
         }
@@ -649,6 +660,16 @@ fn offline(setup: &mut Setup, session: &mut Session, log_path: &Path, quiet: boo
         return Err(e);
     }
     let s = assembler.stats();
+    session.notes.clear();
+    for (n, what) in [
+        (log.error_frames as u64, "CAN error frames in the log, skipped"),
+        (s.remote, "remote requests, skipped"),
+        (s.time_backwards, "CAN frames stamped earlier than the frame before them on their interface (kept in log order)"),
+    ] {
+        if n > 0 {
+            session.notes.push(format!("{n} {what}"));
+        }
+    }
     let data = s.frames
         * setup
             .busmap
@@ -787,6 +808,8 @@ impl Session {
             done: Vec::new(),
             out,
             t0_us: None,
+            resets: 0,
+            notes: Vec::new(),
             last_time: 0.0,
             frames: 0,
             incomplete: 0,
@@ -888,6 +911,26 @@ impl Session {
                 .png(&format!("frames/stitched/frame_{cycle:05}.png"), grey, size)?;
         }
         Ok(())
+    }
+
+    /// Reports a sync counter that restarted: an event, and a line in the summary.
+    fn counter_reset(&mut self, setup: &Setup, r: &skin_can::CounterReset) -> Result<()> {
+        self.resets += 1;
+        let t0 = self.t0_us.unwrap_or(r.time_us);
+        let time = r.time_us.saturating_sub(t0) as f64 * 1e-6;
+        let bus = setup
+            .busmap
+            .buses
+            .get(usize::from(r.bus))
+            .map_or("?", |b| b.interface.as_str());
+        self.out.event(&json!({
+            "event": "counter_reset",
+            "time": round(time, 3),
+            "bus": bus,
+            "from": r.from,
+            "to": r.to,
+            "cycle": r.cycle,
+        }))
     }
 
     fn learn_baseline(&mut self, setup: &Setup) -> Result<()> {
@@ -1094,6 +1137,16 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
         span,
         setup.baseline.frames
     );
+    if s.resets > 0 {
+        let _ = writeln!(
+            out,
+            "sync counter restarted {} time(s) (recordings joined or a hub reset): the frames after it are kept, numbered on by time (\"counter_reset\" events)",
+            s.resets
+        );
+    }
+    for note in &s.notes {
+        let _ = writeln!(out, "{note}");
+    }
     for (l, h) in s.health.iter().enumerate() {
         if !h.dead.is_empty() || !h.stuck.is_empty() {
             let ids = |v: &[usize]| {

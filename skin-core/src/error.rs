@@ -49,6 +49,11 @@ impl Error {
     }
 
     pub(crate) fn json(path: &Path, e: &serde_json::Error) -> Self {
+        // Errors found after parsing (the document's shape) have no position: say so rather
+        // than point at line 0, column 0.
+        if e.line() == 0 {
+            return Error::invalid(path, "the document's structure", e.to_string());
+        }
         Error::Json {
             path: path.to_owned(),
             line: e.line(),

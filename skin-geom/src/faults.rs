@@ -105,11 +105,12 @@ impl Decimation {
             )));
         }
         let points: Vec<Point2<f64>> = keep.iter().map(|&i| map.points[i]).collect();
+        let skin = FaceGrid::new(map);
         let mut faces = Vec::new();
         for t in delaunay(&points)? {
             let [a, b, c] = t.map(|i| points[i]);
             let centroid = Point2::from((a.coords + b.coords + c.coords) / 3.0);
-            if (b - a).perp(&(c - a)) > 0.0 && on_skin(map, &centroid) {
+            if (b - a).perp(&(c - a)) > 0.0 && skin.contains(&centroid) {
                 faces.push(t);
             }
         }
@@ -137,15 +138,89 @@ impl Decimation {
     }
 }
 
-/// Whether `p` lies in one of the map's triangles.
-fn on_skin(map: &TactileMap, p: &Point2<f64>) -> bool {
-    map.faces.iter().any(|f| {
-        let [a, b, c] = f.map(|i| map.points[i]);
-        let d1 = (b - a).perp(&(p - a));
-        let d2 = (c - b).perp(&(p - b));
-        let d3 = (a - c).perp(&(p - c));
-        (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
-    })
+/// The map's triangles bucketed on a uniform grid of about one cell per triangle, so that
+/// "is this point on the skin?" tests a handful of triangles instead of all of them (a removal
+/// level is then one Delaunay and a linear pass, not quadratic in the taxels).
+struct FaceGrid<'a> {
+    map: &'a TactileMap,
+    origin: Point2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    /// Face indices of cell `r * cols + c` are `faces[start[k]..start[k + 1]]`.
+    start: Vec<usize>,
+    faces: Vec<usize>,
+}
+
+impl<'a> FaceGrid<'a> {
+    fn new(map: &'a TactileMap) -> FaceGrid<'a> {
+        let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
+        for p in &map.points {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let n = map.faces.len().max(1);
+        let (w, h) = ((hi.x - lo.x).max(0.0), (hi.y - lo.y).max(0.0));
+        let cell = ((w * h / n as f64).sqrt()).max(w.max(h) / 4096.0).max(1e-12);
+        let cols = ((w / cell) as usize + 1).min(4096);
+        let rows = ((h / cell) as usize + 1).min(4096);
+        let cell_of = |x: f64, y: f64| {
+            let c = (((x - lo.x) / cell) as usize).min(cols - 1);
+            let r = (((y - lo.y) / cell) as usize).min(rows - 1);
+            (r, c)
+        };
+        // Counting sort of (cell, face) pairs by cell.
+        let mut pairs: Vec<(usize, usize)> = Vec::with_capacity(map.faces.len() * 2);
+        for (f, face) in map.faces.iter().enumerate() {
+            let [a, b, c] = face.map(|i| map.points[i]);
+            let (r0, c0) = cell_of(a.x.min(b.x).min(c.x), a.y.min(b.y).min(c.y));
+            let (r1, c1) = cell_of(a.x.max(b.x).max(c.x), a.y.max(b.y).max(c.y));
+            for r in r0..=r1 {
+                for c in c0..=c1 {
+                    pairs.push((r * cols + c, f));
+                }
+            }
+        }
+        let mut start = vec![0usize; rows * cols + 1];
+        for &(k, _) in &pairs {
+            start[k + 1] += 1;
+        }
+        for k in 0..rows * cols {
+            start[k + 1] += start[k];
+        }
+        let mut next = start.clone();
+        let mut faces = vec![0usize; pairs.len()];
+        for &(k, f) in &pairs {
+            faces[next[k]] = f;
+            next[k] += 1;
+        }
+        FaceGrid {
+            map,
+            origin: lo,
+            cell,
+            cols,
+            rows,
+            start,
+            faces,
+        }
+    }
+
+    /// Whether `p` lies in one of the map's triangles (edges included).
+    fn contains(&self, p: &Point2<f64>) -> bool {
+        // Clamping is safe: a point outside the grid is in no triangle, and the test below is
+        // exact whatever cell it looks in.
+        let x = ((p.x - self.origin.x) / self.cell).max(0.0);
+        let y = ((p.y - self.origin.y) / self.cell).max(0.0);
+        let (c, r) = ((x as usize).min(self.cols - 1), (y as usize).min(self.rows - 1));
+        let k = r * self.cols + c;
+        self.faces[self.start[k]..self.start[k + 1]].iter().any(|&f| {
+            let [a, b, c] = self.map.faces[f].map(|i| self.map.points[i]);
+            let d1 = (b - a).perp(&(p - a));
+            let d2 = (c - b).perp(&(p - b));
+            let d3 = (a - c).perp(&(p - c));
+            (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+        })
+    }
 }
 
 /// Segmentation ground truth on a degraded map (Ch. 5.3): with `image` the tactile image of the
@@ -165,4 +240,70 @@ pub fn masked_ground_truth(image: &[u8], labels: &[u8], threshold: u8) -> Result
         .zip(labels)
         .map(|(&i, &l)| if l > 0 && i > threshold { (i, l) } else { (0, 0) })
         .unzip())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// The grid answers as the scan over every triangle it replaced.
+    #[test]
+    fn the_face_grid_agrees_with_a_scan_of_every_triangle() {
+        let (w, h) = (20, 13);
+        let points: Vec<Point2<f64>> = (0..w * h)
+            .map(|k| {
+                let (i, j) = ((k % w) as f64, (k / w) as f64);
+                // A sheared, unevenly spaced grid, with a hole cut out below.
+                Point2::new(0.01 * i + 0.003 * j + 0.0005 * (i * j).sin(), 0.008 * j)
+            })
+            .collect();
+        let mut faces = Vec::new();
+        for j in 0..h - 1 {
+            for i in 0..w - 1 {
+                if (5..9).contains(&i) && (4..8).contains(&j) {
+                    continue;
+                }
+                let k = j * w + i;
+                faces.push([k, k + 1, k + w + 1]);
+                faces.push([k, k + w + 1, k + w]);
+            }
+        }
+        let map = TactileMap {
+            name: "grid".into(),
+            ids: (0..points.len() as u32).map(skin_core::TaxelId).collect(),
+            positions: Vec::new(),
+            points,
+            faces,
+            report: Default::default(),
+            zeroed: Vec::new(),
+        };
+        let grid = FaceGrid::new(&map);
+        let scan = |p: &Point2<f64>| {
+            map.faces.iter().any(|f| {
+                let [a, b, c] = f.map(|i| map.points[i]);
+                let d1 = (b - a).perp(&(p - a));
+                let d2 = (c - b).perp(&(p - b));
+                let d3 = (a - c).perp(&(p - c));
+                (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+            })
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for k in 0..40_000u32 {
+            // A low-discrepancy walk over a box larger than the map, and every vertex.
+            let x = -0.05 + 0.35 * ((f64::from(k) * 0.618_034) % 1.0);
+            let y = -0.03 + 0.16 * ((f64::from(k) * 0.754_877) % 1.0);
+            let p = Point2::new(x, y);
+            assert_eq!(grid.contains(&p), scan(&p), "{p:?}");
+            if scan(&p) {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+        }
+        for p in &map.points {
+            assert_eq!(grid.contains(p), scan(p), "{p:?}");
+        }
+        assert!(inside > 1000 && outside > 1000, "{inside} {outside}");
+    }
 }

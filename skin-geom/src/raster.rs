@@ -24,6 +24,10 @@ use crate::{Error, Result, TactileMap};
 use image::ImageEncoder as _;
 use nalgebra::{Point2, Point3};
 
+/// The largest side of a tactile image grid, pixels (4096 x 4096 is 16.7 million pixels, about
+/// 300 MB of per-pixel tables).
+pub const MAX_SIDE: usize = 4096;
+
 /// The grid laid on a tactile map.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Grid {
@@ -144,9 +148,9 @@ impl Rasterizer {
                 (rows, cols, (w / cols as f64).max(h / rows as f64))
             }
         };
-        if rows.saturating_mul(cols) > 50_000_000 {
+        if rows > MAX_SIDE || cols > MAX_SIDE {
             return Err(Error::Mismatch(format!(
-                "a {rows} x {cols} image is too large: use a coarser grid step"
+                "a {rows} x {cols} image is too large (at most {MAX_SIDE} pixels a side): use a coarser grid step"
             )));
         }
         let centre = Point2::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));

@@ -79,6 +79,12 @@ impl ImageModel {
             path: path.into(),
             why,
         };
+        // Say what the path is before tract does ("No such device" for a folder).
+        match std::fs::metadata(path) {
+            Ok(m) if m.is_dir() => return Err(load("a folder, not an ONNX model file".into())),
+            Err(e) => return Err(load(format!("cannot read it: {e}"))),
+            Ok(_) => {}
+        }
         let model = tract_onnx::onnx()
             .model_for_path(path)
             .map_err(|e| load(format!("{e:#}")))?;

@@ -273,16 +273,19 @@ impl Scene {
             field,
             why: why.into(),
         };
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        let positive = |x: f64| x.is_finite() && x > 0.0;
+        // Bounds keep the collision geometry (parry) and the simulation loop in the range they
+        // are made for: a 1e100 m capsule makes parry's penetration search index out of bounds,
+        // a 1e9 Hz rate runs for hours.
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() <= WORLD_M);
+        let positive = |x: f64| x.is_finite() && x > 0.0 && x <= WORLD_M;
         for (i, o) in self.obstacles.iter().enumerate() {
             match o {
                 Obstacle::Capsule { a, b, radius } => {
                     if !finite(a) || !finite(b) {
-                        return Err(bad(format!("obstacles[{i}]"), "end points must be finite"));
+                        return Err(bad(format!("obstacles[{i}]"), "end points must be finite, within 100 m"));
                     }
                     if !positive(*radius) {
-                        return Err(bad(format!("obstacles[{i}].radius"), "must be positive"));
+                        return Err(bad(format!("obstacles[{i}].radius"), "must be positive, at most 100 m"));
                     }
                 }
                 Obstacle::Box {
@@ -291,10 +294,10 @@ impl Scene {
                     rpy,
                 } => {
                     if !finite(center) || !finite(rpy) {
-                        return Err(bad(format!("obstacles[{i}]"), "centre and rpy must be finite"));
+                        return Err(bad(format!("obstacles[{i}]"), "centre and rpy must be finite, within 100 m"));
                     }
                     if !half_extents.iter().all(|&h| positive(h)) {
-                        return Err(bad(format!("obstacles[{i}].half_extents"), "must be positive"));
+                        return Err(bad(format!("obstacles[{i}].half_extents"), "must be positive, at most 100 m"));
                     }
                 }
             }
@@ -304,7 +307,7 @@ impl Scene {
         }
         for (i, g) in self.goals.iter().enumerate() {
             if !finite(g) {
-                return Err(bad(format!("goals[{i}]"), "must be finite"));
+                return Err(bad(format!("goals[{i}]"), "must be finite, within 100 m"));
             }
         }
         if let Some(starts) = &self.starts {
@@ -313,39 +316,53 @@ impl Scene {
             }
             for (i, s) in starts.iter().enumerate() {
                 if !finite(s) {
-                    return Err(bad(format!("starts[{i}]"), "must be finite"));
+                    return Err(bad(format!("starts[{i}]"), "must be finite, within 100 rad"));
                 }
             }
         }
         if let Some(h) = &self.home
             && !finite(h)
         {
-            return Err(bad("home".into(), "must be finite"));
+            return Err(bad("home".into(), "must be finite, within 100 rad"));
         }
         if let Some(r) = &self.radii
             && !r.iter().all(|&x| positive(x))
         {
-            return Err(bad("radii".into(), "must be positive"));
+            return Err(bad("radii".into(), "must be positive, at most 100 m"));
         }
-        for (name, v) in [
-            ("stiffness", self.stiffness),
-            ("rate", self.rate),
-            ("max_speed", self.max_speed),
-            ("hand_speed", self.hand_speed),
-            ("timeout", self.timeout),
-            ("stall_time", self.stall_time),
-            ("tolerance", self.tolerance),
+        for (name, v, max) in [
+            ("stiffness", self.stiffness, 1e9),
+            ("rate", self.rate, 10_000.0),
+            ("max_speed", self.max_speed, 100.0),
+            ("hand_speed", self.hand_speed, 100.0),
+            ("timeout", self.timeout, 3600.0),
+            ("stall_time", self.stall_time, 3600.0),
+            ("tolerance", self.tolerance, 10.0),
         ] {
-            if !positive(v) {
-                return Err(bad(name.into(), "must be positive"));
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                return Err(bad(name.into(), &format!("must be positive, at most {max}")));
             }
         }
-        if !(self.start_spread.is_finite() && self.start_spread >= 0.0) {
-            return Err(bad("start_spread".into(), "must be zero or positive"));
+        if self.rate * self.timeout > MAX_STEPS {
+            return Err(bad(
+                "rate".into(),
+                &format!(
+                    "rate x timeout is {:.0} steps a trial; at most {MAX_STEPS:.0}",
+                    self.rate * self.timeout
+                ),
+            ));
+        }
+        if !(self.start_spread.is_finite() && (0.0..=WORLD_M).contains(&self.start_spread)) {
+            return Err(bad("start_spread".into(), "must be from 0 to 100 rad"));
         }
         Ok(())
     }
 }
+
+/// The largest coordinate or length a scene may hold, m (and angle, rad).
+pub const WORLD_M: f64 = 100.0;
+/// The most simulation steps one trial may take (`rate` x `timeout`).
+const MAX_STEPS: f64 = 2e6;
 
 /// Roll-pitch-yaw to a rotation, as URDF.
 pub(crate) fn rpy(r: &[f64; 3]) -> nalgebra::UnitQuaternion<f64> {

@@ -71,7 +71,17 @@ pub fn parse_skin(text: &str, path: &Path) -> Result<LinkSkin> {
 }
 
 pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<LinkSkin> {
-    let file: File = serde_json::from_value(value).map_err(|e| Error::json(path, &e))?;
+    let file: File = match serde_json::from_value(value.clone()) {
+        Ok(f) => f,
+        Err(e) => {
+            let taxels = value.get("skin").and_then(|s| s.get("taxels"));
+            return Err(super::locate::<TaxelEntry>(path, taxels, |i, t| {
+                let id = t.get("id").map_or("?".to_owned(), |v| v.to_string());
+                format!("taxel {id} (skin.taxels[{i}])")
+            })
+            .unwrap_or_else(|| Error::json(path, &e)));
+        }
+    };
     let skin = file.skin;
     if let Some(n) = skin.n_taxels
         && n != skin.taxels.len()

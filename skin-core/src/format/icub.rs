@@ -80,7 +80,7 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
                 Error::invalid(
                     path,
                     format!("line {lineno}"),
-                    format!("value {} (\"{field}\") is not a number", k + 1),
+                    format!("value {} (\"{}\") is not a number", k + 1, super::excerpt(field)),
                 )
             })?;
             count = k + 1;

@@ -50,6 +50,22 @@ pub fn load_link(path: &Path) -> Result<LinkSkin> {
     }
 }
 
+/// When a JSON document does not have the expected shape, finds the first element of `items`
+/// (a list the document holds) that does not deserialise as `T` and names it with `place(i,
+/// item)`; `None` when every element does (the fault is elsewhere).
+pub(crate) fn locate<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    items: Option<&serde_json::Value>,
+    place: impl Fn(usize, &serde_json::Value) -> String,
+) -> Option<Error> {
+    let items = items?.as_array()?;
+    items.iter().enumerate().find_map(|(i, item)| {
+        serde_json::from_value::<T>(item.clone())
+            .err()
+            .map(|e| Error::invalid(path, place(i, item), e.to_string()))
+    })
+}
+
 pub(crate) fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
 }
@@ -58,13 +74,41 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
     std::fs::write(path, text).map_err(|e| Error::io(path, e))
 }
 
-/// Builds a taxel after checking that its numbers are finite and its normal is not zero.
+/// The farthest a taxel may sit from its link's origin, metres. A robot link is a few metres at
+/// most; a position beyond this is a unit mistake (millimetres read as metres) or garbage, and
+/// would overflow the geometry downstream.
+pub const MAX_POSITION_M: f64 = 100.0;
+
+/// At most this many characters of a bad field are quoted in an error message.
+const QUOTE_CHARS: usize = 40;
+
+/// A bad field as an error message quotes it: whole if short, else its first characters and the
+/// length (a 10 MB line is never echoed).
+pub fn excerpt(field: &str) -> String {
+    if field.chars().count() <= QUOTE_CHARS {
+        return field.to_owned();
+    }
+    let head: String = field.chars().take(QUOTE_CHARS).collect();
+    format!("{head}... ({} bytes)", field.len())
+}
+
+/// Builds a taxel after checking that its numbers are finite, its position within
+/// [`MAX_POSITION_M`] of the origin and its normal not zero.
 pub(crate) fn make_taxel(path: &Path, place: &str, id: TaxelId, x: [f64; 3], n: [f64; 3]) -> Result<Taxel> {
     if x.iter().any(|v| !v.is_finite()) {
         return Err(Error::invalid(
             path,
             place,
             format!("position {x:?} is not finite"),
+        ));
+    }
+    if x.iter().any(|v| v.abs() > MAX_POSITION_M) {
+        return Err(Error::invalid(
+            path,
+            place,
+            format!(
+                "position {x:?} m is more than {MAX_POSITION_M} m from the link's origin (positions are in metres)"
+            ),
         ));
     }
     if n.iter().any(|v| !v.is_finite()) {

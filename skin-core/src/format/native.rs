@@ -60,7 +60,10 @@ pub fn parse_layout(text: &str, path: &Path) -> Result<SkinLayout> {
 }
 
 pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<SkinLayout> {
-    let file: LayoutFile = serde_json::from_value(value).map_err(|e| Error::json(path, &e))?;
+    let file: LayoutFile = match serde_json::from_value(value.clone()) {
+        Ok(f) => f,
+        Err(e) => return Err(locate_in_layout(&value, path).unwrap_or_else(|| Error::json(path, &e))),
+    };
     if file.format != FORMAT {
         return Err(Error::invalid(
             path,
@@ -94,6 +97,18 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<SkinLa
         links.push(link);
     }
     Ok(SkinLayout { links })
+}
+
+/// The link or taxel at fault when a layout does not have the expected shape.
+fn locate_in_layout(value: &serde_json::Value, path: &Path) -> Option<Error> {
+    let links = value.get("links")?.as_array()?;
+    links.iter().enumerate().find_map(|(l, link)| {
+        let name = link.get("name").and_then(|n| n.as_str()).unwrap_or("?").to_owned();
+        super::locate::<TaxelFile>(path, link.get("taxels"), |i, t| {
+            let id = t.get("id").map_or("?".to_owned(), |v| v.to_string());
+            format!("link \"{name}\" (links[{l}]) taxel {id} (index {i})")
+        })
+    })
 }
 
 /// Serialises a layout as pretty JSON.

@@ -113,11 +113,15 @@ impl Postures {
                     .iter()
                     .chain(&pose.rotation)
                     .all(|v| v.is_finite());
-                if !finite || (q.norm() - 1.0).abs() > 1e-3 {
+                let near = pose.translation.iter().all(|v| v.abs() <= super::MAX_POSITION_M);
+                if !finite || !near || (q.norm() - 1.0).abs() > 1e-3 {
                     return Err(Error::invalid(
                         path,
                         place(&format!(".poses[{l}] ({})", file.links[l])),
-                        "translation must be finite and rotation a unit quaternion [w, x, y, z]",
+                        format!(
+                            "translation must be finite metres within {} m and rotation a unit quaternion [w, x, y, z]",
+                            super::MAX_POSITION_M
+                        ),
                     ));
                 }
                 let [tx, ty, tz] = pose.translation;

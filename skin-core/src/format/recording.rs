@@ -26,14 +26,23 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
         ));
     };
     let mut taxel_ids = Vec::new();
+    let mut column: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
     for (k, field) in header.split_whitespace().enumerate() {
         let id: u32 = field.parse().map_err(|_| {
             Error::invalid(
                 path,
                 format!("line {} field {}", header_idx + 1, k + 1),
-                format!("taxel id \"{field}\" is not a non-negative integer"),
+                format!("taxel id \"{}\" is not a non-negative integer", super::excerpt(field)),
             )
         })?;
+        // A repeated id would make one column silently win over the other.
+        if let Some(first) = column.insert(id, k) {
+            return Err(Error::invalid(
+                path,
+                format!("line {} field {}", header_idx + 1, k + 1),
+                format!("taxel id {id} repeats the id of field {}", first + 1),
+            ));
+        }
         taxel_ids.push(TaxelId(id));
     }
     let n = taxel_ids.len();
@@ -61,7 +70,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
             Error::invalid(
                 path,
                 format!("line {lineno} field 1"),
-                format!("frame number \"{number_field}\" is not an integer"),
+                format!("frame number \"{}\" is not an integer", super::excerpt(number_field)),
             )
         })?;
         let time_field = fields.next().unwrap_or_default();
@@ -73,7 +82,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
                 Error::invalid(
                     path,
                     format!("line {lineno} field 2"),
-                    format!("time \"{time_field}\" is not a number"),
+                    format!("time \"{}\" is not a finite number", super::excerpt(time_field)),
                 )
             })?;
         let mut values = Vec::with_capacity(n);
@@ -86,7 +95,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
                     Error::invalid(
                         path,
                         format!("line {lineno} field {} (taxel {})", k + 3, rec.taxel_ids[k]),
-                        format!("reading \"{field}\" is not a number"),
+                        format!("reading \"{}\" is not a finite number", super::excerpt(field)),
                     )
                 })?;
             values.push(v);
