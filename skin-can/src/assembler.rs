@@ -371,9 +371,13 @@ impl<D: Decoder> Assembler<D> {
                 period_us = last.period_us;
                 let d = i64::from(counter.wrapping_sub(last.counter) as i8);
                 let elapsed = time_us.saturating_sub(last.time_us);
-                let jumped = matches!(last.period_us, Some(p) if d >= 3 && elapsed.saturating_mul(2) < d as u64 * p);
+                let jumped =
+                    matches!(last.period_us, Some(p) if d >= 3 && elapsed.saturating_mul(2) < d as u64 * p);
                 if d < 0 || jumped {
-                    let steps = last.period_us.filter(|&p| p > 0).map_or(1, |p| ((elapsed + p / 2) / p).max(1));
+                    let steps = last
+                        .period_us
+                        .filter(|&p| p > 0)
+                        .map_or(1, |p| ((elapsed + p / 2) / p).max(1));
                     let cycle = last.cycle + steps;
                     self.stats.counter_resets += 1;
                     self.stats.last_reset = Some(CounterReset {

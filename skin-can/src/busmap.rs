@@ -207,10 +207,12 @@ impl BusMap {
             buses: (0..buses)
                 .map(|b| BusSpec {
                     interface: format!("can{b}"),
+                    // Consecutive blocks, the first `m % buses` one module larger: no bus is
+                    // left empty (blocks of `per_bus` would leave the last ones empty).
                     modules: modules
                         .iter()
-                        .skip(b * per_bus)
-                        .take(per_bus)
+                        .skip(b * (modules.len() / buses) + b.min(modules.len() % buses))
+                        .take(modules.len() / buses + usize::from(b < modules.len() % buses))
                         .enumerate()
                         .map(|(a, taxels)| ModuleMap {
                             address: a as u32,

@@ -191,9 +191,14 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
     let stamp = stamp
         .strip_prefix('(')
         .and_then(|s| s.strip_suffix(')'))
-        .ok_or_else(|| format!("timestamp \"{}\" is not of the form (seconds.micros)", excerpt(stamp)))?;
-    let time_us =
-        parse_time(stamp).ok_or_else(|| format!("timestamp \"{}\" is not a number of seconds", excerpt(stamp)))?;
+        .ok_or_else(|| {
+            format!(
+                "timestamp \"{}\" is not of the form (seconds.micros)",
+                excerpt(stamp)
+            )
+        })?;
+    let time_us = parse_time(stamp)
+        .ok_or_else(|| format!("timestamp \"{}\" is not a number of seconds", excerpt(stamp)))?;
     let iface = fields.next().ok_or("no interface after the timestamp")?;
     let frame = fields.next().ok_or("no ID#DATA after the interface")?;
     let direction = match fields.next() {
@@ -211,9 +216,12 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
     if let Some(extra) = fields.next() {
         return Err(format!("unexpected \"{}\" at the end of the line", excerpt(extra)).into());
     }
-    let (id_hex, data_hex) = frame
-        .split_once('#')
-        .ok_or_else(|| format!("frame \"{}\" has no '#' between identifier and data", excerpt(frame)))?;
+    let (id_hex, data_hex) = frame.split_once('#').ok_or_else(|| {
+        format!(
+            "frame \"{}\" has no '#' between identifier and data",
+            excerpt(frame)
+        )
+    })?;
     if data_hex.starts_with('#') {
         return Err("CAN FD frames (##) are not supported; skin traffic is classic CAN".into());
     }
@@ -228,8 +236,8 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
             .into());
         }
     };
-    let id =
-        u32::from_str_radix(id_hex, 16).map_err(|_| format!("identifier \"{}\" is not hexadecimal", excerpt(id_hex)))?;
+    let id = u32::from_str_radix(id_hex, 16)
+        .map_err(|_| format!("identifier \"{}\" is not hexadecimal", excerpt(id_hex)))?;
     if extended && id & ERROR_FLAG != 0 {
         return Err(Bad::ErrorFrame);
     }

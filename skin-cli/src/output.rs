@@ -452,6 +452,14 @@ impl OutputDir {
         })
     }
 
+    /// Refuses `dir` now, before any work, if [`OutputDir::create`] would (it checks again).
+    pub fn precheck(dir: &Path, command: &str, force: bool) -> Result<()> {
+        if dir.is_dir() {
+            Self::check_contents(dir, command, force)?;
+        }
+        Ok(())
+    }
+
     fn lock(dir: &Path) -> Result<File> {
         let path = dir.join(LOCK);
         let file = OpenOptions::new()

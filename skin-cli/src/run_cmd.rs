@@ -279,6 +279,10 @@ struct Output {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    // Before the maps are built and cached: a refused folder costs nothing and writes nothing.
+    if let Some(dir) = &args.output {
+        OutputDir::precheck(dir, "skin run", args.force)?;
+    }
     let mut setup = load(&args.config)?;
     let mut inputs = Inputs::new(std::iter::once(&args.config).chain(&args.log));
     for p in &setup.inputs {
@@ -664,7 +668,10 @@ fn offline(setup: &mut Setup, session: &mut Session, log_path: &Path, quiet: boo
     for (n, what) in [
         (log.error_frames as u64, "CAN error frames in the log, skipped"),
         (s.remote, "remote requests, skipped"),
-        (s.time_backwards, "CAN frames stamped earlier than the frame before them on their interface (kept in log order)"),
+        (
+            s.time_backwards,
+            "CAN frames stamped earlier than the frame before them on their interface (kept in log order)",
+        ),
     ] {
         if n > 0 {
             session.notes.push(format!("{n} {what}"));

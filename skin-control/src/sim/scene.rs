@@ -282,10 +282,16 @@ impl Scene {
             match o {
                 Obstacle::Capsule { a, b, radius } => {
                     if !finite(a) || !finite(b) {
-                        return Err(bad(format!("obstacles[{i}]"), "end points must be finite, within 100 m"));
+                        return Err(bad(
+                            format!("obstacles[{i}]"),
+                            "end points must be finite, within 100 m",
+                        ));
                     }
                     if !positive(*radius) {
-                        return Err(bad(format!("obstacles[{i}].radius"), "must be positive, at most 100 m"));
+                        return Err(bad(
+                            format!("obstacles[{i}].radius"),
+                            "must be positive, at most 100 m",
+                        ));
                     }
                 }
                 Obstacle::Box {
@@ -294,10 +300,16 @@ impl Scene {
                     rpy,
                 } => {
                     if !finite(center) || !finite(rpy) {
-                        return Err(bad(format!("obstacles[{i}]"), "centre and rpy must be finite, within 100 m"));
+                        return Err(bad(
+                            format!("obstacles[{i}]"),
+                            "centre and rpy must be finite, within 100 m",
+                        ));
                     }
                     if !half_extents.iter().all(|&h| positive(h)) {
-                        return Err(bad(format!("obstacles[{i}].half_extents"), "must be positive, at most 100 m"));
+                        return Err(bad(
+                            format!("obstacles[{i}].half_extents"),
+                            "must be positive, at most 100 m",
+                        ));
                     }
                 }
             }

@@ -103,7 +103,11 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<SkinLa
 fn locate_in_layout(value: &serde_json::Value, path: &Path) -> Option<Error> {
     let links = value.get("links")?.as_array()?;
     links.iter().enumerate().find_map(|(l, link)| {
-        let name = link.get("name").and_then(|n| n.as_str()).unwrap_or("?").to_owned();
+        let name = link
+            .get("name")
+            .and_then(|n| n.as_str())
+            .unwrap_or("?")
+            .to_owned();
         super::locate::<TaxelFile>(path, link.get("taxels"), |i, t| {
             let id = t.get("id").map_or("?".to_owned(), |v| v.to_string());
             format!("link \"{name}\" (links[{l}]) taxel {id} (index {i})")

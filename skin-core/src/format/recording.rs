@@ -32,7 +32,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
             Error::invalid(
                 path,
                 format!("line {} field {}", header_idx + 1, k + 1),
-                format!("taxel id \"{}\" is not a non-negative integer", super::excerpt(field)),
+                format!(
+                    "taxel id \"{}\" is not a non-negative integer",
+                    super::excerpt(field)
+                ),
             )
         })?;
         // A repeated id would make one column silently win over the other.
@@ -70,7 +73,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
             Error::invalid(
                 path,
                 format!("line {lineno} field 1"),
-                format!("frame number \"{}\" is not an integer", super::excerpt(number_field)),
+                format!(
+                    "frame number \"{}\" is not an integer",
+                    super::excerpt(number_field)
+                ),
             )
         })?;
         let time_field = fields.next().unwrap_or_default();

@@ -1,0 +1,685 @@
+//! Your files are safe: every case of the data-safety review, as a user would try it. Each test
+//! fails on a `skin` that destroys, replaces or silently drops what the user owns.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn err(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A copy of a fixture file in `dir`.
+fn copy(dir: &Path, fixture: &str) -> PathBuf {
+    let to = dir.join(Path::new(fixture).file_name().unwrap());
+    std::fs::copy(root().join("fixtures").join(fixture), &to).unwrap();
+    to
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Every file under `dir` with its bytes, to compare a folder before and after.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((p.clone(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let layout = copy(d.path(), "forearm/layout.json");
+    let log = copy(d.path(), "forearm/touches.candump.log");
+    let busmap = copy(d.path(), "forearm/busmap.toml");
+    let before = snapshot(d.path());
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["flatten", s(&layout), "-o", s(&layout)],
+        vec!["flatten", s(&layout), "-o", "/dev/null", "--svg", s(&layout)],
+        vec!["replay", s(&log), "--busmap", s(&busmap), "-o", s(&log)],
+        vec!["busmap", "--layout", s(&layout), "-o", s(&layout)],
+        vec![
+            "degrade",
+            "--map",
+            s(&layout),
+            "--remove",
+            "0.1",
+            "-o",
+            s(&layout),
+        ],
+        vec!["probe-sim", "--layout", s(&layout), "-o", s(&layout)],
+    ];
+    for args in &cases {
+        let o = skin(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err(&o).contains("also an input"), "{args:?}: {}", err(&o));
+    }
+    // Through a hard link and a symbolic link too.
+    let hard = d.path().join("hard.json");
+    std::fs::hard_link(&layout, &hard).unwrap();
+    let soft = d.path().join("soft.json");
+    std::os::unix::fs::symlink(&layout, &soft).unwrap();
+    for out in [&hard, &soft] {
+        let o = skin(&["flatten", s(&layout), "-o", s(out)]);
+        assert!(
+            !o.status.success() && err(&o).contains("the input"),
+            "{}",
+            err(&o)
+        );
+    }
+    std::fs::remove_file(&hard).unwrap();
+    std::fs::remove_file(&soft).unwrap();
+    assert!(snapshot(d.path()) == before, "a file changed");
+}
+
+#[test]
+fn calibrate_refuses_to_write_over_its_probes() {
+    let d = tempfile::tempdir().unwrap();
+    let layout = copy(d.path(), "forearm/layout.json");
+    let probes = d.path().join("probes.csv");
+    let o = skin(&[
+        "probe-sim",
+        "--layout",
+        s(&layout),
+        "--contacts",
+        "50",
+        "-o",
+        s(&probes),
+    ]);
+    assert!(o.status.success(), "{}", err(&o));
+    let before = std::fs::read(&probes).unwrap();
+    let o = skin(&["calibrate", s(&probes), "-o", s(&probes)]);
+    assert!(
+        !o.status.success() && err(&o).contains("also an input"),
+        "{}",
+        err(&o)
+    );
+    assert_eq!(std::fs::read(&probes).unwrap(), before);
+}
+
+/// The user's folder holding the config, the log and notes: `skin run -o` it, or `-o .`.
+#[test]
+fn run_never_empties_a_folder_it_did_not_write() {
+    let d = tempfile::tempdir().unwrap();
+    let fixtures = d.path().join("fixtures");
+    for f in ["forearm/layout.json", "forearm/busmap.toml"] {
+        std::fs::create_dir_all(fixtures.join("forearm")).unwrap();
+        std::fs::copy(root().join("fixtures").join(f), fixtures.join(f)).unwrap();
+    }
+    let session = fixtures.join("session");
+    std::fs::create_dir_all(&session).unwrap();
+    let config = session.join("run.toml");
+    // No models: the test is about the folder, not the decisions.
+    std::fs::write(
+        &config,
+        "layout = \"../forearm/layout.json\"\nbusmap = \"../forearm/busmap.toml\"\n",
+    )
+    .unwrap();
+    let log = copy(&session, "forearm/touches.candump.log");
+    std::fs::write(session.join("notes.txt"), "my notes").unwrap();
+    let before = snapshot(&session);
+    let o = skin(&["run", s(&config), "--log", s(&log), "-o", s(&session), "-q"]);
+    assert!(!o.status.success(), "a folder of the user's was written into");
+    assert!(
+        err(&o).contains("notes.txt") && err(&o).contains("--force"),
+        "{}",
+        err(&o)
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", s(&config), "--log", s(&log), "-o", ".", "-q"])
+        .current_dir(&session)
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "-o . was written into");
+    let after = snapshot(&session);
+    let names = |v: &[(PathBuf, Vec<u8>)]| v.iter().map(|(p, _)| p.display().to_string()).collect::<Vec<_>>();
+    assert!(
+        after == before,
+        "the folder changed: {:?} -> {:?}",
+        names(&before),
+        names(&after)
+    );
+
+    // --force writes skin's files beside the user's, and touches nothing else.
+    let o = skin(&[
+        "run",
+        s(&config),
+        "--log",
+        s(&log),
+        "-o",
+        s(&session),
+        "-q",
+        "--force",
+    ]);
+    assert!(o.status.success(), "{}", err(&o));
+    for (path, bytes) in &before {
+        assert_eq!(&std::fs::read(path).unwrap(), bytes, "{}", path.display());
+    }
+    assert!(session.join("events.jsonl").is_file() && session.join("summary.txt").is_file());
+    // A re-run into its own output needs no --force, and leaves no temporary file.
+    let out = d.path().join("out");
+    for _ in 0..2 {
+        let o = skin(&["run", s(&config), "--log", s(&log), "-o", s(&out), "-q"]);
+        assert!(o.status.success(), "{}", err(&o));
+    }
+    let names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains("partial")), "{names:?}");
+    assert!(
+        !d.path()
+            .read_dir()
+            .unwrap()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().contains("partial"))
+    );
+}
+
+#[test]
+fn a_second_writer_of_one_folder_refuses_at_once() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // Hold the lock as a running `skin` would.
+    std::fs::write(out.join(".skin-output"), r#"{"command":"skin image","files":[]}"#).unwrap();
+    let lock = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(out.join(".skin-lock"))
+        .unwrap();
+    lock.lock().unwrap();
+    let map = root().join("fixtures/forearm/layout.json");
+    let rec = root().join("fixtures/forearm/touches.txt");
+    let o = skin(&["image", "--map", s(&map), s(&rec), "-o", s(&out), "-q"]);
+    assert!(
+        !o.status.success() && err(&o).contains("another skin command"),
+        "{}",
+        err(&o)
+    );
+}
+
+#[test]
+fn devices_fifos_and_symlinks_are_written_through() {
+    let d = tempfile::tempdir().unwrap();
+    let layout = root().join("fixtures/forearm/layout.json");
+    // A device stays a device, and its error is the user's path.
+    let o = skin(&["flatten", s(&layout), "-o", "/dev/null"]);
+    assert!(o.status.success(), "{}", err(&o));
+    let null = std::fs::symlink_metadata("/dev/null").unwrap();
+    assert!(!null.is_file());
+    // A symlink, even dangling, keeps being a link and its target gets the map.
+    let target = d.path().join("real.json");
+    let link = d.path().join("link.json");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let o = skin(&["flatten", s(&layout), "-o", s(&link)]);
+    assert!(o.status.success(), "{}", err(&o));
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert!(std::fs::read_to_string(&target).unwrap().contains("points"));
+    // A folder given as a file is named as such.
+    let o = skin(&["flatten", s(&layout), "-o", s(d.path())]);
+    assert!(!o.status.success() && err(&o).contains("a folder"), "{}", err(&o));
+}
+
+#[test]
+fn two_inputs_named_alike_never_land_on_one_file() {
+    let d = tempfile::tempdir().unwrap();
+    let rec = root().join("fixtures/forearm/touches.txt");
+    for sub in ["a", "b"] {
+        std::fs::create_dir(d.path().join(sub)).unwrap();
+        std::fs::copy(&rec, d.path().join(sub).join("touches.txt")).unwrap();
+    }
+    let map = root().join("fixtures/forearm/layout.json");
+    let out = d.path().join("out");
+    let (a, b) = (d.path().join("a/touches.txt"), d.path().join("b/touches.txt"));
+    let o = skin(&["image", "--map", s(&map), s(&a), s(&b), "-o", s(&out), "-q"]);
+    assert!(o.status.success(), "{}", err(&o));
+    assert!(out.join("a_touches").is_dir() && out.join("b_touches").is_dir());
+    // The same file twice is one mistake, said.
+    let o = skin(&[
+        "image",
+        "--map",
+        s(&map),
+        s(&a),
+        s(&a),
+        "-o",
+        s(&d.path().join("o2")),
+        "-q",
+    ]);
+    assert!(!o.status.success() && err(&o).contains("distinct"), "{}", err(&o));
+}
+
+#[test]
+fn repeated_frame_numbers_get_their_own_images() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("fixtures/forearm/touches.txt")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    let frames = lines.len() - 1;
+    // Join the recording with itself: every frame number appears twice.
+    let again: Vec<&str> = lines[1..].to_vec();
+    lines.extend(again);
+    let rec = d.path().join("joined.txt");
+    std::fs::write(&rec, lines.join("\n")).unwrap();
+    let map = root().join("fixtures/forearm/layout.json");
+    let out = d.path().join("out");
+    let o = skin(&["image", "--map", s(&map), s(&rec), "-o", s(&out), "-q"]);
+    assert!(o.status.success(), "{}", err(&o));
+    let written = std::fs::read_dir(out.join("joined")).unwrap().count();
+    assert_eq!(written, 2 * frames);
+}
+
+#[test]
+fn a_smaller_synth_into_its_own_dataset_leaves_no_stale_image() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("data");
+    let layout = root().join("fixtures/forearm/layout.json");
+    for count in ["12", "5"] {
+        let o = skin(&["synth", "--layout", s(&layout), "--count", count, "-o", s(&out)]);
+        assert!(o.status.success(), "{}", err(&o));
+    }
+    let images = std::fs::read_dir(out.join("images")).unwrap().count();
+    let labels = std::fs::read_to_string(out.join("labels.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    assert_eq!((images, labels), (5, 5));
+}
+
+#[test]
+fn numbers_are_checked_before_they_size_anything() {
+    let layout = root().join("fixtures/forearm/layout.json");
+    let rec = root().join("fixtures/forearm/touches.txt");
+    let d = tempfile::tempdir().unwrap();
+    let o_dir = d.path().join("o");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["busmap", "--layout", s(&layout), "--buses", "4294967295"],
+            "1 to 64",
+        ),
+        (
+            vec![
+                "synth",
+                "--layout",
+                s(&layout),
+                "--count",
+                "4000000000",
+                "-o",
+                s(&o_dir),
+            ],
+            "1 to 1000000",
+        ),
+        (
+            vec![
+                "synth",
+                "--layout",
+                s(&layout),
+                "--count",
+                "10",
+                "--size",
+                "50000x50000",
+                "-o",
+                s(&o_dir),
+            ],
+            "4096",
+        ),
+        (
+            vec![
+                "image",
+                "--map",
+                s(&layout),
+                s(&rec),
+                "--size",
+                "100000x100000",
+                "-o",
+                s(&o_dir),
+            ],
+            "4096",
+        ),
+        (
+            vec![
+                "image",
+                "--map",
+                s(&layout),
+                s(&rec),
+                "--step-mm",
+                "0.0001",
+                "-o",
+                s(&o_dir),
+            ],
+            "0.01",
+        ),
+        (
+            vec![
+                "image",
+                "--map",
+                s(&layout),
+                s(&rec),
+                "--threshold",
+                "NaN",
+                "-o",
+                s(&o_dir),
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "stitch",
+                "--layout",
+                s(&layout),
+                "--poses",
+                s(&layout),
+                "--threshold",
+                "NaN",
+                "-o",
+                s(&o_dir),
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "stitch",
+                "--layout",
+                s(&layout),
+                "--poses",
+                s(&layout),
+                "--max-edge-mm",
+                "NaN",
+                "-o",
+                s(&o_dir),
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "degrade",
+                "--map",
+                s(&layout),
+                "--remove",
+                "NaN",
+                "-o",
+                "/dev/null",
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                s(&layout),
+                "--dataset",
+                s(&o_dir),
+                "--test-fraction=-0.5",
+            ],
+            "from 0 to 1",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                s(&layout),
+                "--dataset",
+                s(&o_dir),
+                "--test-fraction",
+                "2",
+            ],
+            "from 0 to 1",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                s(&layout),
+                "--dataset",
+                s(&o_dir),
+                "--patterns",
+                "0",
+            ],
+            "1 to 10000",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                s(&layout),
+                "--dataset",
+                s(&o_dir),
+                "--threads",
+                "100000",
+            ],
+            "1 to 256",
+        ),
+        (vec!["reach", "--trials", "0"], "1 to 100000"),
+        (
+            vec!["classify", "--model", s(&layout), s(&rec), "--threshold", "NaN"],
+            "finite",
+        ),
+    ];
+    for (args, want) in &cases {
+        let o = skin(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err(&o).contains(want), "{args:?}: {}", err(&o));
+    }
+    assert!(!o_dir.exists(), "a refused command created its output");
+    // Many buses for few modules: every bus carries some.
+    let o = skin(&["busmap", "--layout", s(&layout), "--buses", "60"]);
+    assert!(o.status.success(), "{}", err(&o));
+    let map = String::from_utf8_lossy(&o.stdout).into_owned();
+    let buses: Vec<&str> = map.split("[[bus]]").skip(1).collect();
+    assert_eq!(buses.len(), 60);
+    assert!(buses.iter().all(|b| b.contains("address")), "an empty bus");
+}
+
+#[test]
+fn busmap_covers_every_link_of_a_layout() {
+    let o = skin(&["busmap", "--layout", s(&root().join("fixtures/arm/layout.json"))]);
+    assert!(o.status.success(), "{}", err(&o));
+    let map = String::from_utf8_lossy(&o.stdout).into_owned();
+    let layout = skin_core::format::native::read_layout(&root().join("fixtures/arm/layout.json")).unwrap();
+    assert!(layout.links.len() > 1);
+    for link in &layout.links {
+        for t in &link.taxels {
+            assert!(
+                map.contains(&format!(" {},", t.id))
+                    || map.contains(&format!("[{},", t.id))
+                    || map.contains(&format!(" {}]", t.id)),
+                "taxel {} of {}",
+                t.id,
+                link.name
+            );
+        }
+    }
+}
+
+#[test]
+fn config_values_are_closed_sets_and_checked() {
+    let d = tempfile::tempdir().unwrap();
+    let fx = root().join("fixtures");
+    let base = format!(
+        "layout = \"{}\"\nbusmap = \"{}\"\n",
+        fx.join("forearm/layout.json").display(),
+        fx.join("forearm/busmap.toml").display()
+    );
+    let log = fx.join("forearm/touches.candump.log");
+    for (extra, want) in [
+        ("[gate]\nhand = \"explode\"\n", "comply"),
+        ("[touch]\nreclassify_growth = nan\n", "reclassify_growth"),
+        ("[baseline]\npolarity = \"up\"\n", "rising"),
+        ("[touch]\nrelease_frames = 0\n", "release_frames"),
+    ] {
+        let config = d.path().join("run.toml");
+        std::fs::write(&config, format!("{base}{extra}")).unwrap();
+        let o = skin(&[
+            "run",
+            s(&config),
+            "--log",
+            s(&log),
+            "-o",
+            s(&d.path().join("out")),
+            "-q",
+        ]);
+        assert!(!o.status.success(), "{extra} accepted");
+        assert!(err(&o).contains(want), "{extra}: {}", err(&o));
+    }
+}
+
+#[test]
+fn classify_refuses_images_that_are_not_8_bit_grey() {
+    let d = tempfile::tempdir().unwrap();
+    let model = root().join("fixtures/models/handsnet.onnx");
+    let rgb = d.path().join("rgb.png");
+    image::RgbImage::new(100, 68).save(&rgb).unwrap();
+    let deep = d.path().join("deep.png");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::new(100, 68)
+        .save(&deep)
+        .unwrap();
+    for p in [&rgb, &deep] {
+        let o = skin(&["classify", "--model", s(&model), s(p)]);
+        assert!(
+            !o.status.success() && err(&o).contains("8-bit grey"),
+            "{}",
+            err(&o)
+        );
+    }
+    // A model path that is a folder is named as one.
+    let o = skin(&["classify", "--model", s(d.path()), s(&rgb)]);
+    assert!(!o.status.success() && err(&o).contains("a folder"), "{}", err(&o));
+}
+
+#[test]
+fn a_taxel_a_world_away_is_refused_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("fixtures/forearm/layout.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["links"][0]["taxels"][3]["position"][0] = serde_json::json!(1e308);
+    let bad = d.path().join("far.json");
+    std::fs::write(&bad, v.to_string()).unwrap();
+    let o = skin(&["flatten", s(&bad), "-o", s(&d.path().join("m.json"))]);
+    assert!(!o.status.success(), "flattened a taxel at 1e308 m");
+    assert!(
+        err(&o).contains("index 3") && err(&o).contains("100 m"),
+        "{}",
+        err(&o)
+    );
+    // A taxel of the wrong shape is named, not blamed on line 0, column 0.
+    v["links"][0]["taxels"][5]["normal"] = serde_json::json!("up");
+    std::fs::write(&bad, v.to_string()).unwrap();
+    let o = skin(&["flatten", s(&bad), "-o", s(&d.path().join("m.json"))]);
+    assert!(
+        err(&o).contains("index 5") && !err(&o).contains(":0:0"),
+        "{}",
+        err(&o)
+    );
+}
+
+#[test]
+fn a_repeated_taxel_id_in_a_recording_header_names_both_columns() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("fixtures/forearm/touches.txt")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let mut ids: Vec<&str> = lines[0].split_whitespace().collect();
+    let first = ids[0].to_owned();
+    ids[4] = &first;
+    lines[0] = ids.join(" ");
+    let rec = d.path().join("dup.txt");
+    std::fs::write(&rec, lines.join("\n")).unwrap();
+    let map = root().join("fixtures/forearm/layout.json");
+    let o = skin(&[
+        "image",
+        "--map",
+        s(&map),
+        s(&rec),
+        "-o",
+        s(&d.path().join("out")),
+        "-q",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        err(&o).contains("field 5") && err(&o).contains("field 1"),
+        "{}",
+        err(&o)
+    );
+    // A 10 MB field is quoted by its start only.
+    let long = "x".repeat(10_000_000);
+    std::fs::write(&rec, format!("{long}\n")).unwrap();
+    let o = skin(&[
+        "image",
+        "--map",
+        s(&map),
+        s(&rec),
+        "-o",
+        s(&d.path().join("out")),
+        "-q",
+    ]);
+    assert!(
+        !o.status.success() && err(&o).len() < 1000,
+        "{} bytes",
+        err(&o).len()
+    );
+}
+
+#[test]
+fn candump_error_frames_are_counted_and_skipped() {
+    let d = tempfile::tempdir().unwrap();
+    let fx = root().join("fixtures/forearm");
+    let text = std::fs::read_to_string(fx.join("touches.candump.log")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    let error = "(1700000000.000001) can0 20000080#0000000000000000";
+    lines.insert(5, error);
+    let log = d.path().join("with_errors.log");
+    std::fs::write(&log, lines.join("\n")).unwrap();
+    let o = skin(&["replay", s(&log), "--busmap", s(&fx.join("busmap.toml"))]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", err(&o));
+    assert!(out.contains("error frames in the log, skipped: 1"), "{out}");
+}
+
+#[test]
+fn a_capsule_too_large_for_the_collision_library_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = d.path().join("scene.json");
+    std::fs::write(
+        &scene,
+        r#"{"obstacles": [{"type": "capsule", "a": [0.5, -0.2, 0.3], "b": [0.5, 0.2, 0.3], "radius": 1e100}],
+            "goals": [[0.4, 0.0, 0.4]]}"#,
+    )
+    .unwrap();
+    for cmd in ["reach", "phri"] {
+        let o = skin(&[cmd, "--scene", s(&scene)]);
+        assert!(!o.status.success(), "{cmd}");
+        assert!(
+            err(&o).contains("radius") && !err(&o).contains("panicked"),
+            "{cmd}: {}",
+            err(&o)
+        );
+    }
+    std::fs::write(&scene, r#"{"goals": [[0.4, 0.0, 0.4]], "rate": 1e9}"#).unwrap();
+    let o = skin(&["reach", "--scene", s(&scene)]);
+    assert!(!o.status.success() && err(&o).contains("rate"), "{}", err(&o));
+}
