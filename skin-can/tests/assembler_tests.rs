@@ -62,6 +62,7 @@ fn a_clean_log_decodes_to_exactly_the_values_written() {
     let log = CandumpLog {
         interfaces: vec!["can0".into(), "can1".into()],
         frames,
+        error_frames: 0,
     };
     let back = CandumpLog::parse(&log.to_text(), Path::new("x.log")).unwrap();
     let (out, stats) = assemble(&back.frames);

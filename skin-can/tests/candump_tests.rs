@@ -97,6 +97,7 @@ proptest! {
         let log = CandumpLog {
             interfaces: vec!["can0".into(), "can1".into(), "can2".into(), "can3".into()],
             frames,
+            error_frames: 0,
         };
         let text = log.to_text();
         let back = CandumpLog::parse(&text, Path::new("x")).unwrap();

@@ -82,6 +82,7 @@ fn one_message_per_board_and_window_gives_exactly_the_values_written() {
     let log = CandumpLog {
         interfaces: vec!["can0".into(), "can1".into()],
         frames,
+        error_frames: 0,
     };
     let log = CandumpLog::parse(&log.to_text(), Path::new("icub.log")).unwrap();
     let (out, stats) = assemble(&log.frames);

@@ -108,7 +108,15 @@ fn remove_ours(path: &Path) {
 /// The files a command reads, so that no output lands on one of them.
 #[derive(Default, Debug, Clone)]
 pub struct Inputs {
-    files: Vec<(PathBuf, PathBuf, Option<(u64, u64)>)>,
+    files: Vec<Input>,
+}
+
+/// One input: the path as given, its canonical path, and its device and inode.
+#[derive(Debug, Clone)]
+struct Input {
+    given: PathBuf,
+    canonical: PathBuf,
+    id: Option<(u64, u64)>,
 }
 
 impl Inputs {
@@ -127,7 +135,11 @@ impl Inputs {
             return;
         };
         let id = std::fs::metadata(&canonical).ok().map(|m| file_id(&m));
-        self.files.push((path.to_owned(), canonical, id));
+        self.files.push(Input {
+            given: path.to_owned(),
+            canonical,
+            id,
+        });
     }
 
     /// The input that `path` is, if any.
@@ -136,8 +148,8 @@ impl Inputs {
         let id = std::fs::metadata(path).ok().map(|m| file_id(&m));
         self.files
             .iter()
-            .find(|(_, c, i)| canonical.as_deref() == Some(c.as_path()) || (id.is_some() && *i == id))
-            .map(|(p, _, _)| p.as_path())
+            .find(|f| canonical.as_deref() == Some(f.canonical.as_path()) || (id.is_some() && f.id == id))
+            .map(|f| f.given.as_path())
     }
 
     /// Refuses `output` if it is one of the inputs.

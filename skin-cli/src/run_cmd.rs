@@ -558,10 +558,10 @@ fn cached_map(layout: &Path, layout_hash: u64, cache: &Path, link: &LinkSkin) ->
         })
         .collect();
     let path = cache.join(format!("{safe}-{h:016x}.map.json"));
-    if path.is_file() {
-        if let Ok(map) = TactileMap::read(&path) {
-            return Ok(map);
-        }
+    if path.is_file()
+        && let Ok(map) = TactileMap::read(&path)
+    {
+        return Ok(map);
     }
     let map = TactileMap::flatten(link, &skin_geom::FlattenOptions::default())
         .with_context(|| format!("{}: link {}", layout.display(), link.name))?;
