@@ -82,29 +82,24 @@ impl Tally {
         for (what, n) in &s.malformed {
             crate::say!("malformed CAN frames: {n} {what}");
         }
-        if s.ignored > 0 {
-            crate::say!(
-                "other CAN frames (other protocols or interfaces, not skin data): {}",
-                s.ignored
-            );
-        }
-        if s.skipped > 0 {
-            crate::say!("cycles in which nothing arrived: {}", s.skipped);
-        }
-        if s.counter_resets > 0 {
-            crate::say!(
-                "sync counter restarted {} time(s) (recordings joined or a hub reset); the cycles after it are kept, numbered on by time",
-                s.counter_resets
-            );
-        }
-        if s.remote > 0 {
-            crate::say!("remote requests (no data), skipped: {}", s.remote);
-        }
-        if s.time_backwards > 0 {
-            crate::say!(
-                "CAN frames stamped earlier than the frame before them on their interface (kept in log order): {}",
-                s.time_backwards
-            );
+        let counts = [
+            (
+                s.ignored,
+                "other CAN frames (other protocols or interfaces, not skin data)",
+            ),
+            (s.skipped, "cycles in which nothing arrived"),
+            (
+                s.counter_resets,
+                "sync counter restarts (recordings joined or a hub reset; the cycles after each are kept, numbered on by time)",
+            ),
+            (s.remote, "remote requests (no data), skipped"),
+            (
+                s.time_backwards,
+                "CAN frames stamped earlier than the frame before them on their interface (kept in log order)",
+            ),
+        ];
+        for (n, what) in counts.iter().filter(|(n, _)| *n > 0) {
+            crate::say!("{what}: {n}");
         }
     }
 }
