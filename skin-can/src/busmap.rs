@@ -202,17 +202,26 @@ impl BusMap {
             ));
         }
         let modules: Vec<Vec<i64>> = modules.into_values().collect();
+        let even = (buses - 1) * per_bus >= modules.len();
         let map = BusMap {
             format,
             buses: (0..buses)
                 .map(|b| BusSpec {
                     interface: format!("can{b}"),
-                    // Consecutive blocks, the first `m % buses` one module larger: no bus is
-                    // left empty (blocks of `per_bus` would leave the last ones empty).
+                    // Consecutive blocks of `per_bus`; where those would leave the last buses
+                    // empty (65 modules on 60 buses), blocks as even as can be instead.
                     modules: modules
                         .iter()
-                        .skip(b * (modules.len() / buses) + b.min(modules.len() % buses))
-                        .take(modules.len() / buses + usize::from(b < modules.len() % buses))
+                        .skip(if even {
+                            b * (modules.len() / buses) + b.min(modules.len() % buses)
+                        } else {
+                            b * per_bus
+                        })
+                        .take(if even {
+                            modules.len() / buses + usize::from(b < modules.len() % buses)
+                        } else {
+                            per_bus
+                        })
                         .enumerate()
                         .map(|(a, taxels)| ModuleMap {
                             address: a as u32,
