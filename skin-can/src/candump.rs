@@ -13,6 +13,7 @@
 //! number: skin traffic is classic CAN.
 
 use crate::{Error, Result};
+use skin_core::format::excerpt;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -179,11 +180,6 @@ impl<T: Into<String>> From<T> for Bad {
 
 /// The CAN_ERR_FLAG bit of a SocketCAN identifier.
 const ERROR_FLAG: u32 = 0x2000_0000;
-
-/// At most this many characters of a bad field are quoted in a message.
-fn excerpt(s: &str) -> String {
-    skin_core::format::excerpt(s)
-}
 
 fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<CanFrame, Bad> {
     let mut fields = line.split_ascii_whitespace();

@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail};
 use skin_can::{BusMap, WireFormat};
+use skin_core::LinkSkin;
 use std::path::PathBuf;
 
 /// Write a bus map (TOML) for a layout whose taxel ids follow the Cyskin convention
@@ -35,7 +36,10 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(out) = &args.output {
         inputs.check(out)?;
     }
-    let ids = crate::flatten::load_all_ids(&args.layout)?;
+    let ids: Vec<_> = crate::flatten::load_links(&args.layout)?
+        .iter()
+        .flat_map(LinkSkin::ids)
+        .collect();
     let format = match args.format {
         Format::Skin16 => WireFormat::Skin16,
         Format::Icub8 => WireFormat::Icub8,

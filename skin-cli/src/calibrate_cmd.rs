@@ -147,7 +147,10 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
 
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.probes), args.truth.as_ref()].into_iter().flatten());
-    crate::output::distinct(&[("-o", Some(&args.output)), ("--plot", args.plot.as_ref())])?;
+    crate::output::distinct(&[
+        ("-o", Some(args.output.as_path())),
+        ("--plot", args.plot.as_deref()),
+    ])?;
     for out in [Some(&args.output), args.plot.as_ref()].into_iter().flatten() {
         inputs.check(out)?;
     }

@@ -40,7 +40,10 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.map]);
-    crate::output::distinct(&[("-o", Some(&args.output)), ("--svg", args.svg.as_ref())])?;
+    crate::output::distinct(&[
+        ("-o", Some(args.output.as_path())),
+        ("--svg", args.svg.as_deref()),
+    ])?;
     inputs.check(&args.output)?;
     if let Some(svg) = &args.svg {
         inputs.check(svg)?;

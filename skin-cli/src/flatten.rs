@@ -49,7 +49,10 @@ enum MapFormat {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.input), args.mesh.as_ref()].into_iter().flatten());
-    crate::output::distinct(&[("-o", Some(&args.output)), ("--svg", args.svg.as_ref())])?;
+    crate::output::distinct(&[
+        ("-o", Some(args.output.as_path())),
+        ("--svg", args.svg.as_deref()),
+    ])?;
     inputs.check(&args.output)?;
     if let Some(svg) = &args.svg {
         inputs.check(svg)?;
@@ -92,12 +95,17 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Every taxel id of a layout: all links of a project layout, else the one link the file holds.
-pub(crate) fn load_all_ids(path: &Path) -> Result<Vec<skin_core::TaxelId>> {
-    if let Ok(layout) = skin_core::format::native::read_layout(path) {
-        return Ok(layout.links.iter().flat_map(|l| l.ids()).collect());
+/// All links of a skin-layout/1 file, or the one link of any other layout file.
+pub(crate) fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if text.contains("skin-layout/") {
+        let layout = skin_core::format::native::read_layout(path)?;
+        if layout.links.is_empty() {
+            bail!("{}: the layout has no link", path.display());
+        }
+        return Ok(layout.links);
     }
-    Ok(load_input(path)?.ids())
+    Ok(vec![crate::flatten::load_input(path)?])
 }
 
 pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {

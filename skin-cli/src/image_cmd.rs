@@ -107,7 +107,7 @@ pub(crate) fn frame_names(frame_numbers: &[u64]) -> (Vec<String>, usize) {
 
 pub fn run(args: Args) -> Result<()> {
     let sources = crate::output::Inputs::new(std::iter::once(&args.map).chain(&args.frames));
-    let out = crate::output::OutputDir::create(&args.output, "skin image", args.force, &sources)?;
+    let out = crate::output::open_dir(&args.output, "skin image", args.force, &sources)?;
     let map = load_map(&args.map)?;
     let grid = match args.grid {
         Some((rows, cols)) => Grid::Size { rows, cols },

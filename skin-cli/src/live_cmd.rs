@@ -93,10 +93,7 @@ pub fn record(args: RecordArgs) -> Result<()> {
 
 fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: bool) -> Result<()> {
     let inputs = crate::output::Inputs::new([&common.busmap]);
-    crate::output::distinct(&[
-        ("--record", record.map(Path::to_path_buf).as_ref()),
-        ("-o", csv.map(Path::to_path_buf).as_ref()),
-    ])?;
+    crate::output::distinct(&[("--record", record), ("-o", csv)])?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
         bail!("--period-ms must be at least 0.1, not {}", common.period_ms);

@@ -7,6 +7,7 @@ use serde::Deserialize;
 use serde_json::json;
 use skin_can::candump::CandumpLog;
 use skin_can::{AssembledFrame, Assembler, BusMap};
+use skin_control::hri::GateAction;
 use skin_core::{Baseline, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
 use skin_geom::TactileMap;
 use skin_learn::card::ModelCard;
@@ -133,31 +134,6 @@ struct BaselineConfig {
     polarity: Polarity,
 }
 
-/// What the robot should do while a touch of a class is in progress (`[gate]`).
-#[derive(Deserialize, Clone, Copy, PartialEq, Eq, Debug)]
-#[serde(rename_all = "snake_case")]
-enum GateAction {
-    /// Stop the motion (the most severe: it wins over any other touch in progress).
-    Stop,
-    /// Yield to the contact (compliance).
-    Comply,
-    /// Go on more slowly.
-    Slow,
-    /// Go on as before.
-    Resume,
-}
-
-impl GateAction {
-    fn name(self) -> &'static str {
-        match self {
-            GateAction::Stop => "stop",
-            GateAction::Comply => "comply",
-            GateAction::Slow => "slow",
-            GateAction::Resume => "resume",
-        }
-    }
-}
-
 impl Default for BaselineConfig {
     fn default() -> Self {
         BaselineConfig {
@@ -281,7 +257,7 @@ struct Output {
 pub fn run(args: Args) -> Result<()> {
     // Before the maps are built and cached: a refused folder costs nothing and writes nothing.
     if let Some(dir) = &args.output {
-        OutputDir::precheck(dir, "skin run", args.force)?;
+        crate::output::precheck_dir(dir, "skin run", args.force)?;
     }
     let mut setup = load(&args.config)?;
     let mut inputs = Inputs::new(std::iter::once(&args.config).chain(&args.log));
@@ -396,7 +372,7 @@ fn load(config_path: &Path) -> Result<Setup> {
         None => (68, 100),
     };
 
-    let links = read_links(&layout_path)?;
+    let links = crate::flatten::load_links(&layout_path)?;
     let busmap = BusMap::read(&busmap_path)?;
     let mut where_is = std::collections::HashMap::new();
     for (l, link) in links.iter().enumerate() {
@@ -520,19 +496,6 @@ fn check_size(model: &Path, got: (usize, usize), want: (usize, usize), config: &
         );
     }
     Ok(())
-}
-
-/// All links of a skin-layout/1 file, or the one link of any other layout file.
-fn read_links(path: &Path) -> Result<Vec<LinkSkin>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if text.contains("skin-layout/") {
-        let layout = skin_core::format::native::read_layout(path)?;
-        if layout.links.is_empty() {
-            bail!("{}: the layout has no link", path.display());
-        }
-        return Ok(layout.links);
-    }
-    Ok(vec![crate::flatten::load_input(path)?])
 }
 
 /// FNV-1a of `bytes` continued from `h`: stable across runs and machines, unlike std's hasher.
@@ -728,7 +691,7 @@ impl Output {
     fn new(dir: Option<&Path>, force: bool, inputs: &Inputs, live: bool, frames: bool) -> Result<Output> {
         let dir = match dir {
             Some(d) => {
-                let out = OutputDir::create(d, "skin run", force, inputs)?;
+                let out = crate::output::open_dir(d, "skin run", force, inputs)?;
                 std::fs::create_dir(out.path().join("touches"))
                     .with_context(|| format!("cannot write into {}", d.display()))?;
                 Some(out)

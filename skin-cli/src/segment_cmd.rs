@@ -62,7 +62,7 @@ pub fn run(args: Args) -> Result<()> {
             .chain(&args.run.inputs)
             .chain(&args.run.map),
     );
-    let out = crate::output::OutputDir::create(&args.output, "skin segment", args.force, &sources)?;
+    let out = crate::output::open_dir(&args.output, "skin segment", args.force, &sources)?;
     crate::say!(
         "{}: [N, 1, {h}, {w}] -> {} classes per pixel",
         args.run.model.display(),

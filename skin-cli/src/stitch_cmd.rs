@@ -62,7 +62,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let sources = crate::output::Inputs::new([&args.layout, &args.poses].into_iter().chain(&args.frames));
-    let out = crate::output::OutputDir::create(&args.output, "skin stitch", args.force, &sources)?;
+    let out = crate::output::open_dir(&args.output, "skin stitch", args.force, &sources)?;
     let stems = crate::image_cmd::output_names(&args.frames)?;
     let threshold = args.threshold as f32;
     let layout = native::read_layout(&args.layout)?;

@@ -75,7 +75,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let sources = crate::output::Inputs::new([&args.layout]);
-    let out = crate::output::OutputDir::create(&args.output, "skin synth", args.force, &sources)?;
+    let out = crate::output::open_dir(&args.output, "skin synth", args.force, &sources)?;
     let subjects = args
         .subjects
         .unwrap_or(args.count.div_ceil(40))
@@ -116,17 +116,21 @@ pub fn run(args: Args) -> Result<()> {
     bar.finish_and_clear();
 
     let mut writer = DatasetWriter::create(out.path(), &map.ids, &map.to_json(), args.size)
-        .map_err(|e| out.user_error(e.into()))?;
+        .map_err(|e| crate::output::user_error(&out, e.into()))?;
     let mut kinds: BTreeMap<(bool, &str), usize> = BTreeMap::new();
     let (mut partial, mut tips, mut hands) = (0, 0, 0);
     for (i, s) in &samples {
-        writer.add(*i, s).map_err(|e| out.user_error(e.into()))?;
+        writer
+            .add(*i, s)
+            .map_err(|e| crate::output::user_error(&out, e.into()))?;
         *kinds.entry((!s.kind.is_hand(), s.kind.name())).or_default() += 1;
         hands += usize::from(s.kind.is_hand());
         partial += usize::from(s.partial);
         tips += usize::from(s.fingertips_only);
     }
-    writer.finish().map_err(|e| out.user_error(e.into()))?;
+    writer
+        .finish()
+        .map_err(|e| crate::output::user_error(&out, e.into()))?;
     out.commit()?;
     crate::say!(
         "{}: {} samples of {subjects} subjects on {} ({} taxels): {hands} hands, {} other contacts; {partial} partly off the skin, {tips} fingertips only",

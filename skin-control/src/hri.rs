@@ -27,6 +27,37 @@ pub trait ContactGate {
     fn allows(&mut self, link: &str, contacts: &[Contact]) -> bool;
 }
 
+/// What the robot does while a touch of some class is in progress (a configuration's `[gate]`
+/// maps each class to one, e.g. hand -> comply, non_hand -> stop).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(rename_all = "snake_case")
+)]
+pub enum GateAction {
+    /// Stop the motion (the most severe: it wins over any other touch in progress).
+    Stop,
+    /// Yield to the contact (compliance).
+    Comply,
+    /// Go on more slowly.
+    Slow,
+    /// Go on as before.
+    Resume,
+}
+
+impl GateAction {
+    /// The action's name as configuration files and events write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            GateAction::Stop => "stop",
+            GateAction::Comply => "comply",
+            GateAction::Slow => "slow",
+            GateAction::Resume => "resume",
+        }
+    }
+}
+
 /// A gate that lets every contact through.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct AllowAll;

@@ -12,6 +12,10 @@
 //!   dead or stuck taxels found while learning it;
 //! - [`ContactFinder`] and [`Contact`]: the connected patches of pressed taxels in a frame.
 //!
+//! [`output`] writes a user's outputs without putting their files at risk: an input is never
+//! overwritten, files and folders are built aside and moved into place when complete, a folder
+//! holding other files is left alone.
+//!
 //! File formats live in [`format`]: the project's own JSON layout, Cyskin calibration JSON (read and
 //! write), iCub `positions/*.txt` taxel files, and Cyskin raw recordings (read and write).
 //!
@@ -41,6 +45,7 @@ mod error;
 pub mod format;
 mod frame;
 mod layout;
+pub mod output;
 mod taxel;
 
 pub use baseline::{Baseline, BaselineOptions, Polarity, TaxelHealth};
