@@ -3,22 +3,15 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+#[path = "../../test-support/cli.rs"]
+mod cli_support;
+use cli_support::{root, skin};
 
 #[path = "../../test-support/shared_data.rs"]
 mod shared_data;
 use shared_data::shared;
-
-fn skin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 fn fixture(name: &str) -> String {
     root().join("fixtures/forearm").join(name).display().to_string()

@@ -3,22 +3,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn skin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("..")
-        .canonicalize()
-        .unwrap()
-}
+#[path = "../../test-support/cli.rs"]
+mod cli_support;
+use cli_support::{root, skin};
 
 fn log() -> String {
     root()

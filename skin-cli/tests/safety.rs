@@ -6,16 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn skin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+#[path = "../../test-support/cli.rs"]
+mod cli_support;
+use cli_support::{root, skin};
 
 fn err(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
