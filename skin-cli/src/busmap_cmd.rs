@@ -33,9 +33,7 @@ enum Format {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
-    if let Some(out) = &args.output {
-        inputs.check(out)?;
-    }
+    inputs.check_outputs(&[("-o", args.output.as_deref())])?;
     let ids: Vec<_> = crate::flatten::load_links(&args.layout)?
         .iter()
         .flat_map(LinkSkin::ids)

@@ -95,7 +95,7 @@ pub struct ProbeSimArgs {
 
 pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
-    inputs.check(&args.output)?;
+    inputs.check_outputs(&[("-o", Some(&args.output))])?;
     let link = crate::flatten::load_input(&args.layout)?;
     if link.taxels.is_empty() {
         bail!("{}: no taxels", args.layout.display());
@@ -147,13 +147,7 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
 
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.probes), args.truth.as_ref()].into_iter().flatten());
-    crate::output::distinct(&[
-        ("-o", Some(args.output.as_path())),
-        ("--plot", args.plot.as_deref()),
-    ])?;
-    for out in [Some(&args.output), args.plot.as_ref()].into_iter().flatten() {
-        inputs.check(out)?;
-    }
+    inputs.check_outputs(&[("-o", Some(&args.output)), ("--plot", args.plot.as_deref())])?;
     let dataset = ProbeDataset::read(&args.probes)?;
     if args.plot.is_some() && args.truth.is_none() {
         bail!("--plot draws the error against the truth: give --truth too");

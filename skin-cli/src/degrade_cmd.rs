@@ -40,14 +40,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.map]);
-    crate::output::distinct(&[
-        ("-o", Some(args.output.as_path())),
-        ("--svg", args.svg.as_deref()),
-    ])?;
-    inputs.check(&args.output)?;
-    if let Some(svg) = &args.svg {
-        inputs.check(svg)?;
-    }
+    inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
     let map = crate::image_cmd::load_map(&args.map)?;
     let degraded = match (args.blind_spots, args.radius_mm, args.remove) {
         (Some(spots), Some(radius_mm), None) => {

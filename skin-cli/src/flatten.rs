@@ -49,14 +49,7 @@ enum MapFormat {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.input), args.mesh.as_ref()].into_iter().flatten());
-    crate::output::distinct(&[
-        ("-o", Some(args.output.as_path())),
-        ("--svg", args.svg.as_deref()),
-    ])?;
-    inputs.check(&args.output)?;
-    if let Some(svg) = &args.svg {
-        inputs.check(svg)?;
-    }
+    inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
     let mut link = load_input(&args.input)?;
     if let Some(mesh_path) = &args.mesh {
         let mesh = load_mesh_file(mesh_path)?;

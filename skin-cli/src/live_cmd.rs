@@ -93,7 +93,7 @@ pub fn record(args: RecordArgs) -> Result<()> {
 
 fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: bool) -> Result<()> {
     let inputs = crate::output::Inputs::new([&common.busmap]);
-    crate::output::distinct(&[("--record", record), ("-o", csv)])?;
+    inputs.check_outputs(&[("--record", record), ("-o", csv)])?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
         bail!("--period-ms must be at least 0.1, not {}", common.period_ms);
@@ -113,9 +113,6 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
         sync_period: common.master.then_some(period),
         ..LiveOptions::default()
     };
-    if let Some(csv) = csv {
-        inputs.check(csv)?;
-    }
     let mut sinks = Sinks::new(record, csv, &map, status, &inputs)?;
     let ports = open_ports(&names)?;
     crate::output::stop_gracefully();

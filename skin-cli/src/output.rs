@@ -1,7 +1,7 @@
 //! The command line's side of the output rules (`skin_core::output` holds the rules): what
 //! Ctrl-C and SIGTERM do, and the `--force` hint.
 
-pub use skin_core::output::{Inputs, OutputDir, OutputError, OutputFile, distinct, write_file};
+pub use skin_core::output::{Inputs, OutputDir, OutputError, OutputFile, write_file};
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -34,10 +34,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new(args.scene.as_ref());
-    crate::output::distinct(&[("--svg", args.svg.as_deref()), ("--csv", args.csv.as_deref())])?;
-    for out in [&args.svg, &args.csv].into_iter().flatten() {
-        inputs.check(out)?;
-    }
+    inputs.check_outputs(&[("--svg", args.svg.as_deref()), ("--csv", args.csv.as_deref())])?;
     let scene = match &args.scene {
         Some(p) => skin_control::sim::Scene::from_file(p)?,
         None => phri::default_scene()?,

@@ -52,9 +52,7 @@ pub(crate) fn load_scene(path: &Option<PathBuf>) -> Result<Scene> {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new(args.scene.as_ref());
-    if let Some(out) = &args.csv {
-        inputs.check(out)?;
-    }
+    inputs.check_outputs(&[("--csv", args.csv.as_deref())])?;
     let mut scene = load_scene(&args.scene)?;
     if let Some(seed) = args.seed {
         scene.seed = seed;

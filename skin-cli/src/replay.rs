@@ -170,9 +170,7 @@ pub fn run(args: Args) -> Result<()> {
             .into_iter()
             .flatten(),
     );
-    if let Some(out) = &args.output {
-        inputs.check(out)?;
-    }
+    inputs.check_outputs(&[("-o", args.output.as_deref())])?;
     let map = BusMap::read(&args.busmap)?;
     if let Some(layout) = &args.layout {
         check_layout(&map, &args.busmap, layout)?;

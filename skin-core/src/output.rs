@@ -276,6 +276,16 @@ impl Inputs {
             .map(|f| f.given.as_path())
     }
 
+    /// Refuses outputs that are inputs, or that name one file twice (`-o map.json --svg
+    /// map.json`); each output is named as the user knows it (a flag) and may be absent.
+    pub fn check_outputs(&self, outputs: &[(&str, Option<&Path>)]) -> Result<()> {
+        distinct(outputs)?;
+        outputs
+            .iter()
+            .filter_map(|(_, p)| *p)
+            .try_for_each(|p| self.check(p))
+    }
+
     /// Refuses `output` if it is one of the inputs.
     pub fn check(&self, output: &Path) -> Result<()> {
         match self.find(output) {
