@@ -48,7 +48,8 @@ impl Error {
         }
     }
 
-    pub(crate) fn json(path: &Path, e: &serde_json::Error) -> Self {
+    /// A JSON error of the file at `path`, placed at its line and column.
+    pub fn json(path: &Path, e: &serde_json::Error) -> Self {
         // Errors found after parsing (the document's shape) have no position: say so rather
         // than point at line 0, column 0.
         if e.line() == 0 {

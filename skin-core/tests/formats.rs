@@ -71,6 +71,56 @@ fn truncated_json_names_the_file_and_line() {
 }
 
 #[test]
+fn a_huge_bad_field_is_quoted_by_its_first_characters_only() {
+    let long = "7".repeat(1_000_000) + "x";
+    let short = |e: Error| {
+        let e = e.to_string();
+        assert!(
+            e.len() < 300 && e.contains("bytes)"),
+            "{}",
+            &e[..e.len().min(400)]
+        );
+    };
+    short(recording::parse(&format!("16 {long}\n"), Path::new("r.txt")).unwrap_err());
+    short(recording::parse(&format!("16\n0 0.0 {long}\n"), Path::new("r.txt")).unwrap_err());
+    short(
+        icub::parse(
+            &format!("[calibration]\n0 0 {long} 0 0 1\n"),
+            Path::new("i.txt"),
+            icub::Duplicates::Merge,
+        )
+        .unwrap_err(),
+    );
+}
+
+#[test]
+fn a_value_beyond_the_physical_range_names_its_place_and_the_bound() {
+    let e = recording::parse("16 17\n0 0.0 1 3e9\n", Path::new("r.txt"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line 2 field 4 (taxel 17)") && e.contains("1e9"),
+        "{e}"
+    );
+    let mut link = small_link();
+    link.frame_to_parent = Some(nalgebra::Matrix4::new_translation(&nalgebra::Vector3::new(
+        0.0, 0.0, 1e6,
+    )));
+    let e = native::parse_layout(
+        &native::to_string(&skin_core::SkinLayout { links: vec![link] }),
+        Path::new("l.json"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("parent frame") && e.contains("100 m"), "{e}");
+    // A normal with a huge component still has a direction (its length overflowed before).
+    let text = r#"{"format": "skin-layout/1", "links": [{"name": "p", "taxels": [
+        {"id": 1, "position": [0, 0, 0], "normal": [1e308, 0, 1]}]}]}"#;
+    let l = native::parse_layout(text, Path::new("l.json")).unwrap();
+    assert!((l.links[0].taxels[0].normal.into_inner() - nalgebra::Vector3::x()).norm() < 1e-12);
+}
+
+#[test]
 fn a_non_finite_coordinate_names_the_taxel() {
     // JSON has no NaN; an overflowing number is the way such files carry one.
     let text = cyskin::skin_to_string(&small_link()).replacen("0.008", "1e999", 1);

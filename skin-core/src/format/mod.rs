@@ -115,8 +115,12 @@ pub(crate) fn make_taxel(path: &Path, place: &str, id: TaxelId, x: [f64; 3], n: 
         return Err(Error::invalid(path, place, format!("normal {n:?} is not finite")));
     }
     // Some files store normals that are not unit length: normalise them, but a zero normal
-    // carries no direction and cannot be repaired.
-    let normal = Unit::try_new(Vector3::from(n), 1e-12)
+    // carries no direction and cannot be repaired. Scaling by the largest component first keeps
+    // the length finite for components near f64::MAX and above zero for subnormal ones.
+    let largest = n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let normal = (largest > 0.0)
+        .then(|| Unit::try_new(Vector3::from(n) / largest, 0.5))
+        .flatten()
         .ok_or_else(|| Error::invalid(path, place, "normal has zero length"))?;
     Ok(Taxel {
         id,
@@ -134,6 +138,19 @@ pub(crate) fn check_link(path: &Path, link: &LinkSkin) -> Result<()> {
                 path,
                 format!("link \"{}\" taxel {} (index {i})", link.name, t.id),
                 format!("id already used by the taxel at index {first}"),
+            ));
+        }
+    }
+    if let Some(m) = &link.frame_to_parent {
+        // The frame places the link on the robot: its translation obeys the taxels' bound.
+        let t = m.fixed_view::<3, 1>(0, 3);
+        if m.iter().any(|v| !v.is_finite()) || t.iter().any(|v| v.abs() > MAX_POSITION_M) {
+            return Err(Error::invalid(
+                path,
+                format!("link \"{}\" parent frame", link.name),
+                format!(
+                    "the 4x4 transform must be finite, its translation within {MAX_POSITION_M} m (metres)"
+                ),
             ));
         }
     }

@@ -3,12 +3,17 @@
 //! Line 1 lists the taxel ids (Cyskin `module << 4 | channel`). Every following line is
 //! `frame_number time value value ...`: the frame number (integer), the time in seconds, then one
 //! reading per id, in the order of line 1. Readings are raw counts (integers in Cyskin files; any
-//! number is accepted).
+//! finite number within [`MAX_READING`] is accepted).
 
 use super::{read_text, write_text};
 use crate::{Error, Frame, Recording, Result, TaxelId};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// The largest reading accepted, in either sign. Readings are counts of a sensor's converter
+/// (16 bits on Cyskin, 8 on iCub); a value beyond this is garbage, and squared in a noise
+/// estimate it would overflow `f32`.
+pub const MAX_READING: f32 = 1e9;
 
 /// Reads a recording.
 pub fn read(path: &Path) -> Result<Recording> {
@@ -96,12 +101,15 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording> {
             let v: f32 = field
                 .parse()
                 .ok()
-                .filter(|v: &f32| v.is_finite())
+                .filter(|v: &f32| v.is_finite() && v.abs() <= MAX_READING)
                 .ok_or_else(|| {
                     Error::invalid(
                         path,
                         format!("line {lineno} field {} (taxel {})", k + 3, rec.taxel_ids[k]),
-                        format!("reading \"{}\" is not a finite number", super::excerpt(field)),
+                        format!(
+                            "reading \"{}\" is not a finite number within ±{MAX_READING:e} counts",
+                            super::excerpt(field)
+                        ),
                     )
                 })?;
             values.push(v);
