@@ -6,6 +6,7 @@
 
 use crate::{Error, Result};
 use nalgebra::{Point3, Unit, Vector3};
+use skin_core::format::MAX_POSITION_M;
 use skin_core::{LinkSkin, Taxel, TaxelId};
 use std::path::Path;
 
@@ -43,14 +44,17 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFileLink> {
         }
     };
     let n = mesh.vertices.len();
-    if let Some(i) = mesh
-        .vertices
-        .iter()
-        .position(|p| !p.coords.iter().all(|v| v.is_finite()))
-    {
+    if let Some(i) = mesh.vertices.iter().position(|p| {
+        !p.coords
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= MAX_POSITION_M)
+    }) {
         return Err(mesh_error(
             path,
-            format!("vertex {i} has a coordinate that is not finite"),
+            format!(
+                "vertex {i} at {:?} is not finite metres within {MAX_POSITION_M} m of the origin (positions are in metres)",
+                mesh.vertices[i].coords.as_slice()
+            ),
         ));
     }
     for (f, face) in mesh.faces.iter().enumerate() {
@@ -59,6 +63,11 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFileLink> {
                 path,
                 format!("face {f} uses vertex {v}, but there are {n} vertices"),
             ));
+        }
+        // A triangle on one vertex twice has no area and no normal; a layout's faces are held
+        // to the same rule.
+        if face[0] == face[1] || face[1] == face[2] || face[0] == face[2] {
+            return Err(mesh_error(path, format!("face {f} {face:?} repeats a vertex")));
         }
     }
     Ok(mesh)
@@ -128,48 +137,111 @@ fn load_obj(path: &Path) -> Result<MeshFileLink> {
 }
 
 fn load_gltf(path: &Path) -> Result<MeshFileLink> {
+    use gltf::json::accessor::{ComponentType, Type};
+    use gltf::json::mesh::{Mode, Semantic};
+    use gltf::json::validation::Checked;
     let bytes = std::fs::read(path).map_err(|e| mesh_error(path, e.to_string()))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| mesh_error(path, format!("glTF: {e}")))?;
+    // The gltf crate's validation and accessor reader index by the file's numbers without
+    // checking them all (a hostile file makes them panic), so the file is parsed without its
+    // validation and every number read below is checked here before it indexes anything.
+    // The GLB reader subtracts the header's size from the length the header declares.
+    if let Some(declared) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+        && declared < 12
+    {
+        return Err(mesh_error(
+            path,
+            format!("GLB: the header declares {declared} bytes, less than the header's 12"),
+        ));
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| mesh_error(path, format!("glTF: {e}")))?;
+    let root = gltf.document.as_json();
     let mut buffers: Vec<Vec<u8>> = Vec::new();
-    for buffer in gltf.buffers() {
-        let data = match buffer.source() {
-            gltf::buffer::Source::Bin => gltf
-                .blob
-                .clone()
-                .ok_or_else(|| mesh_error(path, "glTF: binary buffer missing"))?,
-            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
-                let file = path.parent().unwrap_or(Path::new(".")).join(uri);
-                std::fs::read(&file)
-                    .map_err(|e| mesh_error(path, format!("glTF buffer {}: {e}", file.display())))?
-            }
-            gltf::buffer::Source::Uri(_) => {
+    for (k, buffer) in root.buffers.iter().enumerate() {
+        let data = match buffer.uri.as_deref() {
+            None => gltf.blob.clone().ok_or_else(|| {
+                mesh_error(
+                    path,
+                    format!("glTF: buffer {k} has no uri and the file no binary chunk"),
+                )
+            })?,
+            Some(uri) if uri.starts_with("data:") => {
                 return Err(mesh_error(
                     path,
                     "glTF: embedded data URIs are not supported; save as .glb or with a separate .bin",
                 ));
             }
+            Some(uri) => {
+                let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+                std::fs::read(&file)
+                    .map_err(|e| mesh_error(path, format!("glTF buffer {}: {e}", file.display())))?
+            }
         };
+        let declared = buffer.byte_length.0;
+        if (data.len() as u64) < declared {
+            return Err(mesh_error(
+                path,
+                format!(
+                    "glTF: buffer {k} holds {} bytes but declares {declared}",
+                    data.len()
+                ),
+            ));
+        }
         buffers.push(data);
     }
     let mut mesh = MeshFileLink {
         vertices: Vec::new(),
         faces: Vec::new(),
     };
-    for m in gltf.meshes() {
-        for prim in m.primitives() {
-            if prim.mode() != gltf::mesh::Mode::Triangles {
+    for (m, json_mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in json_mesh.primitives.iter().enumerate() {
+            // Points and lines are not a surface.
+            if prim.mode != Checked::Valid(Mode::Triangles) {
                 continue;
             }
-            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+            let place = format!("mesh {m} primitive {p}");
+            let positions = prim
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+                .ok_or_else(|| mesh_error(path, format!("glTF: {place} has no positions")))?;
             let base = mesh.vertices.len();
-            let positions = reader
-                .read_positions()
-                .ok_or_else(|| mesh_error(path, "glTF: a primitive has no positions"))?;
-            mesh.vertices
-                .extend(positions.map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))));
+            let (_, items) = elements(
+                path,
+                root,
+                &buffers,
+                positions.value(),
+                &place,
+                &[(ComponentType::F32, Type::Vec3)],
+            )?;
+            mesh.vertices.extend(items.iter().map(|b| {
+                let c = |k: usize| {
+                    f64::from(f32::from_le_bytes([
+                        b[4 * k],
+                        b[4 * k + 1],
+                        b[4 * k + 2],
+                        b[4 * k + 3],
+                    ]))
+                };
+                Point3::new(c(0), c(1), c(2))
+            }));
             let count = mesh.vertices.len() - base;
-            let indices: Vec<usize> = match reader.read_indices() {
-                Some(ix) => ix.into_u32().map(|i| i as usize).collect(),
+            let indices: Vec<usize> = match prim.indices {
+                Some(ix) => {
+                    let allowed = [ComponentType::U8, ComponentType::U16, ComponentType::U32]
+                        .map(|c| (c, Type::Scalar));
+                    let (kind, items) = elements(path, root, &buffers, ix.value(), &place, &allowed)?;
+                    items
+                        .iter()
+                        .map(|b| match kind {
+                            ComponentType::U8 => usize::from(b[0]),
+                            ComponentType::U16 => usize::from(u16::from_le_bytes([b[0], b[1]])),
+                            _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+                        })
+                        .collect()
+                }
                 None => (0..count).collect(),
             };
             mesh.faces.extend(
@@ -180,6 +252,83 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
         }
     }
     Ok(mesh)
+}
+
+/// The bytes of each element of accessor `index`, after checking that the accessor, its view and
+/// its buffer exist, that it is one of `allowed` (component, type), and that every element lies
+/// inside the view and the view inside the buffer. Returns the component type too.
+fn elements<'a>(
+    path: &Path,
+    root: &gltf::json::Root,
+    buffers: &'a [Vec<u8>],
+    index: usize,
+    place: &str,
+    allowed: &[(gltf::json::accessor::ComponentType, gltf::json::accessor::Type)],
+) -> Result<(gltf::json::accessor::ComponentType, Vec<&'a [u8]>)> {
+    use gltf::json::validation::Checked;
+    let err = |m: String| mesh_error(path, format!("glTF: {place}: accessor {index}: {m}"));
+    let a = root
+        .accessors
+        .get(index)
+        .ok_or_else(|| err(format!("does not exist ({} accessors)", root.accessors.len())))?;
+    let (Checked::Valid(component), Checked::Valid(kind)) = (&a.component_type, &a.type_) else {
+        return Err(err("unknown component type or type".into()));
+    };
+    let component = component.0;
+    if !allowed.contains(&(component, *kind)) {
+        return Err(err(format!(
+            "{component:?} {kind:?}, expected one of {allowed:?}"
+        )));
+    }
+    if a.sparse.is_some() {
+        return Err(err("sparse accessors are not supported".into()));
+    }
+    let view_index = a
+        .buffer_view
+        .ok_or_else(|| err("has no buffer view".into()))?
+        .value();
+    let view = root
+        .buffer_views
+        .get(view_index)
+        .ok_or_else(|| err(format!("buffer view {view_index} does not exist")))?;
+    let data = buffers
+        .get(view.buffer.value())
+        .ok_or_else(|| err(format!("buffer {} does not exist", view.buffer.value())))?;
+    let size = component.size() * kind.multiplicity();
+    let stride = view.byte_stride.map_or(size, |s| s.0);
+    if stride < size {
+        return Err(err(format!(
+            "byte stride {stride} is less than the element's {size} bytes"
+        )));
+    }
+    let too_big = || err("the accessor or its buffer view reaches past the data".into());
+    let to_usize = |v: u64| usize::try_from(v).map_err(|_| too_big());
+    let view_start = to_usize(view.byte_offset.map_or(0, |o| o.0))?;
+    let view_len = to_usize(view.byte_length.0)?;
+    if view_start
+        .checked_add(view_len)
+        .is_none_or(|end| end > data.len())
+    {
+        return Err(too_big());
+    }
+    let start = to_usize(a.byte_offset.map_or(0, |o| o.0))?;
+    let count = to_usize(a.count.0)?;
+    if count == 0 {
+        return Err(err("has no element".into()));
+    }
+    // Checked before the list of `count` slices is allocated: the data bounds it.
+    let end = stride
+        .checked_mul(count - 1)
+        .and_then(|v| v.checked_add(start))
+        .and_then(|v| v.checked_add(size));
+    if end.is_none_or(|end| end > view_len) {
+        return Err(too_big());
+    }
+    let view_data = &data[view_start..view_start + view_len];
+    let items = (0..count)
+        .map(|k| &view_data[start + k * stride..start + k * stride + size])
+        .collect();
+    Ok((component, items))
 }
 
 impl MeshFileLink {

@@ -6,6 +6,7 @@ use crate::mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh};
 use crate::{Error, Result};
 use nalgebra::{Matrix2, Point2, Point3, Rotation2, Vector2, Vector3};
 use skin_core::format::cyskin::CyskinTactileMap;
+use skin_core::format::{MAX_POSITION_M, excerpt};
 use skin_core::{LinkSkin, TaxelId};
 use std::collections::HashMap;
 use std::path::Path;
@@ -486,9 +487,17 @@ impl TactileMap {
             path: path.to_owned(),
             source: e,
         })?;
+        TactileMap::parse(&text, path)
+    }
+
+    /// Parses a map (the project's JSON or a Cyskin `tactile_maps` file) and checks it: ids
+    /// unique, points and positions finite and within [`MAX_POSITION_M`] metres, faces of three
+    /// distinct taxels. `path` is used in error messages.
+    pub fn parse(text: &str, path: &Path) -> Result<TactileMap> {
+        let bad = |place: String, msg: String| Error::Core(skin_core::Error::invalid(path, place, msg));
         if text.contains("\"tactile_maps\"") {
-            let m = skin_core::format::cyskin::parse_tactile_map(&text, path)?;
-            return Ok(TactileMap {
+            let m = skin_core::format::cyskin::parse_tactile_map(text, path)?;
+            let map = TactileMap {
                 name: m.name,
                 ids: m.ids,
                 positions: Vec::new(),
@@ -496,25 +505,25 @@ impl TactileMap {
                 faces: m.faces,
                 report: FlattenReport::default(),
                 zeroed: Vec::new(),
-            });
+            };
+            map.check(
+                |i| format!("taxel {} (tactile_maps.taxels[{i}])", map.ids[i]),
+                |f| format!("tactile_maps.faces[{f}]"),
+            )
+            .map_err(|(place, msg)| bad(place, msg))?;
+            return Ok(map);
         }
-        let file: MapFile = serde_json::from_str(&text).map_err(|e| skin_core::Error::Json {
-            path: path.to_owned(),
-            line: e.line(),
-            column: e.column(),
-            message: e.to_string(),
-        })?;
-        let bad = |place: String, msg: String| Error::Core(skin_core::Error::invalid(path, place, msg));
+        let file: MapFile = serde_json::from_str(text).map_err(|e| skin_core::Error::json(path, &e))?;
         if file.format != MAP_FORMAT {
             return Err(bad(
                 "field \"format\"".into(),
-                format!("expected \"{MAP_FORMAT}\", found \"{}\"", file.format),
+                format!("expected \"{MAP_FORMAT}\", found \"{}\"", excerpt(&file.format)),
             ));
         }
         if file.units != "m" {
             return Err(bad(
                 "field \"units\"".into(),
-                format!("only metres are supported, found \"{}\"", file.units),
+                format!("only metres are supported, found \"{}\"", excerpt(&file.units)),
             ));
         }
         let n = file.ids.len();
@@ -529,26 +538,26 @@ impl TactileMap {
                 ),
             ));
         }
-        if let Some(i) = file
-            .points
-            .iter()
-            .position(|p| !(p[0].is_finite() && p[1].is_finite()))
-        {
-            return Err(bad(
-                format!("taxel {} (points[{i}])", file.ids[i]),
-                "map point is not finite".into(),
-            ));
-        }
-        for (f, face) in file.faces.iter().enumerate() {
-            if let Some(v) = face.iter().find(|&&v| v >= n) {
-                return Err(bad(
-                    format!("faces[{f}]"),
-                    format!("index {v} is out of range ({n} taxels)"),
-                ));
-            }
-        }
+        let map = TactileMap {
+            name: file.name,
+            ids: file.ids,
+            positions: file
+                .positions
+                .iter()
+                .map(|p| Point3::new(p[0], p[1], p[2]))
+                .collect(),
+            points: file.points.iter().map(|p| Point2::new(p[0], p[1])).collect(),
+            faces: file.faces,
+            report: file.report,
+            zeroed: Vec::new(),
+        };
+        map.check(
+            |i| format!("taxel {} (index {i})", map.ids[i]),
+            |f| format!("faces[{f}]"),
+        )
+        .map_err(|(place, msg)| bad(place, msg))?;
         let index: std::collections::HashMap<TaxelId, usize> =
-            file.ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
+            map.ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
         let mut zeroed = Vec::with_capacity(file.zeroed.len());
         for id in &file.zeroed {
             match index.get(id) {
@@ -563,19 +572,55 @@ impl TactileMap {
         }
         zeroed.sort_unstable();
         zeroed.dedup();
-        Ok(TactileMap {
-            name: file.name,
-            ids: file.ids,
-            positions: file
-                .positions
-                .iter()
-                .map(|p| Point3::new(p[0], p[1], p[2]))
-                .collect(),
-            points: file.points.iter().map(|p| Point2::new(p[0], p[1])).collect(),
-            faces: file.faces,
-            report: file.report,
-            zeroed,
-        })
+        Ok(TactileMap { zeroed, ..map })
+    }
+
+    /// What a map read from a file must hold before anything sizes a grid or indexes by it; the
+    /// error is (place, message), placed by `taxel(i)` and `face(f)`.
+    fn check(
+        &self,
+        taxel: impl Fn(usize) -> String,
+        face: impl Fn(usize) -> String,
+    ) -> std::result::Result<(), (String, String)> {
+        let mut seen = std::collections::HashMap::with_capacity(self.ids.len());
+        for (i, id) in self.ids.iter().enumerate() {
+            if let Some(first) = seen.insert(*id, i) {
+                return Err((taxel(i), format!("id already used at index {first}")));
+            }
+        }
+        let near = |v: f64| v.is_finite() && v.abs() <= MAX_POSITION_M;
+        if let Some(i) = self.points.iter().position(|p| !(near(p.x) && near(p.y))) {
+            return Err((
+                taxel(i),
+                format!(
+                    "map point {:?} is not finite metres within {MAX_POSITION_M} m",
+                    [self.points[i].x, self.points[i].y]
+                ),
+            ));
+        }
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| !p.coords.iter().all(|&v| near(v)))
+        {
+            return Err((
+                taxel(i),
+                format!(
+                    "position {:?} is not finite metres within {MAX_POSITION_M} m",
+                    self.positions[i].coords.as_slice()
+                ),
+            ));
+        }
+        let n = self.ids.len();
+        for (f, t) in self.faces.iter().enumerate() {
+            if let Some(v) = t.iter().find(|&&v| v >= n) {
+                return Err((face(f), format!("index {v} is out of range ({n} taxels)")));
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err((face(f), format!("face {t:?} repeats a taxel")));
+            }
+        }
+        Ok(())
     }
 
     /// An SVG drawing of the map (millimetres): triangles, and a dot per taxel.
