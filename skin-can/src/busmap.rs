@@ -19,6 +19,10 @@ use std::path::Path;
 /// Slots per module (12 channels of a Cyskin or iCub triangle).
 pub const SLOTS: usize = 12;
 
+/// The most buses (CAN interfaces) a bus map or a log may name: more than any skin has, and a
+/// bound on what a bad file can make the assembler hold.
+pub const MAX_BUSES: usize = 256;
+
 /// The wire format of every bus in a map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -84,9 +88,9 @@ impl BusMap {
     /// Parses bus-map TOML and checks it; `path` is used in error messages.
     pub fn parse(text: &str, path: &Path) -> Result<BusMap> {
         let map: BusMap = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map_or(0, |s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let line = e.span().map_or(0, |s| {
+                text.get(..s.start).unwrap_or(text).matches('\n').count() + 1
+            });
             Error::Line {
                 path: path.to_owned(),
                 line,
@@ -101,16 +105,20 @@ impl BusMap {
     }
 
     fn check(&self) -> std::result::Result<(), String> {
+        if self.buses.len() > MAX_BUSES {
+            return Err(format!(
+                "{} buses; a bus map names at most {MAX_BUSES}",
+                self.buses.len()
+            ));
+        }
         let mut seen = std::collections::HashMap::new();
         for (b, bus) in self.buses.iter().enumerate() {
+            let name = skin_core::format::excerpt(&bus.interface);
             if self.buses[..b].iter().any(|o| o.interface == bus.interface) {
-                return Err(format!("interface \"{}\" appears on two buses", bus.interface));
+                return Err(format!("interface \"{name}\" appears on two buses"));
             }
             for (m, module) in bus.modules.iter().enumerate() {
-                let place = format!(
-                    "bus \"{}\" module {} (address {})",
-                    bus.interface, m, module.address
-                );
+                let place = format!("bus \"{name}\" module {m} (address {})", module.address);
                 if module.taxels.len() != SLOTS {
                     return Err(format!(
                         "{place}: {} taxel slots, expected {SLOTS}",
@@ -165,8 +173,8 @@ impl BusMap {
         format: WireFormat,
         buses: usize,
     ) -> std::result::Result<BusMap, String> {
-        if buses == 0 {
-            return Err("at least one bus is needed".into());
+        if buses == 0 || buses > MAX_BUSES {
+            return Err(format!("{buses} buses: give 1 to {MAX_BUSES}"));
         }
         let mut modules: std::collections::BTreeMap<u32, Vec<i64>> = std::collections::BTreeMap::new();
         for id in ids {

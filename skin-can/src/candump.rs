@@ -12,6 +12,7 @@
 //! python-can writes). Blank lines are skipped. CAN FD lines (`##`) are rejected with the line
 //! number: skin traffic is classic CAN.
 
+use crate::busmap::MAX_BUSES;
 use crate::{Error, Result};
 use skin_core::format::excerpt;
 use std::fmt::Write as _;
@@ -120,20 +121,23 @@ impl CandumpLog {
         })
     }
 
-    /// The index of interface `name`, added if new.
-    pub fn bus(&mut self, name: &str) -> u16 {
+    /// The index of interface `name`, added if new; `None` when the log already names
+    /// [`MAX_BUSES`] interfaces.
+    pub fn bus(&mut self, name: &str) -> Option<u16> {
         intern(&mut self.interfaces, name)
     }
 }
 
-fn intern(interfaces: &mut Vec<String>, name: &str) -> u16 {
-    match interfaces.iter().position(|i| i == name) {
-        Some(k) => k as u16,
-        None => {
+fn intern(interfaces: &mut Vec<String>, name: &str) -> Option<u16> {
+    let k = match interfaces.iter().position(|i| i == name) {
+        Some(k) => k,
+        None if interfaces.len() < MAX_BUSES => {
             interfaces.push(name.to_string());
-            (interfaces.len() - 1) as u16
+            interfaces.len() - 1
         }
-    }
+        None => return None,
+    };
+    u16::try_from(k).ok()
 }
 
 /// Appends one frame as a log line (with a newline).
@@ -242,7 +246,12 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
     }
     let mut f = CanFrame {
         time_us,
-        bus: intern(interfaces, iface),
+        bus: intern(interfaces, iface).ok_or_else(|| {
+            format!(
+                "interface \"{}\" is one more than the {MAX_BUSES} a log may name",
+                excerpt(iface)
+            )
+        })?,
         id,
         extended,
         remote: false,

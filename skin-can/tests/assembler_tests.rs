@@ -149,7 +149,10 @@ fn a_silent_bus_leaves_its_modules_missing_in_every_frame() {
 fn bad_bus_maps_name_the_module_and_slot() {
     let dup = common::TWO_BUSES.replace("[48,", "[16,");
     let e = BusMap::parse(&dup, Path::new("m.toml")).unwrap_err().to_string();
-    assert!(e.contains("taxel 16 is also in bus \"can0\" module 0"), "{e}");
+    assert!(
+        e.contains("taxel 16 is also in bus \"can0\" module 0") && !e.contains("line 0"),
+        "{e}"
+    );
     let short = common::TWO_BUSES.replacen("26, -1]", "26]", 1);
     let e = BusMap::parse(&short, Path::new("m.toml"))
         .unwrap_err()
@@ -165,6 +168,28 @@ fn bad_bus_maps_name_the_module_and_slot() {
             .unwrap_err()
             .to_string()
             .contains("0..127")
+    );
+}
+
+#[test]
+fn a_huge_bad_field_is_quoted_by_its_first_characters_only() {
+    let long = "x".repeat(1_000_000);
+    let log = format!("(1.000000) can0 201#0102\n(1.000100) can0 {long}#01\n");
+    let e = skin_can::candump::CandumpLog::parse(&log, Path::new("s.log"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line 2") && e.len() < 300,
+        "{}",
+        &e[..e.len().min(400)]
+    );
+    let map = common::TWO_BUSES.replace("\"can1\"", &format!("\"{long}\""))
+        + &format!("[[bus]]\ninterface = \"{long}\"\n");
+    let e = BusMap::parse(&map, Path::new("m.toml")).unwrap_err().to_string();
+    assert!(
+        e.contains("appears on two buses") && e.len() < 300,
+        "{}",
+        &e[..e.len().min(400)]
     );
 }
 
@@ -240,4 +265,76 @@ fn icub8_triangles_decode_to_their_readings_and_status() {
     let mut bad = a;
     bad.bytes[0] = 0x41;
     assert!(matches!(dec.decode(&bad), Decoded::Malformed(_)));
+}
+
+/// `frames` moved later by `us` microseconds.
+fn later(frames: Vec<CanFrame>, us: u64) -> Vec<CanFrame> {
+    frames
+        .into_iter()
+        .map(|mut f| {
+            f.time_us += us;
+            f
+        })
+        .collect()
+}
+
+#[test]
+fn a_restarted_sync_counter_keeps_every_cycle_and_is_reported() {
+    // Two recordings joined: counters 0..9, then 0..9 again, time going on at 50 ms.
+    let mut frames = traffic(10, 0);
+    frames.extend(later(traffic(10, 0), 10 * 50_000));
+    let (out, stats) = assemble(&frames);
+    assert_eq!(out.len(), 20, "every cycle of both recordings is delivered");
+    assert!(out.iter().all(AssembledFrame::is_complete));
+    let cycles: Vec<u64> = out.iter().map(|f| f.cycle).collect();
+    assert!(cycles.windows(2).all(|w| w[1] == w[0] + 1), "{cycles:?}");
+    assert_eq!(
+        out[10].values,
+        expected_values(0),
+        "the second recording's own readings"
+    );
+    assert_eq!(
+        (stats.counter_resets, stats.late, stats.skipped),
+        (2, 0, 0),
+        "one restart per bus"
+    );
+    let r = stats.last_reset.unwrap();
+    assert_eq!((r.from, r.to, r.cycle), (9, 0, 10));
+}
+
+#[test]
+fn a_counter_jumping_faster_than_time_is_a_restart_and_lost_syncs_are_not() {
+    // The counter jumps from 4 to 100 in one period: a restart, numbered on by time.
+    let mut frames = traffic(5, 0);
+    frames.extend(later(traffic(5, 100), 5 * 50_000));
+    let (out, stats) = assemble(&frames);
+    assert_eq!(out.len(), 10);
+    assert_eq!(out.last().unwrap().cycle, 9);
+    assert_eq!(stats.counter_resets, 2);
+    // Cycles 5 to 7 never sent: the counter moves by 4 in four periods, which is loss, not a
+    // restart, and the lost cycles are counted as skipped.
+    let mut frames = traffic(5, 0);
+    frames.extend(
+        traffic(10, 0)
+            .into_iter()
+            .filter(|f| f.time_us >= 1_000_000 + 8 * 50_000),
+    );
+    let (out, stats) = assemble(&frames);
+    let cycles: Vec<u64> = out.iter().map(|f| f.cycle).collect();
+    assert_eq!(cycles, [0, 1, 2, 3, 4, 8, 9]);
+    assert_eq!((stats.counter_resets, stats.skipped), (0, 3));
+}
+
+#[test]
+fn timestamps_that_go_back_are_counted_and_the_frames_kept() {
+    let mut frames = traffic(3, 0);
+    frames[2].time_us = 10; // a data frame of cycle 0, stamped long before the sync before it
+    let (out, stats) = assemble(&frames);
+    assert_eq!(stats.time_backwards, 1);
+    assert_eq!(out.len(), 3);
+    assert!(
+        out.iter().all(AssembledFrame::is_complete),
+        "the frame was kept in its cycle"
+    );
+    assert_eq!(out[0].values, expected_values(0));
 }
