@@ -10,9 +10,13 @@
 //! ```
 //! one row per (contact, responding taxel): the contact's number, its 3D centroid in metres (the
 //! same on every row of the contact), the taxel id and the raw response (any unit, as long as it
-//! is the same for every contact of a taxel). Taxels that did not answer have no row.
+//! is the same for every contact of a taxel). Taxels that did not answer have no row. Centroids
+//! lie within `MAX_POSITION_M` (100 m) and responses within `MAX_READING` (1e9), as positions and
+//! readings do in every other file.
 
 use nalgebra::Point3;
+use skin_core::format::recording::MAX_READING;
+use skin_core::format::{MAX_POSITION_M, excerpt};
 use skin_core::{Error, Result, TaxelId};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -70,13 +74,17 @@ impl ProbeDataset {
                 return Err(Error::invalid(
                     path,
                     format!("line {}", i + 1),
-                    format!("header is \"{}\", expected \"{CSV_HEADER}\"", header.trim()),
+                    format!(
+                        "header is \"{}\", expected \"{CSV_HEADER}\"",
+                        excerpt(header.trim())
+                    ),
                 ));
             }
             None => return Err(Error::invalid(path, "line 1", "empty file; expected the header")),
         }
         let mut dataset = ProbeDataset::default();
         let mut index: BTreeMap<u64, usize> = BTreeMap::new();
+        let mut answered: std::collections::HashSet<(u64, u32)> = std::collections::HashSet::new();
         for (i, line) in lines {
             let place = |field: &str| format!("line {}, field {field}", i + 1);
             let cells: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -91,32 +99,37 @@ impl ProbeDataset {
                 Error::invalid(
                     path,
                     place("contact"),
-                    format!("\"{}\" is not a contact number", cells[0]),
+                    format!("\"{}\" is not a contact number", excerpt(cells[0])),
                 )
             })?;
-            // A finite number in column `k`, or an error naming the field.
-            let finite = |k: usize, what: &str| {
+            // A finite number within `limit` in column `k`, or an error naming the field.
+            let finite = |k: usize, limit: f64, what: &str| {
                 cells[k]
                     .parse::<f64>()
                     .ok()
-                    .filter(|v| v.is_finite())
+                    .filter(|v| v.is_finite() && v.abs() <= limit)
                     .ok_or_else(|| {
-                        Error::invalid(path, place(FIELDS[k]), format!("\"{}\" is not {what}", cells[k]))
+                        Error::invalid(
+                            path,
+                            place(FIELDS[k]),
+                            format!("\"{}\" is not {what} within ±{limit:e}", excerpt(cells[k])),
+                        )
                     })
             };
+            let metres = "a finite number of metres";
             let xyz = [
-                finite(1, "a finite number of metres")?,
-                finite(2, "a finite number of metres")?,
-                finite(3, "a finite number of metres")?,
+                finite(1, MAX_POSITION_M, metres)?,
+                finite(2, MAX_POSITION_M, metres)?,
+                finite(3, MAX_POSITION_M, metres)?,
             ];
             let taxel: u32 = cells[4].parse().map_err(|_| {
                 Error::invalid(
                     path,
                     place("taxel"),
-                    format!("\"{}\" is not a taxel id", cells[4]),
+                    format!("\"{}\" is not a taxel id", excerpt(cells[4])),
                 )
             })?;
-            let response = finite(5, "a finite number")?;
+            let response = finite(5, f64::from(MAX_READING), "a finite number")?;
             let centroid = Point3::from(xyz);
             let k = *index.entry(contact).or_insert_with(|| {
                 dataset.contacts.push(ProbeContact {
@@ -137,7 +150,7 @@ impl ProbeDataset {
                     ),
                 ));
             }
-            if c.responses.iter().any(|(t, _)| t.0 == taxel) {
+            if !answered.insert((contact, taxel)) {
                 return Err(Error::invalid(
                     path,
                     place("taxel"),
