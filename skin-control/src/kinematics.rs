@@ -89,6 +89,42 @@ fn pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
     )
 }
 
+/// A joint's numbers must be finite, its origin within `MAX_POSITION_M` (100 m) of its parent and
+/// its limits ordered: the chain's poses and the collision shapes built on them stay finite.
+fn check_joint(j: &urdf_rs::Joint, place: &str) -> Result<(), KinematicsError> {
+    let bad = |what: String| KinematicsError::Urdf {
+        path: place.into(),
+        message: format!("joint \"{}\": {what}", j.name),
+    };
+    let limit = skin_core::format::MAX_POSITION_M;
+    if !j.origin.xyz.iter().all(|v| v.is_finite() && v.abs() <= limit) {
+        return Err(bad(format!(
+            "origin xyz {:?} must be finite metres within {limit} m",
+            &j.origin.xyz[..]
+        )));
+    }
+    if !j
+        .origin
+        .rpy
+        .iter()
+        .chain(j.axis.xyz.iter())
+        .all(|v| v.is_finite())
+    {
+        return Err(bad("origin rpy and axis must be finite".into()));
+    }
+    let movable = matches!(
+        j.joint_type,
+        urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic
+    );
+    let (lo, hi) = (j.limit.lower, j.limit.upper);
+    if movable && !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+        return Err(bad(format!(
+            "limits lower {lo} and upper {hi} must be finite with lower <= upper"
+        )));
+    }
+    Ok(())
+}
+
 impl Chain {
     /// Reads the chain from `base` to `tip` in a URDF file.
     pub fn from_urdf(path: &Path, base: &str, tip: &str) -> Result<Chain, KinematicsError> {
@@ -149,16 +185,21 @@ impl Chain {
         let mut fixed_links = Vec::new();
         let mut pending = Isometry3::identity();
         for j in path {
+            check_joint(j, place)?;
             let origin = pending * pose(&j.origin);
             match j.joint_type {
                 urdf_rs::JointType::Revolute
                 | urdf_rs::JointType::Continuous
                 | urdf_rs::JointType::Prismatic => {
                     let axis = Vector3::new(j.axis.xyz[0], j.axis.xyz[1], j.axis.xyz[2]);
-                    let axis = Unit::try_new(axis, 1e-12).ok_or_else(|| KinematicsError::Urdf {
-                        path: place.into(),
-                        message: format!("joint \"{}\" has a zero axis", j.name),
-                    })?;
+                    // Scaled by its largest component first, so that huge axes keep a finite norm.
+                    let axis =
+                        Unit::try_new(axis / axis.amax().max(f64::MIN_POSITIVE), 1e-12).ok_or_else(|| {
+                            KinematicsError::Urdf {
+                                path: place.into(),
+                                message: format!("joint \"{}\" has a zero axis", j.name),
+                            }
+                        })?;
                     let continuous = j.joint_type == urdf_rs::JointType::Continuous;
                     joints.push(ChainJoint {
                         name: j.name.clone(),

@@ -19,7 +19,7 @@
 //! | field | default | meaning |
 //! |---|---|---|
 //! | `starts` | none | explicit starting postures, one joint vector each, used for every goal |
-//! | `random_starts` | 10 | otherwise: this many random starts per goal, drawn with `seed` |
+//! | `random_starts` | 10 | otherwise: this many random starts per goal (1 to 10000), drawn with `seed` |
 //! | `seed` | 0 | seed of the random starts |
 //! | `home` | arm7 reaching forward | centre of the random starts |
 //! | `start_spread` | 0.25 | each joint uniformly within +-spread (rad) of `home` |
@@ -314,8 +314,14 @@ impl Scene {
                 }
             }
         }
-        if self.goals.is_empty() {
-            return Err(bad("goals".into(), "at least one goal is needed"));
+        if self.goals.is_empty() || self.goals.len() > MAX_TRIALS {
+            return Err(bad("goals".into(), &format!("give 1 to {MAX_TRIALS} goals")));
+        }
+        if !(1..=MAX_TRIALS).contains(&self.random_starts) {
+            return Err(bad(
+                "random_starts".into(),
+                &format!("must be 1 to {MAX_TRIALS} starts per goal"),
+            ));
         }
         for (i, g) in self.goals.iter().enumerate() {
             if !finite(g) {
@@ -325,6 +331,9 @@ impl Scene {
         if let Some(starts) = &self.starts {
             if starts.is_empty() {
                 return Err(bad("starts".into(), "empty; leave it out for random starts"));
+            }
+            if starts.len() > MAX_TRIALS {
+                return Err(bad("starts".into(), &format!("at most {MAX_TRIALS} starts")));
             }
             for (i, s) in starts.iter().enumerate() {
                 if !finite(s) {
@@ -375,6 +384,9 @@ impl Scene {
 pub const WORLD_M: f64 = 100.0;
 /// The most simulation steps one trial may take (`rate` x `timeout`).
 const MAX_STEPS: f64 = 2e6;
+/// The most goals, and starts per goal, a scene may ask for: a study of thousands of trials is
+/// hours already.
+const MAX_TRIALS: usize = 10_000;
 
 /// Roll-pitch-yaw to a rotation, as URDF.
 pub(crate) fn rpy(r: &[f64; 3]) -> nalgebra::UnitQuaternion<f64> {
