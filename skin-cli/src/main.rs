@@ -22,6 +22,9 @@ mod eval_cmd;
 mod flatten;
 mod image_cmd;
 mod live_cmd;
+#[cfg(test)]
+#[path = "../../test-support/mutate.rs"]
+mod mutate;
 mod numbers;
 mod output;
 mod phri_cmd;

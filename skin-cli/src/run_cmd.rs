@@ -290,48 +290,24 @@ pub fn run(args: Args) -> Result<()> {
     result
 }
 
-/// Reads and checks the configuration and everything it names; builds the maps and models.
-fn load(config_path: &Path) -> Result<Setup> {
-    let text = std::fs::read_to_string(config_path)
-        .with_context(|| format!("cannot read {}", config_path.display()))?;
-    let config: Config = toml::from_str(&text).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: {}",
-            config_path.display(),
-            e.to_string().trim_end().replace('\n', " ")
-        )
+/// Parses a configuration and checks its values (not the files it names): every number in its
+/// range, every closed set one of its values. `config_path` names it in messages.
+fn parse_config(text: &str, config_path: &Path) -> Result<(Config, (usize, usize))> {
+    // toml's own message quotes the whole line at fault, whatever its length: name the line and
+    // say what is wrong instead.
+    let config: Config = toml::from_str(text).map_err(|e| {
+        let place = e.span().map_or(String::new(), |s| {
+            format!(
+                " line {}:",
+                text.get(..s.start).unwrap_or(text).matches('\n').count() + 1
+            )
+        });
+        // The message names the key and the allowed values; only a huge key makes it long.
+        let message = e.message().trim_end();
+        let short: String = message.chars().take(200).collect();
+        let cut = if short.len() < message.len() { "..." } else { "" };
+        anyhow::anyhow!("{}:{place} {short}{cut}", config_path.display())
     })?;
-    let base = config_path.parent().unwrap_or(Path::new("."));
-    let resolve = |field: &str, p: &Path| -> Result<PathBuf> {
-        let full = base.join(p);
-        if !full.is_file() {
-            bail!(
-                "{}: {field} = \"{}\": no such file ({})",
-                config_path.display(),
-                p.display(),
-                full.display()
-            );
-        }
-        Ok(full)
-    };
-    let layout_path = resolve("layout", &config.layout)?;
-    let busmap_path = resolve("busmap", &config.busmap)?;
-    let classifier_path = config
-        .classifier
-        .as_deref()
-        .map(|p| resolve("classifier", p))
-        .transpose()?;
-    let segmenter_path = config
-        .segmenter
-        .as_deref()
-        .map(|p| resolve("segmenter", p))
-        .transpose()?;
-    let truth_path = config.truth.as_deref().map(|p| resolve("truth", p)).transpose()?;
-    let poses_path = config
-        .stitch
-        .as_ref()
-        .map(|s| resolve("[stitch] poses", &s.poses))
-        .transpose()?;
     if !(2..=100_000).contains(&config.baseline.frames) {
         bail!(
             "{}: [baseline] frames = {}: expected 2 to 100000 untouched frames (2 at least to measure noise)",
@@ -372,6 +348,46 @@ fn load(config_path: &Path) -> Result<Setup> {
         None => (68, 100),
     };
 
+    Ok((config, size))
+}
+
+/// Reads and checks the configuration and everything it names; builds the maps and models.
+fn load(config_path: &Path) -> Result<Setup> {
+    let text = std::fs::read_to_string(config_path)
+        .with_context(|| format!("cannot read {}", config_path.display()))?;
+    let (config, size) = parse_config(&text, config_path)?;
+    let t = &config.touch;
+    let base = config_path.parent().unwrap_or(Path::new("."));
+    let resolve = |field: &str, p: &Path| -> Result<PathBuf> {
+        let full = base.join(p);
+        if !full.is_file() {
+            bail!(
+                "{}: {field} = \"{}\": no such file ({})",
+                config_path.display(),
+                p.display(),
+                full.display()
+            );
+        }
+        Ok(full)
+    };
+    let layout_path = resolve("layout", &config.layout)?;
+    let busmap_path = resolve("busmap", &config.busmap)?;
+    let classifier_path = config
+        .classifier
+        .as_deref()
+        .map(|p| resolve("classifier", p))
+        .transpose()?;
+    let segmenter_path = config
+        .segmenter
+        .as_deref()
+        .map(|p| resolve("segmenter", p))
+        .transpose()?;
+    let truth_path = config.truth.as_deref().map(|p| resolve("truth", p)).transpose()?;
+    let poses_path = config
+        .stitch
+        .as_ref()
+        .map(|s| resolve("[stitch] poses", &s.poses))
+        .transpose()?;
     let links = crate::flatten::load_links(&layout_path)?;
     let busmap = BusMap::read(&busmap_path)?;
     let mut where_is = std::collections::HashMap::new();
@@ -1283,4 +1299,53 @@ fn timings(setup: &Setup, s: &Session, span: f64) -> String {
         );
     }
     out.trim_end().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::panic)]
+    use super::*;
+    use crate::mutate::{arbitrary_text, config, mutated};
+    use proptest::prelude::*;
+
+    const SESSION: &str = include_str!("../../fixtures/session/run.toml");
+
+    #[test]
+    fn the_fixture_configuration_parses() {
+        let (config, size) = parse_config(SESSION, Path::new("run.toml")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((config.baseline.frames, size), (20, (68, 100)));
+    }
+
+    #[test]
+    fn a_bad_line_is_named_not_echoed() {
+        let text = format!("{SESSION}\ncolour = \"{}\"\n", "x".repeat(1_000_000));
+        let e = parse_config(&text, Path::new("run.toml"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("line 24") && e.contains("colour") && e.len() < 300,
+            "{}",
+            &e[..e.len().min(400)]
+        );
+    }
+
+    proptest! {
+        #![proptest_config(config())]
+
+        /// Hostile edits of the fixture configuration and arbitrary text: an error or values in
+        /// their documented ranges, never a panic, and never a message that echoes a long line.
+        #[test]
+        fn configurations_are_parsed_or_refused(text in prop_oneof![mutated(SESSION), arbitrary_text()]) {
+            match parse_config(&text, Path::new("run.toml")) {
+                Ok((c, (rows, cols))) => {
+                    prop_assert!((2..=100_000).contains(&c.baseline.frames));
+                    prop_assert!(c.touch.threshold.is_finite() && c.touch.reclassify_growth >= 1.0);
+                    let side = 1..=crate::numbers::MAX_SIDE as usize;
+                    prop_assert!(side.contains(&rows) && side.contains(&cols));
+                }
+                Err(e) => prop_assert!(e.to_string().len() < 600, "{e}"),
+            }
+        }
+    }
 }

@@ -667,7 +667,7 @@ fn stitch_refuses_poses_for_other_links() {
     let bad = dir.path().join("bad.json");
     let nan = std::fs::read_to_string(arm("poses.json")).unwrap().replacen(
         "[0.0, 0.0, 0.0]",
-        "[0.0, 0.0, 1e999]",
+        "[0.0, 0.0, 1e300]",
         1,
     );
     std::fs::write(&bad, nan).unwrap();
@@ -680,7 +680,15 @@ fn stitch_refuses_poses_for_other_links() {
         "-o",
         "x",
     ]);
-    assert!(!o.status.success(), "{}", text(&o).1);
+    // The poses file is blamed, at the posture and link, not the layout.
+    let (_, err) = text(&o);
+    assert!(
+        !o.status.success()
+            && err.contains("bad.json")
+            && err.contains("postures[0]")
+            && err.contains("100 m"),
+        "{err}"
+    );
 }
 
 #[test]

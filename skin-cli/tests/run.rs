@@ -292,3 +292,33 @@ fn frames_with_a_module_missing_are_reported_and_the_touches_still_found() {
         serde_json::json!([{"bus": "can0", "address": 5}])
     );
 }
+
+#[test]
+fn two_sessions_joined_keep_every_frame_and_report_the_counter_restart() {
+    use skin_can::candump::{CanFrame, CandumpLog};
+    let dir = tempfile::tempdir().unwrap();
+    // No script: the second session repeats the first's touches.
+    let cfg = config(dir.path(), &[("truth", "")], "");
+    let one = CandumpLog::read(Path::new(&log())).unwrap();
+    let first = one.frames.first().unwrap().time_us;
+    let span = one.frames.last().unwrap().time_us - first + 50_000;
+    let mut joined = one.clone();
+    joined.frames.extend(one.frames.iter().map(|f| CanFrame {
+        time_us: f.time_us + span,
+        ..*f
+    }));
+    let path = dir.path().join("joined.log");
+    joined.write(&path).unwrap();
+    let out = dir.path().join("out");
+    let stdout = run_ok(&cfg, path.to_str().unwrap(), &out, &[]);
+    assert!(stdout.contains("1240 frames (0 incomplete)"), "{stdout}");
+    assert!(stdout.contains("sync counter restarted 1 time(s)"), "{stdout}");
+    let resets = events_of(&out, "counter_reset");
+    assert_eq!(resets.len(), 1, "{resets:?}");
+    assert_eq!(resets[0]["bus"], "can0");
+    assert_eq!(
+        events_of(&out, "appeared").len(),
+        40,
+        "the second session's touches are found"
+    );
+}
