@@ -17,8 +17,8 @@ pub struct Args {
     /// Wire format.
     #[arg(long, value_enum, default_value_t = Format::Skin16)]
     format: Format,
-    /// Number of buses.
-    #[arg(long, default_value_t = 1, value_parser = crate::numbers::count::<1, 64>)]
+    /// Number of buses (at most 256, and no more than the layout has modules).
+    #[arg(long, default_value_t = 1, value_parser = crate::numbers::count::<1, { skin_can::busmap::MAX_BUSES as u64 }>)]
     buses: usize,
     /// Where to write the map (default: standard output).
     #[arg(short, long, value_name = "MAP.toml")]

@@ -238,6 +238,15 @@ fn devices_fifos_and_symlinks_are_written_through() {
     // A folder given as a file is named as such.
     let o = skin(&["flatten", s(&layout), "-o", s(d.path())]);
     assert!(!o.status.success() && err(&o).contains("a folder"), "{}", err(&o));
+    // What the system refuses is said once, about the user's path, never a temporary name.
+    let under_file = target.join("m.json");
+    let o = skin(&["flatten", s(&layout), "-o", s(&under_file)]);
+    let e = err(&o);
+    assert!(
+        !o.status.success() && e.contains(s(&under_file)) && !e.contains("partial"),
+        "{e}"
+    );
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
 }
 
 #[test]
@@ -314,7 +323,11 @@ fn numbers_are_checked_before_they_size_anything() {
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (
             vec!["busmap", "--layout", s(&layout), "--buses", "4294967295"],
-            "1 to 64",
+            "1 to 256",
+        ),
+        (
+            vec!["busmap", "--layout", s(&layout), "--buses", "100"],
+            "would leave buses empty",
         ),
         (
             vec![
