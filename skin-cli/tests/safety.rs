@@ -227,6 +227,18 @@ fn devices_fifos_and_symlinks_are_written_through() {
     assert!(o.status.success(), "{}", err(&o));
     let null = std::fs::symlink_metadata("/dev/null").unwrap();
     assert!(!null.is_file());
+    // A FIFO is written through: its reader gets the map, and it stays a FIFO.
+    let fifo = d.path().join("map.fifo");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    };
+    let o = skin(&["flatten", s(&layout), "-o", s(&fifo)]);
+    assert!(o.status.success(), "{}", err(&o));
+    assert!(reader.join().unwrap().contains("points"));
+    use std::os::unix::fs::FileTypeExt as _;
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
     // A symlink, even dangling, keeps being a link and its target gets the map.
     let target = d.path().join("real.json");
     let link = d.path().join("link.json");
