@@ -143,8 +143,8 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
     let bytes = std::fs::read(path).map_err(|e| mesh_error(path, e.to_string()))?;
     // The gltf crate's validation and accessor reader index by the file's numbers without
     // checking them all (a hostile file makes them panic), so the file is parsed without its
-    // validation and every number read below is checked here before it indexes anything.
-    // The GLB reader subtracts the header's size from the length the header declares.
+    // validation and every number read below is checked here before it indexes anything. Its
+    // GLB reader subtracts the header's size from the length the header declares: checked first.
     if let Some(declared) = bytes
         .strip_prefix(b"glTF")
         .and_then(|rest| rest.get(4..8))
