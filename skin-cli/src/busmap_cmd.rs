@@ -33,6 +33,7 @@ enum Format {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
+    crate::output::replaceable(&inputs, args.output.as_deref(), crate::output::Kind::BusMap)?;
     inputs.check_outputs(&[("-o", args.output.as_deref())])?;
     let ids: Vec<_> = crate::flatten::load_links(&args.layout)?
         .iter()

@@ -95,6 +95,7 @@ pub struct ProbeSimArgs {
 
 pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
+    crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Probes)?;
     inputs.check_outputs(&[("-o", Some(&args.output))])?;
     let link = crate::flatten::load_input(&args.layout)?;
     if link.taxels.is_empty() {
@@ -147,6 +148,8 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
 
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.probes), args.truth.as_ref()].into_iter().flatten());
+    crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Layout)?;
+    crate::output::replaceable(&inputs, args.plot.as_deref(), crate::output::Kind::Svg)?;
     inputs.check_outputs(&[("-o", Some(&args.output)), ("--plot", args.plot.as_deref())])?;
     let dataset = ProbeDataset::read(&args.probes)?;
     if args.plot.is_some() && args.truth.is_none() {

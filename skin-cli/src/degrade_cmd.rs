@@ -40,6 +40,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.map]);
+    crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Map)?;
+    crate::output::replaceable(&inputs, args.svg.as_deref(), crate::output::Kind::Svg)?;
     inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
     let map = crate::image_cmd::load_map(&args.map)?;
     let degraded = match (args.blind_spots, args.radius_mm, args.remove) {

@@ -49,6 +49,8 @@ enum MapFormat {
 
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.input), args.mesh.as_ref()].into_iter().flatten());
+    crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Map)?;
+    crate::output::replaceable(&inputs, args.svg.as_deref(), crate::output::Kind::Svg)?;
     inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
     let mut link = load_input(&args.input)?;
     if let Some(mesh_path) = &args.mesh {

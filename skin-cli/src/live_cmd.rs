@@ -94,6 +94,12 @@ pub fn record(args: RecordArgs) -> Result<()> {
 fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: bool) -> Result<()> {
     let inputs = crate::output::Inputs::new([&common.busmap]);
     inputs.check_outputs(&[("--record", record), ("-o", csv)])?;
+    crate::output::replaceable(&inputs, record, crate::output::Kind::CandumpLog)?;
+    crate::output::replaceable(
+        &inputs,
+        csv,
+        crate::output::Kind::Table(crate::replay::CSV_HEADER),
+    )?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
         bail!("--period-ms must be at least 0.1, not {}", common.period_ms);
@@ -268,7 +274,7 @@ impl Sinks {
             None => None,
         };
         let csv = csv.map(|p| {
-            let mut s = String::from("t_us,cycle,complete");
+            let mut s = String::from(crate::replay::CSV_HEADER);
             for id in map.taxel_ids() {
                 let _ = write!(s, ",{id}");
             }

@@ -3,6 +3,8 @@
 
 pub use skin_core::output::{Inputs, OutputDir, OutputError, OutputFile, write_file};
 
+use std::io::Read as _;
+
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -59,4 +61,75 @@ pub fn user_error(out: &OutputDir, e: anyhow::Error) -> anyhow::Error {
     let text = format!("{e:#}");
     let staging = out.path().display().to_string();
     anyhow::anyhow!("{}", text.replace(&staging, &out.dir().display().to_string()))
+}
+
+/// What a single-file output holds. An existing file at the path is replaced only if it holds
+/// the same kind, so that running a command again works and a user's other file is never lost.
+#[derive(Debug, Clone, Copy)]
+pub enum Kind {
+    /// A tactile map (the project's JSON or Cyskin's).
+    Map,
+    /// A skin layout (any file `skin flatten` reads).
+    Layout,
+    /// A bus map.
+    BusMap,
+    /// A probe dataset (CSV).
+    Probes,
+    /// An SVG drawing.
+    Svg,
+    /// A candump log.
+    CandumpLog,
+    /// A text table whose first line starts with this header.
+    Table(&'static str),
+}
+
+impl Kind {
+    fn name(self) -> String {
+        match self {
+            Kind::Map => "a tactile map".into(),
+            Kind::Layout => "a skin layout".into(),
+            Kind::BusMap => "a bus map".into(),
+            Kind::Probes => "a probe dataset".into(),
+            Kind::Svg => "an SVG drawing".into(),
+            Kind::CandumpLog => "a candump log".into(),
+            Kind::Table(header) => format!("a table starting \"{header}\""),
+        }
+    }
+
+    /// Whether the file at `path` is of this kind. Only the start of a log or a table is read.
+    fn holds(self, path: &Path) -> bool {
+        let head = || {
+            let mut text = String::new();
+            std::fs::File::open(path)
+                .and_then(|f| f.take(64 * 1024).read_to_string(&mut text))
+                .map(|_| text)
+                .unwrap_or_default()
+        };
+        match self {
+            Kind::Map => skin_geom::TactileMap::read(path).is_ok(),
+            Kind::Layout => skin_core::format::load_link(path).is_ok(),
+            Kind::BusMap => skin_can::BusMap::read(path).is_ok(),
+            Kind::Probes => skin_learn::calibration::ProbeDataset::read(path).is_ok(),
+            Kind::Svg => head().contains("<svg"),
+            Kind::CandumpLog => {
+                let text = head();
+                let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or_default();
+                skin_can::candump::CandumpLog::parse(first, path)
+                    .is_ok_and(|l| l.frames.len() + l.error_frames == 1)
+            }
+            Kind::Table(header) => head().starts_with(header),
+        }
+    }
+}
+
+/// Refuses, before any work, an output `path` that is one of the `inputs`, or an existing file
+/// there that is not of `kind` ([`skin_core::output::check_replaceable`]).
+pub fn replaceable(inputs: &Inputs, path: Option<&Path>, kind: Kind) -> anyhow::Result<()> {
+    let Some(p) = path else {
+        return Ok(());
+    };
+    inputs.check(p)?;
+    Ok(skin_core::output::check_replaceable(p, &kind.name(), |p| {
+        kind.holds(p)
+    })?)
 }

@@ -35,6 +35,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new(args.scene.as_ref());
     inputs.check_outputs(&[("--svg", args.svg.as_deref()), ("--csv", args.csv.as_deref())])?;
+    crate::output::replaceable(&inputs, args.svg.as_deref(), crate::output::Kind::Svg)?;
+    crate::output::replaceable(
+        &inputs,
+        args.csv.as_deref(),
+        crate::output::Kind::Table("t_s,force_n"),
+    )?;
     let scene = match &args.scene {
         Some(p) => skin_control::sim::Scene::from_file(p)?,
         None => phri::default_scene()?,

@@ -53,6 +53,11 @@ pub(crate) fn load_scene(path: &Option<PathBuf>) -> Result<Scene> {
 pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new(args.scene.as_ref());
     inputs.check_outputs(&[("--csv", args.csv.as_deref())])?;
+    crate::output::replaceable(
+        &inputs,
+        args.csv.as_deref(),
+        crate::output::Kind::Table("goal,start,outcome"),
+    )?;
     let mut scene = load_scene(&args.scene)?;
     if let Some(seed) = args.seed {
         scene.seed = seed;

@@ -158,6 +158,9 @@ fn check_layout(map: &BusMap, map_path: &Path, layout: &Path) -> Result<()> {
     Ok(())
 }
 
+/// How the frames table of `replay -o` and `live -o` starts; a taxel id per column follows.
+pub(crate) const CSV_HEADER: &str = "t_us,cycle,complete";
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.window_ms.is_finite() && args.window_ms >= 0.001) {
         bail!(
@@ -171,6 +174,11 @@ pub fn run(args: Args) -> Result<()> {
             .flatten(),
     );
     inputs.check_outputs(&[("-o", args.output.as_deref())])?;
+    crate::output::replaceable(
+        &inputs,
+        args.output.as_deref(),
+        crate::output::Kind::Table(CSV_HEADER),
+    )?;
     let map = BusMap::read(&args.busmap)?;
     if let Some(layout) = &args.layout {
         check_layout(&map, &args.busmap, layout)?;
@@ -197,7 +205,7 @@ pub fn run(args: Args) -> Result<()> {
     let ids = map.taxel_ids();
     let mut csv = String::new();
     if args.output.is_some() {
-        csv.push_str("t_us,cycle,complete");
+        csv.push_str(CSV_HEADER);
         for id in &ids {
             let _ = write!(csv, ",{id}");
         }

@@ -798,3 +798,61 @@ fn an_interrupted_image_or_stitch_leaves_the_previous_output_or_nothing() {
         assert!(!out.join("INCOMPLETE").exists());
     }
 }
+
+#[test]
+fn a_users_other_file_is_never_replaced_and_an_earlier_output_is() {
+    let d = tempfile::tempdir().unwrap();
+    let layout = root().join("fixtures/forearm/layout.json");
+    let busmap = root().join("fixtures/forearm/busmap.toml");
+    let log = root().join("fixtures/forearm/touches.candump.log");
+    let probes = root().join("fixtures/hex_patch/probes.csv");
+    let notes = d.path().join("notes.txt");
+    std::fs::write(&notes, "a day of lab notes\n").unwrap();
+    let map = d.path().join("map.json");
+    let o = skin(&["flatten", s(&layout), "-o", s(&map)]);
+    assert!(o.status.success(), "{}", err(&o));
+    let n = s(&notes);
+    for args in [
+        vec!["flatten", s(&layout), "-o", n],
+        vec!["flatten", s(&layout), "-o", "/dev/null", "--svg", n],
+        vec!["busmap", "--layout", s(&layout), "-o", n],
+        vec!["degrade", "--map", s(&map), "--remove", "0.1", "-o", n],
+        vec!["probe-sim", "--layout", s(&layout), "-o", n],
+        vec!["calibrate", s(&probes), "-o", n],
+        vec!["replay", s(&log), "--busmap", s(&busmap), "-o", n],
+        vec!["reach", "--trials", "1", "--csv", n],
+        vec!["phri", "--csv", n],
+        vec!["phri", "--svg", n],
+    ] {
+        let o = skin(&args);
+        assert!(!o.status.success(), "{args:?} replaced the user's file");
+        assert!(err(&o).contains("exists and is not"), "{args:?}: {}", err(&o));
+        assert_eq!(
+            std::fs::read_to_string(&notes).unwrap(),
+            "a day of lab notes\n",
+            "{args:?}"
+        );
+    }
+    // Running a command again over its own output works, for every kind of file.
+    let svg = d.path().join("map.svg");
+    let table = d.path().join("frames.csv");
+    let sim = d.path().join("probes.csv");
+    for _ in 0..2 {
+        for args in [
+            vec!["flatten", s(&layout), "-o", s(&map), "--svg", s(&svg)],
+            vec!["replay", s(&log), "--busmap", s(&busmap), "-o", s(&table)],
+            vec![
+                "probe-sim",
+                "--layout",
+                s(&layout),
+                "--contacts",
+                "20",
+                "-o",
+                s(&sim),
+            ],
+        ] {
+            let o = skin(&args);
+            assert!(o.status.success(), "{args:?}: {}", err(&o));
+        }
+    }
+}

@@ -8,7 +8,9 @@
 //! - A file ([`OutputFile`], [`write_file`]) is built aside as `.NAME.partial-PID` in its folder
 //!   and renamed into place only when complete. A device, a FIFO or a socket is written through,
 //!   never replaced; a symbolic link is followed and its target written (the link stays, and a
-//!   dangling one gets its target created). A folder given as a file is refused.
+//!   dangling one gets its target created). A folder given as a file is refused. An existing
+//!   file is replaced only if it is of the kind being written ([`check_replaceable`]): an
+//!   earlier output, never a user's other file.
 //! - A folder ([`OutputDir`]) is written into only if it is new, empty, or an earlier output of
 //!   the same command (its hidden manifest `.skin-output` says so). Any other folder needs
 //!   `force`, and even then only the files the command writes are replaced; nothing else there is
@@ -131,6 +133,18 @@ pub enum OutputError {
     LinkLoop {
         /// The path given.
         path: PathBuf,
+    },
+    /// An existing file that is not of the kind being written (a user's file, not an earlier
+    /// output): replacing it would lose it.
+    #[error(
+        "{}: exists and is not {kind}; skin replaces only a file of the kind it writes there: move it or choose another name",
+        path.display()
+    )]
+    Foreign {
+        /// The file.
+        path: PathBuf,
+        /// What is written there, e.g. "a tactile map".
+        kind: String,
     },
     /// The operating system refused (a full disk, no permission, ...).
     #[error("cannot {action} {}: {source}", path.display())]
@@ -483,6 +497,31 @@ fn follow_links(path: &Path) -> Result<PathBuf> {
     Err(OutputError::LinkLoop {
         path: path.to_owned(),
     })
+}
+
+/// Refuses to replace an existing regular file at `path` unless `same_kind` recognises it as a
+/// file of the `kind` about to be written (an earlier output, so that running a command again
+/// works); a user's other file is never lost. A new path, an empty file, a device or a FIFO is
+/// fine. Call it before the work, as a command checks its folder first.
+///
+/// ```
+/// use skin_core::output::check_replaceable;
+///
+/// let notes = std::env::temp_dir().join(format!("skin-replace-doc-{}.txt", std::process::id()));
+/// std::fs::write(&notes, "my notes")?;
+/// let is_map = |p: &std::path::Path| std::fs::read_to_string(p).is_ok_and(|t| t.contains("skin-tactile-map/1"));
+/// assert!(check_replaceable(&notes, "a tactile map", is_map).is_err());
+/// # std::fs::remove_file(&notes)?;
+/// # Ok::<(), std::io::Error>(())
+/// ```
+pub fn check_replaceable(path: &Path, kind: &str, same_kind: impl FnOnce(&Path) -> bool) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() && m.len() > 0 && !same_kind(path) => Err(OutputError::Foreign {
+            path: path.to_owned(),
+            kind: kind.to_owned(),
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Writes `contents` to the file `path` under the rules of this module.
