@@ -1,0 +1,165 @@
+#!/usr/bin/env bash
+# The data-safety review, by hand: every case of its list (and a few more) run as a
+# user would against a built `skin`, printing a markdown table with a verdict per case.
+#   cargo build -p skin-cli && SKIN=target/debug/skin FX=fixtures tools/safety_handrun.sh
+# Works in a scratch folder under /tmp (printed at the end); needs bash, python3, mkfifo.
+set -u
+SKIN=$(realpath "${SKIN:?binary}")
+FX=$(cd "${FX:?fixtures}" && pwd)
+W=$(mktemp -d /tmp/handrun.XXXX)
+cd "$W"
+cp -r "$FX/forearm" "$FX/arm" "$FX/hex_patch" "$FX/session" "$FX/models" .
+N=0
+row() { # id, case, verdict, evidence
+  printf '| %s | %s | %s | %s |\n' "$1" "$2" "$3" "$(echo "$4" | tr '\n|' ' /' | cut -c1-150)"
+}
+# check ID "case" EXPECT_RC_REGEX MSG_REGEX POSTCHECK -- cmd...
+check() {
+  local id=$1 desc=$2 rcx=$3 msgx=$4 post=$5; shift 6
+  local out rc
+  out=$(timeout 300 "$@" 2>&1 >/dev/null); rc=$?
+  local first=$(echo "$out" | grep -m1 '^error' || echo "$out" | grep -v '^\s*$' | tail -1)
+  local ok=pass
+  [[ $rc =~ ^($rcx)$ ]] || ok="FAIL(rc)"
+  [[ -z $msgx ]] || echo "$out" | grep -Eq -- "$msgx" || ok="FAIL(msg)"
+  if [[ -n $post ]] && ! eval "$post" >/dev/null 2>&1; then ok="FAIL(post)"; fi
+  row "$id" "$desc" "$ok" "exit $rc: $first"
+}
+echo "| # | case | verdict | what it did |"
+echo "|---|---|---|---|"
+# ---- Data loss
+mkdir -p user; cp session/run.toml user/; cp session/session.candump.log user/; echo notes > user/notes.txt
+sed -i 's#\.\./#'"$W"'/#g; s#cache = .*#cache = "cache"#; s#truth = "session.tsv"#truth = "'"$W"'/session/session.tsv"#' user/run.toml
+before=$(cd user && find . -type f | sort | xargs md5sum)
+check D1 "run -o DIR holding the user's files" "1" "not empty|--force|skin output" '[[ "$(cd user && find . -type f | sort | xargs md5sum)" == "$before" ]]' -- $SKIN run user/run.toml --log user/session.candump.log -o user -q
+check D2 "run -o . in the user's folder" "1" "not empty|--force|skin output" '[[ "$(cd user && find . -type f | sort | xargs md5sum)" == "$before" ]]' -- bash -c "cd user && $SKIN run run.toml --log session.candump.log -o . -q"
+( $SKIN run user/run.toml --log user/session.candump.log -o two -q >/dev/null 2>&1 & p=$!; sleep 0.3; $SKIN run user/run.toml --log user/session.candump.log -o two -q > /dev/null 2> second.err; echo $? > second.rc; wait $p; echo $? > first.rc )
+row D3 "two run into one -o at once" "$( [[ $(cat first.rc) == 0 && $(cat second.rc) != 0 && -f two/events.jsonl ]] && echo pass || echo FAIL)" "first exit $(cat first.rc), second exit $(cat second.rc): $(tail -1 second.err)"
+cp forearm/touches.candump.log log.log; h=$(md5sum < log.log)
+check D4 "replay LOG -o LOG" "1|2" "input" '[[ "$(md5sum < log.log)" == "$h" ]]' -- $SKIN replay --busmap forearm/busmap.toml log.log -o log.log
+cp forearm/layout.json L.json; h=$(md5sum < L.json)
+check D5 "flatten L -o L" "1|2" "input" '[[ "$(md5sum < L.json)" == "$h" ]]' -- $SKIN flatten L.json -o L.json
+check D6 "flatten --svg L" "1|2" "input" '[[ "$(md5sum < L.json)" == "$h" ]]' -- $SKIN flatten L.json -o m.json --svg L.json
+check D7 "busmap -o LAYOUT" "1|2" "input" '[[ "$(md5sum < L.json)" == "$h" ]]' -- $SKIN busmap --layout L.json -o L.json
+$SKIN flatten L.json -o map.json >/dev/null 2>&1; hm=$(md5sum < map.json)
+check D8 "degrade -o MAP" "1|2" "input" '[[ "$(md5sum < map.json)" == "$hm" ]]' -- $SKIN degrade --map map.json --remove 0.2 -o map.json
+cp hex_patch/probes.csv P.csv; hp=$(md5sum < P.csv)
+check D9 "calibrate -o PROBES" "1|2" "input" '[[ "$(md5sum < P.csv)" == "$hp" ]]' -- $SKIN calibrate P.csv -o P.csv
+check D10 "probe-sim -o LAYOUT" "1|2" "input" '[[ "$(md5sum < L.json)" == "$h" ]]' -- $SKIN probe-sim --layout L.json -o L.json
+if [[ $(id -u) == 0 ]]; then
+  check D11 "-o /dev/full (root): written through, device kept" "1" "space|No space" '[[ -c /dev/full ]]' -- $SKIN flatten L.json -o /dev/full
+fi
+check D11b "-o /dev/null: written through, device kept" "0" "" '[[ -c /dev/null ]]' -- $SKIN flatten L.json -o /dev/null
+mkfifo fifo; (cat fifo > fifo.out &) ; sleep 0.1
+check D12 "-o FIFO: written through" "0" "" '[[ -p fifo && -s fifo.out ]]' -- $SKIN flatten L.json -o fifo
+sleep 0.2
+touch target.json; ln -s target.json link.json
+check D13 "-o SYMLINK: target written, link kept" "0" "" '[[ -L link.json && -s target.json ]]' -- $SKIN flatten L.json -o link.json
+$SKIN synth --layout L.json --count 40 --size 32x32 -o ds >/dev/null 2>&1
+check D14 "synth smaller --count into its dataset" "0" "" '[[ $(ls ds/images | wc -l) == 10 && $(($(wc -l < ds/labels.csv)-1)) == 10 ]]' -- $SKIN synth --layout L.json --count 10 --size 32x32 -o ds
+mkdir -p a b; $SKIN image --map map.json forearm/touches.txt -o imgs --size 68x100 -q >/dev/null 2>&1; cp imgs/touches/frame_00010.png a/x.png; cp imgs/touches/frame_00050.png b/x.png
+check D15 "segment two inputs named alike" "0|1" "" '[[ ! -d seg || $(find seg -name "*.png" | wc -l) -ge 2 ]]' -- $SKIN segment --model models/handseg.onnx a/x.png b/x.png -o seg
+awk 'NR==1||NR!=3' forearm/touches.txt > rep.txt; awk 'NR==2' forearm/touches.txt >> rep.txt
+check D16 "image with a repeated frame number" "0" "" '[[ $(ls imgs2/rep | wc -l) == $(($(wc -l < rep.txt)-1)) ]]' -- $SKIN image --map map.json rep.txt -o imgs2 --size 68x100 -q
+# interrupted image over an earlier output
+$SKIN image --map map.json forearm/touches.txt -o int --size 68x100 -q >/dev/null 2>&1; hi=$(cd int && find . -type f | sort | xargs md5sum | md5sum)
+$SKIN image --map map.json forearm/touches.txt -o int --size 4096x4096 -q >/dev/null 2>int.err & p=$!; sleep 3; kill -INT $p; wait $p; rc=$?
+row D17 "image interrupted (SIGINT) over an earlier output" "$( [[ $rc == 130 && "$(cd int && find . -type f | sort | xargs md5sum | md5sum)" == "$hi" && ! -e int/.skin-partial ]] && echo pass || echo FAIL)" "exit $rc; earlier output unchanged, no .skin-partial"
+$SKIN stitch --layout arm/layout.json --poses arm/poses.json arm/touch.txt --threshold 10 --step-mm 0.1 -o st >/dev/null 2>&1 & p=$!; sleep 4; kill -INT $p; wait $p; rc=$?
+row D17b "stitch interrupted on its first run" "$( [[ $rc == 130 && ! -e st ]] && echo pass || echo FAIL)" "exit $rc; $( [[ -e st ]] && echo "st left: $(ls -A st)" || echo 'no folder left')"
+python3 - <<'PY'
+lines=open("session/session.candump.log").read().splitlines()
+t0=float(lines[0][1:18]); span=float(lines[-1][1:18])-t0+0.05
+out=[]
+for k in range(12):
+    out+=["(%.6f)%s"%(float(l[1:18])+k*span, l[19:]) for l in lines]
+open("long.log","w").write("\n".join(out)+"\n")
+PY
+$SKIN run user/run.toml --log long.log -o runint -q >/dev/null 2>&1 & p=$!; sleep 2; kill -TERM $p; wait $p; rc=$?
+row D18 "run interrupted (SIGTERM)" "$( [[ ! -e runint/summary.txt && -z "$(find . -name '*.partial*' -o -name '.skin-partial')" ]] && echo pass || echo FAIL)" "exit $rc; $(ls -A runint 2>/dev/null | tr '\n' ' ')"
+# ---- Aborts, panics, runaway resources
+check A1 "busmap --buses 4294967295" "1|2" "256|buses" "" -- $SKIN busmap --layout L.json --buses 4294967295
+check A2 "synth --count 4000000000" "1|2" "count" "" -- $SKIN synth --layout L.json --count 4000000000 -o big
+check A3 "image --size 100000x100000" "1|2" "4096" "" -- $SKIN image --map map.json forearm/touches.txt -o i3 --size 100000x100000
+check A4 "synth --size 50000x50000" "1|2" "4096" "" -- $SKIN synth --layout L.json --count 10 --size 50000x50000 -o s4
+check A5 "eval --threads 100000" "1|2" "256" "" -- $SKIN eval --model models/handsnet.onnx --dataset ds --threads 100000
+sed 's/"rate": 200.0/"rate": 1e9/' "$FX/../skin-control/scenes/fig8_4.json" > rate.json
+check A6 "scene rate 1e9" "1" "rate" "" -- $SKIN reach --scene rate.json --trials 1
+sed 's/"radius": 0.04}/"radius": 1e100}/' "$FX/../skin-control/scenes/fig8_4.json" > cap.json
+check A7 "reach, capsule radius 1e100" "1" "radius" "" -- $SKIN reach --scene cap.json --trials 1
+check A7b "phri, capsule radius 1e100" "1" "radius" "" -- $SKIN phri --scene cap.json
+# ---- Silently wrong
+python3 - <<'PY'
+import json
+d=json.load(open("L.json")); d["links"][0]["taxels"][5]["position"][0]=1e308; json.dump(d,open("far.json","w"))
+PY
+check S1 "flatten, a taxel at 1e308 m" "1" "taxel|100 m" "" -- $SKIN flatten far.json -o far_map.json
+$SKIN replay --busmap forearm/busmap.toml session/session.candump.log > /dev/null 2>&1
+python3 - <<'PY'
+lines=open("session/session.candump.log").read().splitlines()
+t0=float(lines[0][1:18]); t1=float(lines[-1][1:18]); span=t1-t0+0.05
+out=lines+["(%.6f)%s"%(float(l[1:18])+span, l[19:]) for l in lines]
+open("joined.log","w").write("\n".join(out)+"\n")
+PY
+out=$($SKIN run user/run.toml --log joined.log -o joined -q 2>&1); rc=$?
+row S2 "run on two sessions joined (counter restart)" "$( echo "$out" | grep -q "sync counter restarted" && grep -q counter_reset joined/events.jsonl && echo pass || echo FAIL)" "exit $rc: $(echo "$out" | grep -E 'frames \(|restarted' | head -2)"
+sed 's/^hand = .*/hand = "explode"/' user/run.toml > bad.toml
+check S3 'run.toml hand = "explode"' "1" "comply" "" -- $SKIN run bad.toml --log user/session.candump.log -o badout -q
+sed 's/^release_frames = .*/&\nreclassify_growth = nan/' user/run.toml > bad.toml
+check S3 "run.toml reclassify_growth = nan" "1" "reclassify_growth" "" -- $SKIN run bad.toml --log user/session.candump.log -o badout -q
+check S3b "classify --threshold nan" "1|2" "threshold|finite" "" -- $SKIN classify --model models/handsnet.onnx --threshold nan imgs/touches/frame_00010.png
+check S3c "segment --threshold nan" "1|2" "threshold|finite" "" -- $SKIN segment --model models/handseg.onnx --threshold nan imgs/touches/frame_00010.png
+check S3d "stitch --threshold nan" "1|2" "finite|threshold" "" -- $SKIN stitch --layout arm/layout.json --poses arm/poses.json --threshold nan -o x
+check S3e "stitch --max-edge-mm nan" "1|2" "finite|edge" "" -- $SKIN stitch --layout arm/layout.json --poses arm/poses.json --max-edge-mm nan -o x
+for f in nan -0.5 2; do check S3f "eval --test-fraction $f" "1|2" "fraction|between|finite|0" "" -- $SKIN eval --model models/handsnet.onnx --dataset ds --test-fraction=$f; done
+check S3g "eval --patterns 0" "1|2" "patterns|1" "" -- $SKIN eval --model models/handsnet.onnx --dataset ds --test-b --patterns 0
+check S3h "reach --trials 0" "1|2" "trials|1" "" -- $SKIN reach --trials 0
+out=$($SKIN busmap --layout arm/layout.json 2>&1); rc=$?
+row S4 "busmap on a two-link layout covers both links" "$( [[ $rc == 0 ]] && [[ $(echo "$out" | grep -c 'address') -ge 2 ]] && echo pass || echo FAIL)" "exit $rc: $(echo "$out" | grep -c '^\[\[bus.module\]\]') modules mapped; $(python3 -c "import json;d=json.load(open('arm/layout.json'));print(len({t['id']>>4 for l in d['links'] for t in l['taxels']}),'modules in the layout')")"
+check S4b "busmap --buses 1000 for 65 modules" "1|2" "256" "" -- $SKIN busmap --layout L.json --buses 1000
+check S4b "busmap --buses 100 for 65 modules" "1|2" "empty|at most" "" -- $SKIN busmap --layout L.json --buses 100
+awk 'NR==1{$2=$1} {print}' forearm/touches.txt > dupid.txt
+check S4c "recording header repeating a taxel id" "1" "repeats|field" "" -- $SKIN image --map map.json dupid.txt -o dupimg
+python3 -c "
+import struct,zlib
+def png(path,ct,bd,ch):
+    w=h=8; raw=b''.join(b'\x00'+bytes(w*ch*(bd//8)) for _ in range(h))
+    def chunk(t,d): return struct.pack('>I',len(d))+t+d+struct.pack('>I',zlib.crc32(t+d))
+    open(path,'wb').write(b'\x89PNG\r\n\x1a\n'+chunk(b'IHDR',struct.pack('>IIBBBBB',w,h,bd,ct,0,0,0))+chunk(b'IDAT',zlib.compress(raw))+chunk(b'IEND',b''))
+png('rgb.png',2,8,3); png('rgba.png',6,8,4); png('g16.png',0,16,1)"
+for p in rgb rgba g16; do check S5 "classify $p.png" "1" "grey|8-bit|8 bit" "" -- $SKIN classify --model models/handsnet.onnx $p.png; done
+# ---- Unclear errors
+python3 - <<'PY'
+import json
+d=json.load(open("L.json")); d["links"][0]["taxels"][5]["position"]="x"; json.dump(d,open("shape.json","w"),indent=1)
+PY
+check U1 "JSON of the wrong shape" "1" "taxel .*index 5" "" -- $SKIN flatten shape.json -o u1.json
+python3 - <<'PY'
+import json
+d=json.load(open("L.json")); d["links"][0]["taxels"][5]["position"][0]=float("nan")
+open("nan.json","w").write(json.dumps(d).replace("NaN","1e999"))
+PY
+check U2 "a NaN / 1e999 coordinate" "1" "line|taxel" "" -- $SKIN flatten nan.json -o u2.json
+sed '0,/\[0.0, 0.0, 0.0\]/s//[0.0, 0.0, 1e300]/' arm/poses.json > hugepose.json
+check U3 "a huge pose" "1" "hugepose.json.*postures\[0\]" "" -- $SKIN stitch --layout arm/layout.json --poses hugepose.json -o u3
+sed '0,/taxels = \[16,/s//taxels = [32,/' forearm/busmap.toml > dupmap.toml
+check U4 "bus map with a taxel twice" "1" "also in" "" -- $SKIN replay --busmap dupmap.toml forearm/touches.candump.log
+out=$($SKIN replay --busmap dupmap.toml forearm/touches.candump.log 2>&1); echo "$out" | grep -q "line 0" && row U4b "bus map error says line 0" FAIL "$out" || row U4b "no \"line 0\" in bus map errors" pass "$(echo "$out" | tail -1)"
+mkdir -p folder.onnx
+check U5 "model path that is a folder" "1" "folder" "" -- $SKIN classify --model folder.onnx imgs/touches/frame_00010.png
+python3 -c "open('huge.txt','w').write(open('forearm/touches.txt').readline()+'0 0.0 '+'9'*10_000_000+'\n')"
+out=$($SKIN image --map map.json huge.txt -o hugeimg 2>&1); rc=$?
+row U6 "a 10 MB bad line" "$( [[ $rc == 1 && ${#out} -lt 400 ]] && echo pass || echo FAIL)" "exit $rc, message ${#out} bytes: $(echo "$out" | tail -1 | cut -c1-120)"
+cp forearm/touches.candump.log errf.log; sed -i '5i (1700000000.000001) can0 20000080#0000000000000000' errf.log
+out=$($SKIN replay --busmap forearm/busmap.toml errf.log 2>&1); rc=$?
+row U7 "candump error frame" "$( [[ $rc == 0 ]] && echo "$out" | grep -qi "error frame" && echo pass || echo FAIL)" "exit $rc: $(echo "$out" | grep -i 'error frame' | head -1)"
+out=$($SKIN flatten L.json -o map.json/m.json 2>&1); rc=$?
+row U8 "an output that cannot be written names the user's path" "$( [[ $rc == 1 ]] && ! echo "$out" | grep -q partial && echo "$out" | grep -q "map.json/m.json" && echo pass || echo FAIL)" "exit $rc: $(echo "$out" | tail -1)"
+out=$($SKIN image --map map.json forearm/touches.txt -o map.json/imgs 2>&1); rc=$?
+row U8b "an output folder that cannot be made names the user's path" "$( [[ $rc == 1 ]] && ! echo "$out" | grep -q partial && echo "$out" | grep -q "map.json/imgs" && echo pass || echo FAIL)" "exit $rc: $(echo "$out" | tail -1)"
+out=$($SKIN image --map map.json forearm/touches.txt -o /dev/full/imgs 2>&1); rc=$?
+echo "lab notes" > notes.txt
+check U9 "flatten L -o notes.txt (a user's other file)" "1" "exists and is not" '[[ "$(cat notes.txt)" == "lab notes" ]]' -- $SKIN flatten L.json -o notes.txt
+check U9b "flatten again over its own map" "0" "" '[[ -s map.json ]]' -- $SKIN flatten L.json -o map.json
+echo
+echo "scratch: $W"
