@@ -43,6 +43,43 @@ impl WireFormat {
     }
 }
 
+/// Why [`BusMap::for_taxels`] cannot split a layout's taxels over buses.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SplitError {
+    /// A number of buses outside 1..=[`MAX_BUSES`].
+    #[error("{0} buses: give 1 to {MAX_BUSES}")]
+    Buses(usize),
+    /// A taxel id whose channel (`id & 15`) is not one of a module's 12.
+    #[error("taxel {0} has channel {c}; Cyskin modules have channels 0..11", c = .0.channel())]
+    Channel(TaxelId),
+    /// A taxel id listed twice.
+    #[error("taxel {0} appears twice")]
+    Repeated(TaxelId),
+    /// More buses than modules.
+    #[error("{buses} buses for {modules} module(s) would leave buses empty: give at most {}", .modules.max(&1))]
+    EmptyBuses {
+        /// Buses asked for.
+        buses: usize,
+        /// Modules of the layout.
+        modules: usize,
+    },
+    /// More modules per bus than the wire format can address.
+    #[error("{modules} modules on {buses} bus(es) is more than {} allows per bus ({limit}): use more buses", .format.name())]
+    Crowded {
+        /// Modules of the layout.
+        modules: usize,
+        /// Buses asked for.
+        buses: usize,
+        /// The wire format.
+        format: WireFormat,
+        /// Its addresses per bus.
+        limit: usize,
+    },
+    /// The map made fails the checks of a bus map read from a file (a fault of this function).
+    #[error("the bus map made for these taxels is not valid: {0}")]
+    Check(String),
+}
+
 /// One module (triangle) on a bus.
 #[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -172,30 +209,27 @@ impl BusMap {
         ids: &[TaxelId],
         format: WireFormat,
         buses: usize,
-    ) -> std::result::Result<BusMap, String> {
+    ) -> std::result::Result<BusMap, SplitError> {
         if buses == 0 || buses > MAX_BUSES {
-            return Err(format!("{buses} buses: give 1 to {MAX_BUSES}"));
+            return Err(SplitError::Buses(buses));
         }
         let mut modules: std::collections::BTreeMap<u32, Vec<i64>> = std::collections::BTreeMap::new();
         for id in ids {
             let channel = id.channel() as usize;
             if channel >= SLOTS {
-                return Err(format!(
-                    "taxel {id} has channel {channel}; Cyskin modules have channels 0..11"
-                ));
+                return Err(SplitError::Channel(*id));
             }
             let slots = modules.entry(id.module()).or_insert_with(|| vec![-1; SLOTS]);
             if slots[channel] != -1 {
-                return Err(format!("taxel {id} appears twice"));
+                return Err(SplitError::Repeated(*id));
             }
             slots[channel] = i64::from(id.0);
         }
         if buses > modules.len().max(1) {
-            return Err(format!(
-                "{buses} buses for {} module(s) would leave buses empty: give at most {}",
-                modules.len(),
-                modules.len().max(1)
-            ));
+            return Err(SplitError::EmptyBuses {
+                buses,
+                modules: modules.len(),
+            });
         }
         let per_bus = modules.len().div_ceil(buses).max(1);
         let limit = match format {
@@ -203,11 +237,12 @@ impl BusMap {
             WireFormat::Icub8 => 256,
         };
         if per_bus > limit {
-            return Err(format!(
-                "{} modules on {buses} bus(es) is {per_bus} per bus; {} allows {limit}: use more buses",
-                modules.len(),
-                format.name()
-            ));
+            return Err(SplitError::Crowded {
+                modules: modules.len(),
+                buses,
+                format,
+                limit,
+            });
         }
         let modules: Vec<Vec<i64>> = modules.into_values().collect();
         let even = (buses - 1) * per_bus >= modules.len();
@@ -239,7 +274,7 @@ impl BusMap {
                 })
                 .collect(),
         };
-        map.check()?;
+        map.check().map_err(SplitError::Check)?;
         Ok(map)
     }
 

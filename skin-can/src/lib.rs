@@ -36,5 +36,5 @@ mod error;
 pub mod live;
 
 pub use assembler::{AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, ModuleRef};
-pub use busmap::{BusMap, WireFormat};
+pub use busmap::{BusMap, SplitError, WireFormat};
 pub use error::{Error, Result};

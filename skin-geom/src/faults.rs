@@ -33,17 +33,18 @@ impl BlindSpots {
     /// The map with the spots' taxels zeroed (added to any already zeroed).
     pub fn apply(&self, map: &TactileMap) -> Result<TactileMap> {
         if !(self.radius_mm.is_finite() && self.radius_mm >= 0.0) {
-            return Err(Error::Mismatch(format!(
-                "blind-spot radius must be a non-negative number of millimetres, not {}",
-                self.radius_mm
-            )));
+            return Err(Error::Parameter {
+                name: "blind-spot radius (mm)",
+                value: self.radius_mm,
+                expected: "a non-negative number of millimetres",
+            });
         }
         if self.spots > map.points.len() {
-            return Err(Error::Mismatch(format!(
-                "{} blind spots on a map of {} taxels",
-                self.spots,
-                map.points.len()
-            )));
+            return Err(Error::Parameter {
+                name: "blind spots",
+                value: self.spots as f64,
+                expected: "at most one per taxel of the map",
+            });
         }
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let centres = rand::seq::index::sample(&mut rng, map.points.len(), self.spots);
@@ -84,10 +85,11 @@ impl Decimation {
     /// Indices (into the map's taxels, increasing) of the taxels that survive.
     pub fn survivors(&self, n: usize) -> Result<Vec<usize>> {
         if !(self.fraction.is_finite() && (0.0..1.0).contains(&self.fraction)) {
-            return Err(Error::Mismatch(format!(
-                "the fraction of taxels removed must be in [0, 1), not {}",
-                self.fraction
-            )));
+            return Err(Error::Parameter {
+                name: "fraction of taxels removed",
+                value: self.fraction,
+                expected: "from 0 up to (not including) 1",
+            });
         }
         let removed = (self.fraction * n as f64).round() as usize;
         let mut keep: Vec<usize> = Self::order(self.seed, n)[removed.min(n)..].to_vec();
@@ -229,11 +231,11 @@ impl<'a> FaceGrid<'a> {
 /// what both show: returns (I_L = I_L^O I_M, I_L^T = I_H^T I_M).
 pub fn masked_ground_truth(image: &[u8], labels: &[u8], threshold: u8) -> Result<(Vec<u8>, Vec<u8>)> {
     if image.len() != labels.len() {
-        return Err(Error::Mismatch(format!(
-            "image has {} pixels, labels {}",
-            image.len(),
-            labels.len()
-        )));
+        return Err(Error::Length {
+            what: "labels for the image's pixels",
+            got: labels.len(),
+            expected: image.len(),
+        });
     }
     Ok(image
         .iter()

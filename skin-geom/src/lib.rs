@@ -62,7 +62,7 @@ mod triangulate;
 
 pub use chart::Chart;
 pub use distortion::DistortionReport;
-pub use error::{Error, Result};
+pub use error::{ChainError, Error, Result};
 pub use faults::{BlindSpots, Decimation, masked_ground_truth};
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
 pub use mesh_file::{MeshFileLink, load_mesh_file};

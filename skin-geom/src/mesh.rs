@@ -143,10 +143,11 @@ impl SkinMesh {
             (Some(given), true) if !given.is_empty() => {
                 for (f, face) in given.iter().enumerate() {
                     if let Some(&bad) = face.iter().find(|&&v| v >= ids.len()) {
-                        return Err(Error::Mismatch(format!(
-                            "face {f} uses taxel index {bad}, but the link has {} taxels",
-                            ids.len()
-                        )));
+                        return Err(Error::FaceIndex {
+                            face: f,
+                            index: bad,
+                            taxels: ids.len(),
+                        });
                     }
                 }
                 let faces: Vec<[usize; 3]> = given.iter().map(|f| f.map(|t| taxel_vertex[t])).collect();

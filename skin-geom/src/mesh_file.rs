@@ -391,15 +391,13 @@ impl MeshFileLink {
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .ok_or_else(|| Error::TooFewTaxels("the layout has no taxel".into()))?;
             if d > tolerance {
-                return Err(Error::Mismatch(format!(
-                    "mesh vertex {v} at ({:.4}, {:.4}, {:.4}) m has no taxel within {:.1} mm (nearest: taxel {} at {:.1} mm)",
-                    p.x,
-                    p.y,
-                    p.z,
-                    tolerance * 1e3,
-                    link.taxels[best].id,
-                    d * 1e3
-                )));
+                return Err(Error::NoTaxelAtVertex {
+                    vertex: v,
+                    at: [p.x, p.y, p.z],
+                    tolerance_m: tolerance,
+                    nearest: link.taxels[best].id,
+                    distance_m: d,
+                });
             }
             matched.push(best);
         }

@@ -118,19 +118,20 @@ impl Rasterizer {
     /// Lays `grid` on `map` (centred on its bounding box) and precomputes every pixel.
     pub fn new(map: &TactileMap, grid: Grid) -> Result<Rasterizer> {
         if map.faces.is_empty() {
-            return Err(Error::Mismatch(format!(
-                "tactile map \"{}\" has no triangle",
-                map.name
-            )));
+            return Err(Error::NoTriangle {
+                map: map.name.clone(),
+            });
         }
         let (lo, hi) = map.bounds();
         let (w, h) = (hi.x - lo.x, hi.y - lo.y);
         let (rows, cols, step) = match grid {
             Grid::StepMm(mm) => {
                 if !(mm.is_finite() && mm > 0.0) {
-                    return Err(Error::Mismatch(format!(
-                        "grid step must be a positive number of millimetres, got {mm}"
-                    )));
+                    return Err(Error::Parameter {
+                        name: "grid step (mm)",
+                        value: mm,
+                        expected: "a positive number of millimetres",
+                    });
                 }
                 let s = mm * 1e-3;
                 (
@@ -141,17 +142,21 @@ impl Rasterizer {
             }
             Grid::Size { rows, cols } => {
                 if rows == 0 || cols == 0 {
-                    return Err(Error::Mismatch(format!(
-                        "image size {rows} x {cols} has no pixel"
-                    )));
+                    return Err(Error::ImageSize {
+                        rows,
+                        cols,
+                        why: "no pixel",
+                    });
                 }
                 (rows, cols, (w / cols as f64).max(h / rows as f64))
             }
         };
         if rows > MAX_SIDE || cols > MAX_SIDE {
-            return Err(Error::Mismatch(format!(
-                "a {rows} x {cols} image is too large (at most {MAX_SIDE} pixels a side): use a coarser grid step"
-            )));
+            return Err(Error::ImageSize {
+                rows,
+                cols,
+                why: "too large (at most 4096 pixels a side): use a coarser grid step",
+            });
         }
         let centre = Point2::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
         let corner = Point2::new(
@@ -406,11 +411,11 @@ impl Rasterizer {
         grey: &mut [u8],
     ) -> Result<()> {
         if grey.len() != image.len() {
-            return Err(Error::Mismatch(format!(
-                "grey buffer has {} pixels, the image {}",
-                grey.len(),
-                image.len()
-            )));
+            return Err(Error::Length {
+                what: "pixels of the grey buffer for the image",
+                got: grey.len(),
+                expected: image.len(),
+            });
         }
         self.check(pressures, image.len())?;
         let k_bar = match norm {
@@ -456,20 +461,18 @@ impl Rasterizer {
 
     fn check(&self, pressures: &[f32], image_len: usize) -> Result<()> {
         if pressures.len() != self.n_taxels {
-            return Err(Error::Mismatch(format!(
-                "frame has {} values but the map has {} taxels",
-                pressures.len(),
-                self.n_taxels
-            )));
+            return Err(Error::Length {
+                what: "values of the frame for the map's taxels",
+                got: pressures.len(),
+                expected: self.n_taxels,
+            });
         }
         if image_len != self.len() {
-            return Err(Error::Mismatch(format!(
-                "image buffer has {} pixels, the grid {} x {} = {}",
-                image_len,
-                self.rows,
-                self.cols,
-                self.len()
-            )));
+            return Err(Error::Length {
+                what: "pixels of the image buffer for the grid",
+                got: image_len,
+                expected: self.rows * self.cols,
+            });
         }
         Ok(())
     }
@@ -725,7 +728,11 @@ impl TactileImager {
 
 /// Encodes a row-major 8-bit grey image of `rows x cols` pixels as PNG.
 pub fn encode_png(grey: &[u8], rows: usize, cols: usize) -> Result<Vec<u8>> {
-    let bad = || Error::Mismatch(format!("{} grey values for a {rows} x {cols} image", grey.len()));
+    let bad = || Error::Length {
+        what: "grey values for the image's pixels",
+        got: grey.len(),
+        expected: rows.saturating_mul(cols),
+    };
     if grey.len() != rows * cols {
         return Err(bad());
     }

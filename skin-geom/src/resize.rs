@@ -64,9 +64,16 @@ impl Resizer {
     /// A resize from `src_rows x src_cols` to `dst_rows x dst_cols`.
     pub fn new(src_rows: usize, src_cols: usize, dst_rows: usize, dst_cols: usize) -> Result<Resizer> {
         if src_rows == 0 || src_cols == 0 || dst_rows == 0 || dst_cols == 0 {
-            return Err(Error::Mismatch(format!(
-                "cannot resize {src_rows} x {src_cols} to {dst_rows} x {dst_cols}: a size is zero"
-            )));
+            let (rows, cols) = if src_rows == 0 || src_cols == 0 {
+                (src_rows, src_cols)
+            } else {
+                (dst_rows, dst_cols)
+            };
+            return Err(Error::ImageSize {
+                rows,
+                cols,
+                why: "no pixel to resize from or to",
+            });
         }
         Ok(Resizer {
             src: (src_rows, src_cols),

@@ -28,7 +28,7 @@
 use crate::chart::{Chart, choose_chart};
 use crate::tactile_map::TactileMap;
 use crate::triangulate::delaunay;
-use crate::{Error, Result};
+use crate::{ChainError, Error, Result};
 use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason, TerminationStatus};
 use argmin::solver::linesearch::BacktrackingLineSearch;
 use argmin::solver::linesearch::condition::ArmijoCondition;
@@ -205,7 +205,9 @@ fn check_pose(k: usize, pose: &Isometry3<f64>) -> Result<()> {
     if ok {
         Ok(())
     } else {
-        Err(Error::Mismatch(format!("the pose of link {k} is not finite")))
+        Err(Error::NotFinite {
+            what: format!("the pose of link {k}"),
+        })
     }
 }
 
@@ -221,17 +223,14 @@ impl Stitcher {
         options: StitchOptions,
     ) -> Result<Stitcher> {
         if maps.len() < 2 {
-            return Err(Error::Mismatch(format!(
-                "stitching needs at least 2 links, got {}",
-                maps.len()
-            )));
+            return Err(Error::Chain(ChainError::TooFewLinks(maps.len())));
         }
         if reference.len() != maps.len() {
-            return Err(Error::Mismatch(format!(
-                "{} reference poses for {} links",
-                reference.len(),
-                maps.len()
-            )));
+            return Err(Error::Length {
+                what: "reference poses for the links",
+                got: reference.len(),
+                expected: maps.len(),
+            });
         }
         let mut boundaries = Vec::new();
         for j in 0..maps.len() - 1 {
@@ -259,22 +258,23 @@ impl Stitcher {
         reference: &[Isometry3<f64>],
         options: StitchOptions,
     ) -> Result<Stitcher> {
-        if maps.len() < 2 || boundaries.len() != maps.len() - 1 || reference.len() != maps.len() {
-            return Err(Error::Mismatch(format!(
-                "{} links need {} boundaries and {} reference poses; got {} and {}",
-                maps.len(),
-                maps.len().saturating_sub(1),
-                maps.len(),
-                boundaries.len(),
-                reference.len()
-            )));
+        if maps.len() < 2 {
+            return Err(Error::Chain(ChainError::TooFewLinks(maps.len())));
+        }
+        for (what, got, expected) in [
+            ("boundaries for the joints", boundaries.len(), maps.len() - 1),
+            ("reference poses for the links", reference.len(), maps.len()),
+        ] {
+            if got != expected {
+                return Err(Error::Length { what, got, expected });
+            }
         }
         for (k, m) in maps.iter().enumerate() {
             if m.positions.len() != m.points.len() {
-                return Err(Error::Mismatch(format!(
-                    "map {k} (\"{}\") has no 3D taxel positions: stitching needs them",
-                    m.name
-                )));
+                return Err(Error::Chain(ChainError::NoPositions {
+                    index: k,
+                    name: m.name.clone(),
+                }));
             }
         }
         let mut joints = Vec::new();
@@ -283,17 +283,18 @@ impl Stitcher {
             check_pose(j + 1, &reference[j + 1])?;
             for (list, map) in [(&parent, &maps[j]), (&child, &maps[j + 1])] {
                 if list.is_empty() {
-                    return Err(Error::Mismatch(format!(
-                        "joint {j}: the link \"{}\" has no boundary taxel near its neighbour",
-                        map.name
-                    )));
+                    return Err(Error::Chain(ChainError::NoBoundary {
+                        joint: j,
+                        link: map.name.clone(),
+                    }));
                 }
                 if let Some(&bad) = list.iter().find(|&&i| i >= map.points.len()) {
-                    return Err(Error::Mismatch(format!(
-                        "joint {j}: boundary taxel index {bad} is past the {} taxels of \"{}\"",
-                        map.points.len(),
-                        map.name
-                    )));
+                    return Err(Error::Chain(ChainError::BoundaryIndex {
+                        joint: j,
+                        index: bad,
+                        taxels: map.points.len(),
+                        link: map.name.clone(),
+                    }));
                 }
             }
             // The joint region at the reference posture, in the parent's frame.
@@ -428,11 +429,11 @@ impl Stitcher {
     /// One finite pose per link, or an error saying what is wrong.
     fn check_poses(&self, poses: &[Isometry3<f64>]) -> Result<()> {
         if poses.len() != self.maps.len() {
-            return Err(Error::Mismatch(format!(
-                "{} poses for a chain of {} links",
-                poses.len(),
-                self.maps.len()
-            )));
+            return Err(Error::Length {
+                what: "poses for the chain's links",
+                got: poses.len(),
+                expected: self.maps.len(),
+            });
         }
         for (k, p) in poses.iter().enumerate() {
             check_pose(k, p)?;
@@ -609,12 +610,12 @@ impl Stitcher {
         // Backtracking (Armijo) rather than More-Thuente: it always ends, which a control loop
         // needs; the Gauss-Newton scaling makes the first trial step usually the right one.
         let condition =
-            ArmijoCondition::new(1e-4).map_err(|e| Error::Mismatch(format!("solver set-up: {e}")))?;
+            ArmijoCondition::new(1e-4).map_err(|e| Error::Solve(format!("solver set-up: {e}")))?;
         let solver = BFGS::new(BacktrackingLineSearch::new(condition))
             .with_tolerance_grad(self.options.tolerance)
-            .map_err(|e| Error::Mismatch(format!("solver set-up: {e}")))?
+            .map_err(|e| Error::Solve(format!("solver set-up: {e}")))?
             .with_tolerance_cost(0.0)
-            .map_err(|e| Error::Mismatch(format!("solver set-up: {e}")))?;
+            .map_err(|e| Error::Solve(format!("solver set-up: {e}")))?;
         let (max_iters, timeout) = match deadline {
             Deadline::Iterations(n) => (n, None),
             Deadline::Time(t) => (1_000, Some(t)),

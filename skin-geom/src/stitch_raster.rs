@@ -11,7 +11,7 @@
 use crate::raster::{Grid, Rasterizer};
 use crate::stitch::Placement;
 use crate::tactile_map::TactileMap;
-use crate::{Error, Result};
+use crate::{ChainError, Error, Result};
 use nalgebra::{Point2, Vector2};
 
 /// Tactile images of stitched maps; see the module documentation.
@@ -94,11 +94,11 @@ impl StitchedRasterizer {
     /// pixel lookup.
     pub fn place(&mut self, placements: &[Placement], bridges: &[[(usize, usize); 3]]) -> Result<()> {
         if placements.len() != self.links.len() {
-            return Err(Error::Mismatch(format!(
-                "{} placements for {} stitched maps",
-                placements.len(),
-                self.links.len()
-            )));
+            return Err(Error::Length {
+                what: "placements for the stitched maps",
+                got: placements.len(),
+                expected: self.links.len(),
+            });
         }
         let half = self.step / 2.0;
         // Canvas bounds: every link's raster corners, placed.
@@ -114,14 +114,18 @@ impl StitchedRasterizer {
             }
         }
         if !(lo.x.is_finite() && lo.y.is_finite() && hi.x.is_finite() && hi.y.is_finite()) {
-            return Err(Error::Mismatch("a placement is not finite".into()));
+            return Err(Error::NotFinite {
+                what: "a placement".into(),
+            });
         }
         let cols = (((hi.x - lo.x) / self.step).ceil() as usize).max(1);
         let rows = (((hi.y - lo.y) / self.step).ceil() as usize).max(1);
         if rows.saturating_mul(cols) > 50_000_000 {
-            return Err(Error::Mismatch(format!(
-                "the stitched maps span {rows} x {cols} pixels: placements far apart?"
-            )));
+            return Err(Error::ImageSize {
+                rows,
+                cols,
+                why: "the stitched maps span too many pixels: placements far apart?",
+            });
         }
         self.rows = rows;
         self.cols = cols;
@@ -176,9 +180,7 @@ impl StitchedRasterizer {
                 .iter()
                 .any(|&(l, t)| l >= self.points.len() || t >= self.points[l].len())
             {
-                return Err(Error::Mismatch(format!(
-                    "bridge triangle {tri:?} names a taxel no map has"
-                )));
+                return Err(Error::Chain(ChainError::Bridge(*tri)));
             }
             let v = tri.map(|(l, t)| placements[l].apply(&self.points[l][t]));
             let area = (v[1] - v[0]).perp(&(v[2] - v[0]));
@@ -223,11 +225,11 @@ impl StitchedRasterizer {
     /// gets `rows() * cols()` values, row-major, 0 where no map is.
     pub fn render(&mut self, pressures: &[&[f32]], image: &mut Vec<f32>) -> Result<()> {
         if pressures.len() != self.links.len() {
-            return Err(Error::Mismatch(format!(
-                "pressures for {} links, {} maps are stitched",
-                pressures.len(),
-                self.links.len()
-            )));
+            return Err(Error::Length {
+                what: "pressure frames for the stitched maps",
+                got: pressures.len(),
+                expected: self.links.len(),
+            });
         }
         for ((r, p), img) in self.links.iter_mut().zip(pressures).zip(&mut self.images) {
             r.render(p, img)?;

@@ -128,11 +128,24 @@ fn pre_aligned_maps_converge_in_three_iterations_from_the_warm_start() {
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
     let mut st = Stitcher::new(maps(), &poses(0.0), StitchOptions::default()).unwrap();
-    let err = st
-        .update(&poses(0.0)[..1], Deadline::Iterations(5))
-        .unwrap_err()
-        .to_string();
-    assert!(err.contains("1 poses for a chain of 2 links"), "{err}");
+    let err = st.update(&poses(0.0)[..1], Deadline::Iterations(5)).unwrap_err();
+    // The error says what mismatched, as a type and in words.
+    assert!(
+        matches!(
+            err,
+            skin_geom::Error::Length {
+                got: 1,
+                expected: 2,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string()
+            .contains("poses for the chain's links: 1, expected 2"),
+        "{err}"
+    );
     let mut nan = poses(0.0);
     nan[1].translation.vector.x = f64::NAN;
     let err = st.update(&nan, Deadline::Iterations(5)).unwrap_err().to_string();

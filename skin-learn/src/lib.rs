@@ -16,12 +16,14 @@
 //!   touches and their hand / non-hand decisions and hand parts (what `skin run` drives; a
 //!   complete example: `examples/examples/classify_touch.rs`).
 //! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.
+//! - [`Error`]: every error of the crate in one type, for `?` in a robot stack's code.
 
 pub mod calibration;
 pub mod card;
 #[cfg(feature = "onnx")]
 pub mod classify;
 pub mod dataset;
+mod error;
 #[cfg(feature = "onnx")]
 mod image_model;
 #[cfg(feature = "onnx")]
@@ -33,3 +35,5 @@ pub mod segment;
 pub mod synth;
 #[cfg(feature = "onnx")]
 pub mod touch;
+
+pub use error::{Error, Result};
