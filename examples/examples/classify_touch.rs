@@ -79,7 +79,7 @@ fn main() -> anyhow::Result<()> {
     let mut pressures = vec![0.0f32; link.taxels.len()];
     let mut events = Vec::new();
     for (time, raw) in &frames[idle..] {
-        baseline.apply(raw, &mut pressures).map_err(anyhow::Error::msg)?;
+        baseline.apply(raw, &mut pressures)?;
         events.clear();
         pipeline.process(time - t0, &[&pressures], &mut events)?;
         for e in &events {

@@ -80,65 +80,22 @@ impl Baseline {
         options: &BaselineOptions,
         source: &Path,
     ) -> Result<(Baseline, TaxelHealth)> {
-        let mut n = 0usize;
-        let (mut mean, mut m2, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut stats: Option<IdleStats> = None;
         for (k, frame) in frames.into_iter().enumerate() {
-            if n == 0 {
-                mean = vec![0.0f64; frame.len()];
-                m2 = vec![0.0f64; frame.len()];
-                lo = vec![f32::INFINITY; frame.len()];
-                hi = vec![f32::NEG_INFINITY; frame.len()];
-            } else if frame.len() != mean.len() {
-                return Err(Error::invalid(
+            let s = stats.get_or_insert_with(|| IdleStats::new(frame.len()));
+            s.push(frame).map_err(|e| match e {
+                Error::Length { got, expected, .. } => Error::invalid(
                     source,
                     format!("idle frame {k}"),
-                    format!("{} readings, the first frame has {}", frame.len(), mean.len()),
-                ));
-            }
-            n += 1;
-            for (i, &v) in frame.iter().enumerate() {
-                if !v.is_finite() {
-                    return Err(Error::invalid(
-                        source,
-                        format!("idle frame {k}, taxel index {i}"),
-                        "reading is not finite",
-                    ));
+                    format!("{got} readings, the first frame has {expected}"),
+                ),
+                Error::Invalid { place, message, .. } => {
+                    Error::invalid(source, format!("idle frame {k}, {place}"), message)
                 }
-                // Welford's running mean and variance: one pass, no stored frames.
-                let d = f64::from(v) - mean[i];
-                mean[i] += d / n as f64;
-                m2[i] += d * (f64::from(v) - mean[i]);
-                lo[i] = lo[i].min(v);
-                hi[i] = hi[i].max(v);
-            }
+                e => e,
+            })?;
         }
-        if n < 2 {
-            return Err(Error::invalid(
-                source,
-                "idle frames",
-                format!("{n} frame(s): at least 2 are needed to measure noise"),
-            ));
-        }
-        let mut health = TaxelHealth::default();
-        let mut noise = Vec::with_capacity(mean.len());
-        for i in 0..mean.len() {
-            let sd = (m2[i] / (n - 1) as f64).sqrt() as f32;
-            noise.push((options.noise_sigmas * sd).max(options.min_noise));
-            if lo[i] <= options.rails.0 && hi[i] <= options.rails.0 || lo[i] >= options.rails.1 {
-                health.stuck.push(i);
-            } else if lo[i] == hi[i] {
-                health.dead.push(i);
-            }
-        }
-        Ok((
-            Baseline {
-                offset: mean.iter().map(|&m| m as f32).collect(),
-                noise,
-                polarity: options.polarity,
-                drift: options.drift_per_frame.clamp(0.0, 1.0),
-            },
-            health,
-        ))
+        stats.unwrap_or_else(|| IdleStats::new(0)).finish(options, source)
     }
 
     /// Number of taxels.
@@ -163,14 +120,18 @@ impl Baseline {
 
     /// Pressures of one raw frame (same taxel order), and drift tracking for taxels not in
     /// contact. Allocates nothing; a frame of the wrong length is an error and changes nothing.
-    pub fn apply(&mut self, raw: &[f32], pressures: &mut [f32]) -> std::result::Result<(), String> {
-        if raw.len() != self.offset.len() || pressures.len() != self.offset.len() {
-            return Err(format!(
-                "frame has {} readings and {} outputs, the baseline {} taxels",
-                raw.len(),
-                pressures.len(),
-                self.offset.len()
-            ));
+    pub fn apply(&mut self, raw: &[f32], pressures: &mut [f32]) -> Result<()> {
+        for (what, got) in [
+            ("readings of the frame for the baseline's taxels", raw.len()),
+            ("pressures for the baseline's taxels", pressures.len()),
+        ] {
+            if got != self.offset.len() {
+                return Err(Error::Length {
+                    what,
+                    got,
+                    expected: self.offset.len(),
+                });
+            }
         }
         let sign = match self.polarity {
             Polarity::Rising => 1.0,
@@ -195,5 +156,196 @@ impl Baseline {
             }
         }
         Ok(())
+    }
+}
+
+/// Running statistics of a link's idle readings (Welford's mean and variance, and the range),
+/// from which a [`Baseline`] is made: one pass, no stored frames, no allocation per frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdleStats {
+    n: usize,
+    mean: Vec<f64>,
+    m2: Vec<f64>,
+    lo: Vec<f32>,
+    hi: Vec<f32>,
+}
+
+impl IdleStats {
+    /// Statistics of `taxels` taxels, no frame yet.
+    pub fn new(taxels: usize) -> IdleStats {
+        IdleStats {
+            n: 0,
+            mean: vec![0.0; taxels],
+            m2: vec![0.0; taxels],
+            lo: vec![f32::INFINITY; taxels],
+            hi: vec![f32::NEG_INFINITY; taxels],
+        }
+    }
+
+    /// Frames taken so far.
+    pub fn frames(&self) -> usize {
+        self.n
+    }
+
+    /// Takes one idle frame (one reading per taxel). A frame of the wrong length or with a
+    /// reading that is not finite is an error and changes nothing.
+    pub fn push(&mut self, frame: &[f32]) -> Result<()> {
+        if frame.len() != self.mean.len() {
+            return Err(Error::Length {
+                what: "readings of the idle frame for the link's taxels",
+                got: frame.len(),
+                expected: self.mean.len(),
+            });
+        }
+        if let Some(i) = frame.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Invalid {
+                path: Path::new("idle frames").to_owned(),
+                place: format!("taxel index {i}"),
+                message: "reading is not finite".into(),
+            });
+        }
+        self.n += 1;
+        let n = self.n as f64;
+        for (i, &v) in frame.iter().enumerate() {
+            let d = f64::from(v) - self.mean[i];
+            self.mean[i] += d / n;
+            self.m2[i] += d * (f64::from(v) - self.mean[i]);
+            self.lo[i] = self.lo[i].min(v);
+            self.hi[i] = self.hi[i].max(v);
+        }
+        Ok(())
+    }
+
+    /// The baseline and the taxels the frames show to be unusable; at least 2 frames are needed
+    /// to measure noise. `source` names the frames in errors.
+    pub fn finish(&self, options: &BaselineOptions, source: &Path) -> Result<(Baseline, TaxelHealth)> {
+        let n = self.n;
+        if n < 2 {
+            return Err(Error::invalid(
+                source,
+                "idle frames",
+                format!("{n} frame(s): at least 2 are needed to measure noise"),
+            ));
+        }
+        let mut health = TaxelHealth::default();
+        let mut noise = Vec::with_capacity(self.mean.len());
+        for i in 0..self.mean.len() {
+            let sd = (self.m2[i] / (n - 1) as f64).sqrt() as f32;
+            noise.push((options.noise_sigmas * sd).max(options.min_noise));
+            let (lo, hi) = (self.lo[i], self.hi[i]);
+            if lo <= options.rails.0 && hi <= options.rails.0 || lo >= options.rails.1 {
+                health.stuck.push(i);
+            } else if lo == hi {
+                health.dead.push(i);
+            }
+        }
+        Ok((
+            Baseline {
+                offset: self.mean.iter().map(|&m| m as f32).collect(),
+                noise,
+                polarity: options.polarity,
+                drift: options.drift_per_frame.clamp(0.0, 1.0),
+            },
+            health,
+        ))
+    }
+}
+
+/// Learns every link's baseline from the first complete frames of a session, taken as idle (no
+/// one touches the skin while it starts): what a runtime does before its first pressure.
+///
+/// ```
+/// use skin_core::{BaselineLearner, BaselineOptions};
+///
+/// // Two links of 3 and 2 taxels; 20 idle frames with a little noise.
+/// let mut learner = BaselineLearner::new(&[3, 2], 20, BaselineOptions::default())?;
+/// let mut k = 0.0f32;
+/// while !learner.is_done() {
+///     k += 1.0;
+///     let wobble = if k as u32 % 2 == 0 { 1.0 } else { -1.0 };
+///     learner.push(&[vec![1000.0 + wobble; 3], vec![2000.0 - wobble; 2]])?;
+/// }
+/// let links = learner.finish(std::path::Path::new("session"))?;
+/// assert_eq!(links.len(), 2);
+/// assert!((links[1].0.offsets()[0] - 2000.0).abs() < 0.1);
+/// # Ok::<(), skin_core::Error>(())
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct BaselineLearner {
+    links: Vec<IdleStats>,
+    frames: usize,
+    options: BaselineOptions,
+}
+
+impl BaselineLearner {
+    /// The most idle frames a learner takes (over an hour at 20 Hz).
+    pub const MAX_FRAMES: usize = 100_000;
+
+    /// A learner for links of `taxels[l]` taxels each, done after `frames` frames (2 to
+    /// [`Self::MAX_FRAMES`]: at least 2 to measure noise).
+    pub fn new(taxels: &[usize], frames: usize, options: BaselineOptions) -> Result<BaselineLearner> {
+        if !(2..=Self::MAX_FRAMES).contains(&frames) {
+            return Err(Error::invalid(
+                Path::new("baseline"),
+                "frames",
+                format!("{frames}: expected 2 to {} idle frames", Self::MAX_FRAMES),
+            ));
+        }
+        Ok(BaselineLearner {
+            links: taxels.iter().map(|&n| IdleStats::new(n)).collect(),
+            frames,
+            options,
+        })
+    }
+
+    /// Takes one frame of every link (raw readings in layout order). Call it with complete
+    /// frames only: a missing module's readings are not idle readings.
+    pub fn push(&mut self, links: &[Vec<f32>]) -> Result<()> {
+        if links.len() != self.links.len() {
+            return Err(Error::Length {
+                what: "links of the frame for the learner's links",
+                got: links.len(),
+                expected: self.links.len(),
+            });
+        }
+        // Check every link before taking any, so a bad frame changes nothing.
+        for (l, (stats, raw)) in self.links.iter().zip(links).enumerate() {
+            if raw.len() != stats.mean.len() {
+                return Err(Error::Length {
+                    what: "readings of the idle frame for the link's taxels",
+                    got: raw.len(),
+                    expected: stats.mean.len(),
+                });
+            }
+            if let Some(i) = raw.iter().position(|v| !v.is_finite()) {
+                return Err(Error::Invalid {
+                    path: Path::new("idle frames").to_owned(),
+                    place: format!("link {l}, taxel index {i}"),
+                    message: "reading is not finite".into(),
+                });
+            }
+        }
+        for (stats, raw) in self.links.iter_mut().zip(links) {
+            stats.push(raw)?;
+        }
+        Ok(())
+    }
+
+    /// Frames taken so far.
+    pub fn frames(&self) -> usize {
+        self.links.first().map_or(0, IdleStats::frames)
+    }
+
+    /// Whether it has taken its frames.
+    pub fn is_done(&self) -> bool {
+        self.frames() >= self.frames
+    }
+
+    /// Every link's baseline and unusable taxels, in the order of the links.
+    pub fn finish(&self, source: &Path) -> Result<Vec<(Baseline, TaxelHealth)>> {
+        self.links
+            .iter()
+            .map(|s| s.finish(&self.options, source))
+            .collect()
     }
 }

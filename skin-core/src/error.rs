@@ -35,6 +35,16 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// A frame or a buffer does not have the length its taxels need.
+    #[error("{what}: {got}, expected {expected}")]
+    Length {
+        /// What was counted, and against what, e.g. "readings of the frame for the baseline's taxels".
+        what: &'static str,
+        /// The length given.
+        got: usize,
+        /// The length needed.
+        expected: usize,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

@@ -48,7 +48,7 @@ mod layout;
 pub mod output;
 mod taxel;
 
-pub use baseline::{Baseline, BaselineOptions, Polarity, TaxelHealth};
+pub use baseline::{Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth};
 pub use contact::{Contact, ContactFinder};
 pub use error::{Error, Result};
 pub use frame::{Frame, Recording};

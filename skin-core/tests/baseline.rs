@@ -126,3 +126,34 @@ fn too_few_or_ragged_idle_frames_are_errors() {
     .unwrap_err();
     assert!(e.to_string().contains("idle frame 2"), "{e}");
 }
+
+#[test]
+fn the_learner_gives_what_from_idle_gives_and_a_bad_frame_changes_nothing() {
+    use skin_core::BaselineLearner;
+    let frames = idle(30);
+    let other: Vec<Vec<f32>> = frames
+        .iter()
+        .map(|f| f[..2].iter().map(|v| v + 7.0).collect())
+        .collect();
+    let mut learner = BaselineLearner::new(&[6, 2], 30, BaselineOptions::default()).unwrap();
+    for (k, (a, b)) in frames.iter().zip(&other).enumerate() {
+        assert!(!learner.is_done());
+        if k == 10 {
+            // A NaN in the second link, a short first link: refused, nothing taken.
+            let mut bad = b.clone();
+            bad[1] = f32::NAN;
+            assert!(learner.push(&[a.clone(), bad]).is_err());
+            assert!(learner.push(&[a[..5].to_vec(), b.clone()]).is_err());
+            assert!(learner.push(std::slice::from_ref(a)).is_err());
+            assert_eq!(learner.frames(), 10);
+        }
+        learner.push(&[a.clone(), b.clone()]).unwrap();
+    }
+    assert!(learner.is_done());
+    let learned = learner.finish(Path::new("idle")).unwrap();
+    assert_eq!(learned[0], learn(&frames, &BaselineOptions::default()));
+    assert_eq!(learned[1], learn(&other, &BaselineOptions::default()));
+    for frames in [0, 1, 100_001] {
+        assert!(BaselineLearner::new(&[6], frames, BaselineOptions::default()).is_err());
+    }
+}
