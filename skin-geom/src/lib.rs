@@ -19,6 +19,7 @@
 //!   that the skin across each joint keeps its 3D lengths (Eq. 6.6, argmin's BFGS, anytime), and
 //!   [`StitchedRasterizer`]: one tactile image over all of them. Example:
 //!   `examples/examples/stitch_links.rs`.
+//! - [`MapCache`]: maps flattened once and kept in a folder, keyed by the layout file's content.
 //! - [`faults`] (Ch. 5): blind spots and removed taxels, deterministic per seed, for robustness
 //!   studies.
 //!
@@ -50,6 +51,7 @@ mod distortion;
 mod error;
 pub mod faults;
 pub mod flatten;
+mod map_cache;
 pub mod mesh;
 mod mesh_file;
 mod morphology;
@@ -64,6 +66,7 @@ pub use chart::Chart;
 pub use distortion::DistortionReport;
 pub use error::{ChainError, Error, Result};
 pub use faults::{BlindSpots, Decimation, masked_ground_truth};
+pub use map_cache::MapCache;
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
 pub use mesh_file::{MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};
