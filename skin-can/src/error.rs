@@ -29,6 +29,24 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// A bus map carries a taxel that the layout does not have.
+    #[error(
+        "the bus map carries taxel {taxel}, which the layout does not have: is the bus map for this skin?"
+    )]
+    NotInLayout {
+        /// The taxel.
+        taxel: skin_core::TaxelId,
+    },
+    /// A frame or a buffer of the wrong length.
+    #[error("{what}: {got}, expected {expected}")]
+    Length {
+        /// What was counted, and against what.
+        what: &'static str,
+        /// The length given.
+        got: usize,
+        /// The length needed.
+        expected: usize,
+    },
 }
 
 /// `Result` with this crate's [`Error`].

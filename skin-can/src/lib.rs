@@ -22,6 +22,8 @@
 //! buses into one frame of the whole skin per cycle through a [`BusMap`]: per sync for `skin16`,
 //! per time window for `icub8` ([`Assembler::for_map`] picks). It reports per frame the modules
 //! that were missing or sent data twice: a partial frame is delivered flagged, never dropped.
+//! [`LayoutFrames`] puts each assembled frame's readings into the layout's order, link by link,
+//! holding a missing module's last readings (or NaN, [`Missing`]).
 //!
 //! Live input goes through [`live::Acquisition`]: a reader thread per interface, the `skin16` sync
 //! sent when this side is bus master, an interface that goes down reported and reopened. Linux
@@ -33,8 +35,10 @@ pub mod busmap;
 pub mod candump;
 pub mod decode;
 mod error;
+mod layout_frames;
 pub mod live;
 
 pub use assembler::{AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, ModuleRef};
 pub use busmap::{BusMap, SplitError, WireFormat};
 pub use error::{Error, Result};
+pub use layout_frames::{LayoutFrames, Missing};
