@@ -6,10 +6,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Deserialize;
 use serde_json::json;
 use skin_can::candump::CandumpLog;
-use skin_can::{AssembledFrame, Assembler, BusMap};
+use skin_can::{AssembledFrame, Assembler, BusMap, LayoutFrames, Missing};
 use skin_control::hri::GateAction;
-use skin_core::{Baseline, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
-use skin_geom::TactileMap;
+use skin_core::{Baseline, BaselineLearner, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
 use skin_learn::card::ModelCard;
 use skin_learn::classify::Classifier;
 use skin_learn::segment::Segmenter;
@@ -181,7 +180,7 @@ struct Setup {
     links: Vec<LinkSkin>,
     busmap: BusMap,
     /// Bus-map slot -> (link, taxel index in the link).
-    slots: Vec<Option<(usize, usize)>>,
+    slots: LayoutFrames,
     pipeline: TouchPipeline,
     classes: Vec<String>,
     truth: Option<Vec<Scripted>>,
@@ -215,7 +214,7 @@ struct Done {
 struct Session {
     raw: Vec<Vec<f32>>,
     pressures: Vec<Vec<f32>>,
-    idle: Vec<Vec<Vec<f32>>>,
+    learner: BaselineLearner,
     baselines: Vec<Baseline>,
     health: Vec<TaxelHealth>,
     events: Vec<TouchEvent>,
@@ -271,7 +270,7 @@ pub fn run(args: Args) -> Result<()> {
         args.log.is_none(),
         args.frames,
     )?;
-    let mut session = Session::new(&setup, output);
+    let mut session = Session::new(&setup, output)?;
     let result = match &args.log {
         Some(log) => offline(&mut setup, &mut session, log, args.quiet),
         None => live(&mut setup, &mut session, &args),
@@ -390,46 +389,36 @@ fn load(config_path: &Path) -> Result<Setup> {
         .transpose()?;
     let links = crate::flatten::load_links(&layout_path)?;
     let busmap = BusMap::read(&busmap_path)?;
-    let mut where_is = std::collections::HashMap::new();
-    for (l, link) in links.iter().enumerate() {
-        for (i, t) in link.taxels.iter().enumerate() {
-            where_is.insert(t.id, (l, i));
-        }
-    }
-    let ids = busmap.taxel_ids();
-    if let Some(id) = ids.iter().find(|id| !where_is.contains_key(id)) {
-        bail!(
-            "{}: taxel {id} is not in the layout {}; is the bus map for this skin?",
+    let ids: Vec<Vec<_>> = links.iter().map(LinkSkin::ids).collect();
+    let slots = LayoutFrames::new(&busmap, &ids, Missing::HoldLast).map_err(|e| match e {
+        skin_can::Error::NotInLayout { taxel } => anyhow::anyhow!(
+            "{}: taxel {taxel} is not in the layout {}; is the bus map for this skin?",
             busmap_path.display(),
             layout_path.display()
-        );
-    }
-    let slots: Vec<_> = ids.iter().map(|id| where_is.get(id).copied()).collect();
+        ),
+        e => e.into(),
+    })?;
 
     let layout_bytes =
         std::fs::read(&layout_path).with_context(|| format!("cannot read {}", layout_path.display()))?;
-    let layout_hash = fnv1a(0xcbf2_9ce4_8422_2325, &layout_bytes);
-    let cache = base.join(
-        config
-            .cache
-            .clone()
-            .unwrap_or_else(|| PathBuf::from(".skin-cache")),
+    let cache = skin_geom::MapCache::new(
+        base.join(
+            config
+                .cache
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(".skin-cache")),
+        ),
     );
+    // Frames reach the pipeline in layout order: the cache gives maps that keep it.
     let maps = links
         .iter()
-        .map(|l| cached_map(&layout_path, layout_hash, &cache, l))
+        .map(|l| {
+            cache
+                .map(&layout_bytes, l, &skin_geom::FlattenOptions::default())
+                .map(|(map, _)| map)
+                .with_context(|| format!("{}: link {}", layout_path.display(), l.name))
+        })
         .collect::<Result<Vec<_>>>()?;
-    for (map, link) in maps.iter().zip(&links) {
-        // Frames reach the pipeline in layout order: the map must keep it.
-        if map.ids != link.ids() {
-            bail!(
-                "{}: the cached map of link {} does not list its taxels in layout order; delete {}",
-                config_path.display(),
-                link.name,
-                cache.display()
-            );
-        }
-    }
     let stitching = match &poses_path {
         Some(p) => Some(crate::run_stitch::Stitching::new(p, &layout_path, &maps)?),
         None => None,
@@ -512,40 +501,6 @@ fn check_size(model: &Path, got: (usize, usize), want: (usize, usize), config: &
         );
     }
     Ok(())
-}
-
-/// FNV-1a of `bytes` continued from `h`: stable across runs and machines, unlike std's hasher.
-fn fnv1a(h: u64, bytes: &[u8]) -> u64 {
-    bytes
-        .iter()
-        .fold(h, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3))
-}
-
-/// The tactile map of `link`, from the cache, or flattened and cached. The cache key is a hash
-/// of the layout file and the link name, so an edited layout gets a new map.
-fn cached_map(layout: &Path, layout_hash: u64, cache: &Path, link: &LinkSkin) -> Result<TactileMap> {
-    let h = fnv1a(layout_hash, link.name.as_bytes());
-    let safe: String = link
-        .name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    let path = cache.join(format!("{safe}-{h:016x}.map.json"));
-    if path.is_file()
-        && let Ok(map) = TactileMap::read(&path)
-    {
-        return Ok(map);
-    }
-    let map = TactileMap::flatten(link, &skin_geom::FlattenOptions::default())
-        .with_context(|| format!("{}: link {}", layout.display(), link.name))?;
-    crate::output::write_file(&path, map.to_json().as_bytes(), &Inputs::default())?;
-    Ok(map)
 }
 
 /// The script: `touch<TAB>start<TAB>end<TAB>class<TAB>kind...`, `#` comments.
@@ -781,12 +736,17 @@ impl Output {
 }
 
 impl Session {
-    fn new(setup: &Setup, out: Output) -> Session {
+    fn new(setup: &Setup, out: Output) -> Result<Session> {
         let n = |l: &LinkSkin| l.taxels.len();
-        Session {
+        let sizes: Vec<usize> = setup.links.iter().map(n).collect();
+        let options = BaselineOptions {
+            polarity: setup.baseline.polarity,
+            ..BaselineOptions::default()
+        };
+        Ok(Session {
             raw: setup.links.iter().map(|l| vec![0.0; n(l)]).collect(),
             pressures: setup.links.iter().map(|l| vec![0.0; n(l)]).collect(),
-            idle: vec![Vec::new(); setup.links.len()],
+            learner: BaselineLearner::new(&sizes, setup.baseline.frames, options)?,
             baselines: Vec::new(),
             health: Vec::new(),
             events: Vec::new(),
@@ -802,7 +762,7 @@ impl Session {
             gate: None,
             across: 0,
             stage: Stages::default(),
-        }
+        })
     }
 
     /// One assembled frame through the whole path.
@@ -814,11 +774,7 @@ impl Session {
         self.last_time = time;
         // A missing module keeps its last readings (reported below), so a lost CAN frame does
         // not look like a release.
-        for (slot, value) in setup.slots.iter().zip(&a.values) {
-            if let (Some((l, i)), Some(v)) = (slot, value) {
-                self.raw[*l][*i] = f32::from(*v);
-            }
-        }
+        setup.slots.place(a, &mut self.raw)?;
         if !a.is_complete() {
             self.incomplete += 1;
             let missing: Vec<_> = a
@@ -833,11 +789,12 @@ impl Session {
             if !a.is_complete() {
                 return Ok(());
             }
-            for (l, raw) in self.raw.iter().enumerate() {
-                self.idle[l].push(raw.clone());
-            }
-            if self.idle[0].len() >= setup.baseline.frames {
-                self.learn_baseline(setup)?;
+            self.learner.push(&self.raw)?;
+            if self.learner.is_done() {
+                for (b, health) in self.learner.finish(&setup.config_path)? {
+                    self.baselines.push(b);
+                    self.health.push(health);
+                }
             }
             self.stage.baseline += started.elapsed();
             return Ok(());
@@ -917,21 +874,6 @@ impl Session {
             "to": r.to,
             "cycle": r.cycle,
         }))
-    }
-
-    fn learn_baseline(&mut self, setup: &Setup) -> Result<()> {
-        let options = BaselineOptions {
-            polarity: setup.baseline.polarity,
-            ..BaselineOptions::default()
-        };
-        for frames in &self.idle {
-            let (b, health) =
-                Baseline::from_idle(frames.iter().map(Vec::as_slice), &options, &setup.config_path)?;
-            self.baselines.push(b);
-            self.health.push(health);
-        }
-        self.idle.clear();
-        Ok(())
     }
 
     /// Writes the pipeline's events.
