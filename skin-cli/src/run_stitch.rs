@@ -2,10 +2,9 @@
 //! found over the whole chain, and stitched tactile images.
 
 use anyhow::{Context, Result, bail};
-use skin_core::ContactFinder;
 use skin_core::format::poses::Postures;
 use skin_geom::raster::to_grey;
-use skin_geom::{Normalisation, StitchOptions, StitchedRasterizer, Stitcher, TactileMap};
+use skin_geom::{ChainContacts, Normalisation, StitchOptions, StitchedRasterizer, Stitcher, TactileMap};
 use std::path::Path;
 
 /// A contact that spans links, in one frame.
@@ -26,12 +25,11 @@ pub(crate) struct Stitching {
     postures: Postures,
     placements: Vec<Solved>,
     /// Per posture: contact search over all links, joined by the bridges.
-    finders: Vec<ContactFinder>,
-    /// First index of each link in the concatenated frame.
-    offsets: Vec<usize>,
+    finders: Vec<ChainContacts>,
+    /// The posture of the loaded frame.
+    current: usize,
     raster: StitchedRasterizer,
     placed: Option<usize>,
-    all: Vec<f32>,
     image: Vec<f32>,
     grey: Vec<u8>,
     /// A contact spanned a joint in the last frame.
@@ -49,26 +47,16 @@ impl Stitching {
         };
         let mut stitcher = Stitcher::new(maps.to_vec(), &reference.poses, StitchOptions::default())
             .with_context(|| poses.display().to_string())?;
-        let mut offsets = Vec::with_capacity(maps.len());
-        let mut n = 0;
-        for m in maps {
-            offsets.push(n);
-            n += m.ids.len();
-        }
         let mut placements = Vec::new();
         let mut finders = Vec::new();
         for p in &postures.postures {
             let report = stitcher
                 .reset(&p.poses)
                 .with_context(|| format!("{}: posture \"{}\"", poses.display(), p.name))?;
-            let mut positions = Vec::with_capacity(n);
-            let mut faces = Vec::new();
-            for ((m, pose), &o) in maps.iter().zip(&p.poses).zip(&offsets) {
-                positions.extend(m.positions.iter().map(|x| pose * x));
-                faces.extend(m.faces.iter().map(|f| f.map(|i| o + i)));
-            }
-            faces.extend(report.bridges.iter().map(|b| b.map(|(l, i)| offsets[l] + i)));
-            finders.push(ContactFinder::new(&positions, &[], &faces, poses)?);
+            finders.push(
+                ChainContacts::new(maps, &p.poses, &report.bridges)
+                    .with_context(|| format!("{}: posture \"{}\"", poses.display(), p.name))?,
+            );
             placements.push((report.placements, report.bridges));
         }
         Ok(Stitching {
@@ -76,39 +64,32 @@ impl Stitching {
             postures,
             placements,
             finders,
-            offsets,
+            current: 0,
             placed: None,
-            all: vec![0.0; n],
             image: Vec::new(),
             grey: Vec::new(),
             joined: false,
         })
     }
 
-    /// Takes this frame's pressures (per link, map order); readings at or below `threshold`
-    /// count as none.
-    pub(crate) fn load(&mut self, pressures: &[Vec<f32>], threshold: f32) {
-        for (p, &o) in pressures.iter().zip(&self.offsets) {
-            for (dst, &v) in self.all[o..o + p.len()].iter_mut().zip(p) {
-                *dst = if v > threshold { v } else { 0.0 };
-            }
-        }
-    }
-
-    /// The contacts of the loaded frame that span links.
-    pub(crate) fn spanning(&mut self, time: f64, min_taxels: usize) -> Result<Vec<Spanning>> {
-        let k = self.postures.at(time);
-        let offsets = &self.offsets;
-        let link_of = |i: usize| offsets.partition_point(|&o| o <= i) - 1;
-        let contacts = self.finders[k].find(&self.all, 0.0, min_taxels)?;
+    /// The contacts of this frame (pressures per link, map order) that span links; readings at
+    /// or below `threshold` count as none.
+    pub(crate) fn spanning(
+        &mut self,
+        pressures: &[Vec<f32>],
+        threshold: f32,
+        time: f64,
+        min_taxels: usize,
+    ) -> Result<Vec<Spanning>> {
+        self.current = self.postures.at(time);
+        let finder = &mut self.finders[self.current];
+        let contacts = finder.find(pressures, threshold, min_taxels)?.to_vec();
         Ok(contacts
             .iter()
             .filter_map(|c| {
-                let (first, last) = (link_of(*c.taxels.first()?), link_of(*c.taxels.last()?));
-                (first != last).then(|| Spanning {
-                    links: (first..=last)
-                        .filter(|&l| c.taxels.iter().any(|&i| link_of(i) == l))
-                        .collect(),
+                let links = finder.links(c);
+                (links.len() > 1).then(|| Spanning {
+                    links,
                     taxels: c.taxels.len(),
                     centroid: [c.centroid.x, c.centroid.y, c.centroid.z],
                 })
@@ -118,24 +99,14 @@ impl Stitching {
 
     /// The stitched tactile image of the loaded frame (contact-max grey, 1 mm pixels), and its
     /// size.
-    pub(crate) fn image(&mut self, time: f64) -> Result<(&[u8], (usize, usize))> {
-        let k = self.postures.at(time);
+    pub(crate) fn image(&mut self) -> Result<(&[u8], (usize, usize))> {
+        let k = self.current;
         if self.placed != Some(k) {
             let (placements, bridges) = &self.placements[k];
             self.raster.place(placements, bridges)?;
             self.placed = Some(k);
         }
-        let ends: Vec<usize> = self.offsets[1..]
-            .iter()
-            .copied()
-            .chain([self.all.len()])
-            .collect();
-        let views: Vec<&[f32]> = self
-            .offsets
-            .iter()
-            .zip(&ends)
-            .map(|(&a, &b)| &self.all[a..b])
-            .collect();
+        let views: Vec<&[f32]> = self.finders[self.current].link_frames().collect();
         self.raster.render(&views, &mut self.image)?;
         self.grey.resize(self.image.len(), 0);
         to_grey(&self.image, Normalisation::ContactMax, &mut self.grey);

@@ -18,7 +18,8 @@
 //! - [`Stitcher`] ([`stitch`], Ch. 6): the maps of a chain of links placed every control cycle so
 //!   that the skin across each joint keeps its 3D lengths (Eq. 6.6, argmin's BFGS, anytime), and
 //!   [`StitchedRasterizer`]: one tactile image over all of them. Example:
-//!   `examples/examples/stitch_links.rs`.
+//!   `examples/examples/stitch_links.rs`. [`ChainContacts`]: contacts over the stitched chain,
+//!   so a touch across a joint is one contact.
 //! - [`MapCache`]: maps flattened once and kept in a folder, keyed by the layout file's content.
 //! - [`faults`] (Ch. 5): blind spots and removed taxels, deterministic per seed, for robustness
 //!   studies.
@@ -46,6 +47,7 @@
 //! # Ok::<(), skin_geom::Error>(())
 //! ```
 
+mod chain_contacts;
 mod chart;
 mod distortion;
 mod error;
@@ -62,6 +64,7 @@ mod stitch_raster;
 mod tactile_map;
 mod triangulate;
 
+pub use chain_contacts::ChainContacts;
 pub use chart::Chart;
 pub use distortion::DistortionReport;
 pub use error::{ChainError, Error, Result};

@@ -16,9 +16,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Point3, Translation3, Unit, Vector3};
 use skin_can::candump::CanFrame;
 use skin_can::decode::skin16::{encode_module, encode_sync};
-use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
-use skin_core::{Baseline, BaselineOptions, ContactFinder, LinkSkin, Taxel, TaxelId};
-use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
+use skin_can::{AssembledFrame, Assembler, BusMap, LayoutFrames, Missing, WireFormat};
+use skin_core::{Baseline, BaselineOptions, LinkSkin, Taxel, TaxelId};
+use skin_geom::{ChainContacts, FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
@@ -50,8 +50,10 @@ struct Arm {
     links: Vec<LinkSkin>,
     map: BusMap,
     interfaces: Vec<String>,
-    /// Bus-map slot -> (link, taxel).
+    /// Bus-map slot -> (link, taxel), to write the test traffic.
     slots: Vec<(usize, usize)>,
+    /// The path's own placement of assembled frames into links (what `skin run` uses).
+    frames: LayoutFrames,
 }
 
 impl Arm {
@@ -92,19 +94,14 @@ struct PerFrame {
     baselines: Vec<Baseline>,
     pipeline: TouchPipeline,
     events: Vec<skin_learn::touch::TouchEvent>,
-    /// Contact search over the stitched chain, and its concatenated frame.
-    chain: ContactFinder,
-    all: Vec<f32>,
+    /// Contact search over the stitched chain.
+    chain: ChainContacts,
     spanning: usize,
 }
 
 impl PerFrame {
-    fn frame(&mut self, slots: &[(usize, usize)], a: &AssembledFrame) {
-        for (&(l, i), v) in slots.iter().zip(&a.values) {
-            if let Some(v) = v {
-                self.raw[l][i] = f32::from(*v);
-            }
-        }
+    fn frame(&mut self, frames: &LayoutFrames, a: &AssembledFrame) {
+        frames.place(a, &mut self.raw).unwrap();
         for ((b, raw), p) in self.baselines.iter_mut().zip(&self.raw).zip(&mut self.pressures) {
             b.apply(raw, p).unwrap();
         }
@@ -113,14 +110,7 @@ impl PerFrame {
         self.pipeline
             .process(time, &self.pressures, &mut self.events)
             .unwrap();
-        let mut o = 0;
-        for p in &self.pressures {
-            for (dst, &v) in self.all[o..o + p.len()].iter_mut().zip(p) {
-                *dst = if v > 5.0 { v } else { 0.0 };
-            }
-            o += p.len();
-        }
-        self.spanning = self.chain.find(&self.all, 0.0, 2).unwrap().len();
+        self.spanning = self.chain.find(&self.pressures, 5.0, 2).unwrap().len();
     }
 }
 
@@ -137,11 +127,14 @@ fn bench(c: &mut Criterion) {
         .flat_map(|(l, link)| link.taxels.iter().enumerate().map(move |(i, t)| (t.id, (l, i))))
         .collect();
     let slots = map.taxel_ids().iter().map(|id| where_is[id]).collect();
+    let layout_ids: Vec<Vec<TaxelId>> = links.iter().map(LinkSkin::ids).collect();
+    let frames = LayoutFrames::new(&map, &layout_ids, Missing::HoldLast).unwrap();
     let arm = Arm {
         links,
         map,
         interfaces,
         slots,
+        frames,
     };
     let maps: Vec<TactileMap> = arm
         .links
@@ -157,19 +150,7 @@ fn bench(c: &mut Criterion) {
         .reset(&poses)
         .unwrap();
     assert!(stitched.bridges.len() > 20, "{} bridges", stitched.bridges.len());
-    let offsets = [0, PER_LINK, 2 * PER_LINK];
-    let positions: Vec<Point3<f64>> = maps
-        .iter()
-        .zip(&poses)
-        .flat_map(|(m, pose)| m.positions.iter().map(move |x| pose * x))
-        .collect();
-    let faces: Vec<[usize; 3]> = maps
-        .iter()
-        .zip(offsets)
-        .flat_map(|(m, o)| m.faces.iter().map(move |f| f.map(|i| o + i)))
-        .chain(stitched.bridges.iter().map(|b| b.map(|(l, i)| offsets[l] + i)))
-        .collect();
-    let chain = ContactFinder::new(&positions, &[], &faces, Path::new("arm")).unwrap();
+    let chain = ChainContacts::new(&maps, &poses, &stitched.bridges).unwrap();
     // A whole hand on the middle link, from the synthetic-data generator.
     let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
     let hand = (0..)
@@ -220,14 +201,13 @@ fn bench(c: &mut Criterion) {
         pipeline: TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap(),
         events: Vec::new(),
         chain,
-        all: vec![0.0; ids.len()],
         spanning: 0,
     };
     let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
     let mut n = 0u64;
     let mut push = |frames: &[CanFrame], path: &mut PerFrame| {
         for f in frames {
-            assembler.push(f, &mut |a| path.frame(&arm.slots, a));
+            assembler.push(f, &mut |a| path.frame(&arm.frames, a));
         }
     };
     // The CAN frames of 256 cycles (the sync counter's period), touched and quiet.
