@@ -11,6 +11,7 @@ use skin_control::hri::GateAction;
 use skin_core::{Baseline, BaselineLearner, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
 use skin_learn::card::ModelCard;
 use skin_learn::classify::Classifier;
+use skin_learn::script::{Found, Script};
 use skin_learn::segment::Segmenter;
 use skin_learn::touch::{Decision, Footprint, TouchEvent, TouchOptions, TouchPipeline};
 use std::fmt::Write as _;
@@ -183,21 +184,13 @@ struct Setup {
     slots: LayoutFrames,
     pipeline: TouchPipeline,
     classes: Vec<String>,
-    truth: Option<Vec<Scripted>>,
+    truth: Option<Script>,
     baseline: BaselineConfig,
     gate: Option<GateConfig>,
     /// Contacts across joints and stitched images, when the config has `[stitch]`.
     stitching: Option<crate::run_stitch::Stitching>,
     threshold: f32,
     min_taxels: usize,
-}
-
-/// A touch of the script (`truth`).
-struct Scripted {
-    start: f64,
-    end: f64,
-    class: String,
-    kind: String,
 }
 
 /// A finished touch, for the summary.
@@ -461,7 +454,7 @@ fn load(config_path: &Path) -> Result<Setup> {
         ..TouchOptions::default()
     };
     let pipeline = TouchPipeline::new(maps, classifier, segmenter, options)?;
-    let truth = truth_path.as_deref().map(read_truth).transpose()?;
+    let truth = truth_path.as_deref().map(Script::read).transpose()?;
     let inputs = [Some(&layout_path), Some(&busmap_path)]
         .into_iter()
         .chain([&classifier_path, &segmenter_path, &truth_path, &poses_path].map(Option::as_ref))
@@ -501,40 +494,6 @@ fn check_size(model: &Path, got: (usize, usize), want: (usize, usize), config: &
         );
     }
     Ok(())
-}
-
-/// The script: `touch<TAB>start<TAB>end<TAB>class<TAB>kind...`, `#` comments.
-fn read_truth(path: &Path) -> Result<Vec<Scripted>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut out = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        if line.trim().is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split('\t').collect();
-        let num = |i: usize, what: &str| -> Result<f64> {
-            f.get(i)
-                .and_then(|s| s.trim().parse::<f64>().ok())
-                .with_context(|| {
-                    format!(
-                        "{} line {}: {what} is not a number of seconds",
-                        path.display(),
-                        n + 1
-                    )
-                })
-        };
-        let class = f
-            .get(3)
-            .map(|s| s.trim().to_string())
-            .with_context(|| format!("{} line {}: no class (4th field)", path.display(), n + 1))?;
-        out.push(Scripted {
-            start: num(1, "start")?,
-            end: num(2, "end")?,
-            class,
-            kind: f.get(4).map_or(String::new(), |s| s.trim().to_string()),
-        });
-    }
-    Ok(out)
 }
 
 /// Offline: the log through the assembler and the pipeline. Returns the log's span, seconds.
@@ -829,8 +788,7 @@ impl Session {
         let Some(st) = &mut setup.stitching else {
             return Ok(());
         };
-        st.load(&self.pressures, setup.threshold);
-        let spans = st.spanning(time, setup.min_taxels)?;
+        let spans = st.spanning(&self.pressures, setup.threshold, time, setup.min_taxels)?;
         if !spans.is_empty() && !st.joined {
             self.across += 1;
             for s in &spans {
@@ -849,7 +807,7 @@ impl Session {
         }
         st.joined = !spans.is_empty();
         if self.out.frames && (0..setup.links.len()).any(|l| setup.pipeline.touching(l)) {
-            let (grey, size) = st.image(time)?;
+            let (grey, size) = st.image()?;
             self.out
                 .png(&format!("frames/stitched/frame_{cycle:05}.png"), grey, size)?;
         }
@@ -1096,28 +1054,28 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
         let _ = writeln!(out, "contacts across joints (stitched maps): {}", s.across);
     }
     // Each scripted touch's detected touch: the one overlapping it the longest.
-    let matches: Vec<Option<usize>> = setup.truth.as_ref().map_or(Vec::new(), |script| {
-        script
-            .iter()
-            .map(|t| {
-                s.done
-                    .iter()
-                    .enumerate()
-                    .map(|(j, d)| (j, d.end.min(t.end) - d.start.max(t.start)))
-                    .filter(|(_, overlap)| *overlap >= 0.0)
-                    .max_by(|a, b| a.1.total_cmp(&b.1))
-                    .map(|(j, _)| j)
-            })
-            .collect()
-    });
-    let mut scripted = vec![String::new(); s.done.len()];
-    if let Some(script) = &setup.truth {
-        for (t, m) in script.iter().zip(&matches) {
-            if let Some(j) = m {
-                scripted[*j] = format!("{} {}", t.class, t.kind);
-            }
-        }
-    }
+    let found: Vec<Found> = s
+        .done
+        .iter()
+        .map(|d| Found {
+            start_s: d.start,
+            end_s: d.end,
+            class: d
+                .decision
+                .as_ref()
+                .map(|dec| class_name(&setup.classes, dec.class)),
+        })
+        .collect();
+    let score = setup.truth.as_ref().map(|script| script.score(&found));
+    let scripted: Vec<String> = (0..s.done.len())
+        .map(|j| match (&setup.truth, &score) {
+            (Some(script), Some(score)) => score.scripted_of(j).map_or(String::new(), |k| {
+                let t = &script.touches[k];
+                format!("{} {}", t.class, t.kind)
+            }),
+            _ => String::new(),
+        })
+        .collect();
     let _ = writeln!(out, "{} touch(es):", s.done.len());
     let _ = writeln!(
         out,
@@ -1167,38 +1125,31 @@ fn summary(setup: &Setup, s: &Session, span: f64) -> String {
         );
         let _ = writeln!(out, "{}", row.trim_end());
     }
-    if let Some(script) = &setup.truth {
-        let mut right = 0;
-        let mut misses = Vec::new();
-        for (k, (t, m)) in script.iter().zip(&matches).enumerate() {
-            match m {
-                Some(j) => {
-                    let got = s.done[*j]
-                        .decision
-                        .as_ref()
-                        .map_or("-", |d| class_name(&setup.classes, d.class));
-                    if got == t.class {
-                        right += 1;
-                    } else {
-                        misses.push(format!(
-                            "scripted touch {k} ({} {}) taken for {got}",
-                            t.class, t.kind
-                        ));
-                    }
-                }
-                None => misses.push(format!("scripted touch {k} ({} {}) not found", t.class, t.kind)),
-            }
-        }
-        let found = matches.iter().filter(|m| m.is_some()).count();
-        let extra = scripted.iter().filter(|m| m.is_empty()).count();
+    if let (Some(script), Some(score)) = (&setup.truth, &score) {
         let _ = writeln!(
             out,
-            "script: {found} of {} scripted touches found, {right} with the right class ({:.1}%); {extra} touch(es) not in the script",
-            script.len(),
-            100.0 * right as f64 / script.len().max(1) as f64
+            "script: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
+            score.found(),
+            script.touches.len(),
+            score.right(),
+            100.0 * score.right() as f64 / script.touches.len().max(1) as f64,
+            score.extra(&found)
         );
-        for m in misses {
-            let _ = writeln!(out, "  {m}");
+        for (k, (t, m)) in script.touches.iter().zip(&score.matches).enumerate() {
+            match m {
+                Some(j) if !score.correct[k] => {
+                    let got = found[*j].class.unwrap_or("-");
+                    let _ = writeln!(
+                        out,
+                        "  scripted touch {k} ({} {}) taken for {got}",
+                        t.class, t.kind
+                    );
+                }
+                Some(_) => {}
+                None => {
+                    let _ = writeln!(out, "  scripted touch {k} ({} {}) not found", t.class, t.kind);
+                }
+            }
         }
     }
     out.trim_end().to_string()

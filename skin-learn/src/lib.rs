@@ -10,6 +10,7 @@
 //!   `max_pool` (feature `onnx`): the vectorised 2 x 2 max-pool both put in tract's plans.
 //! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8.
 //! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
+//! - [`script`]: scoring a run against a script of touches (found, right class, extra).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
 //!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
 //! - `touch` (feature `onnx`): the per-frame path of a whole skin, from pressures to contacts,
@@ -30,6 +31,7 @@ mod image_model;
 pub mod max_pool;
 pub mod metrics;
 pub mod parts;
+pub mod script;
 #[cfg(feature = "onnx")]
 pub mod segment;
 pub mod synth;
