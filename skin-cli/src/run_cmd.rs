@@ -7,7 +7,7 @@ use serde::Deserialize;
 use serde_json::json;
 use skin_can::candump::CandumpLog;
 use skin_can::{AssembledFrame, Assembler, BusMap, LayoutFrames, Missing};
-use skin_control::hri::GateAction;
+use skin_control::hri::{ClassGate, GateAction, TouchClass};
 use skin_core::{Baseline, BaselineLearner, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
 use skin_learn::card::ModelCard;
 use skin_learn::classify::Classifier;
@@ -116,7 +116,7 @@ struct Config {
     baseline: BaselineConfig,
     #[serde(default)]
     touch: TouchConfig,
-    gate: Option<GateConfig>,
+    gate: Option<ClassGate>,
     stitch: Option<StitchConfig>,
 }
 
@@ -166,13 +166,6 @@ impl Default for TouchConfig {
     }
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct GateConfig {
-    hand: Option<GateAction>,
-    non_hand: Option<GateAction>,
-}
-
 /// Everything the per-frame path needs, built once.
 struct Setup {
     /// Every file the configuration names (no output may land on one).
@@ -186,7 +179,7 @@ struct Setup {
     classes: Vec<String>,
     truth: Option<Script>,
     baseline: BaselineConfig,
-    gate: Option<GateConfig>,
+    gate: Option<ClassGate>,
     /// Contacts across joints and stitched images, when the config has `[stitch]`.
     stitching: Option<crate::run_stitch::Stitching>,
     threshold: f32,
@@ -926,22 +919,12 @@ impl Session {
         let Some(gate) = &setup.gate else {
             return Ok(());
         };
-        let action = setup
-            .pipeline
-            .open_classes()
-            .fold(None::<GateAction>, |acc, class| {
-                let name = class_name(&setup.classes, class);
-                let a = match name {
-                    "hand" => gate.hand,
-                    _ => gate.non_hand,
-                };
-                match (acc, a) {
-                    (Some(GateAction::Stop), _) => Some(GateAction::Stop),
-                    (_, Some(a)) => Some(a),
-                    (acc, None) => acc,
-                }
-            });
-        let action = action.unwrap_or(GateAction::Resume);
+        let action = gate.decide(
+            setup
+                .pipeline
+                .open_classes()
+                .map(|class| TouchClass::from_name(class_name(&setup.classes, class))),
+        );
         if self.gate != Some(action) {
             self.out
                 .event(&json!({"event": "gate", "time": round(time, 3), "action": action.name()}))?;

@@ -58,6 +58,81 @@ impl GateAction {
     }
 }
 
+/// A touch's class as the gate sees it: a human hand, or anything else (HandsNet's two classes;
+/// a model card's other classes are not a hand).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TouchClass {
+    /// A human hand.
+    Hand,
+    /// Anything else: an object, a bump, another body part.
+    NonHand,
+}
+
+impl TouchClass {
+    /// The class of a classifier's class name: `hand` is a hand, any other name is not.
+    pub fn from_name(name: &str) -> TouchClass {
+        if name == "hand" {
+            TouchClass::Hand
+        } else {
+            TouchClass::NonHand
+        }
+    }
+}
+
+/// What the robot does for each class of touch in progress (a configuration's `[gate]`: e.g.
+/// hand -> comply, non_hand -> stop). A class without an action leaves the decision to the others.
+///
+/// ```
+/// use skin_control::hri::{ClassGate, GateAction, TouchClass};
+///
+/// let gate = ClassGate { hand: Some(GateAction::Comply), non_hand: Some(GateAction::Stop) };
+/// assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Comply);
+/// // A bump while a hand guides the arm: stop wins over anything.
+/// assert_eq!(gate.decide([TouchClass::NonHand, TouchClass::Hand]), GateAction::Stop);
+/// assert_eq!(gate.decide([]), GateAction::Resume);
+/// // Interaction tasks may follow the contacts only while the gate complies.
+/// use skin_control::hri::ContactGate;
+/// assert!(!gate.decide([TouchClass::NonHand]).allows("forearm", &[]));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Deserialize), serde(deny_unknown_fields))]
+pub struct ClassGate {
+    /// While a hand touches.
+    pub hand: Option<GateAction>,
+    /// While anything else touches.
+    pub non_hand: Option<GateAction>,
+}
+
+impl ClassGate {
+    /// The action for one class, if it has one.
+    pub fn action(&self, class: TouchClass) -> Option<GateAction> {
+        match class {
+            TouchClass::Hand => self.hand,
+            TouchClass::NonHand => self.non_hand,
+        }
+    }
+
+    /// The action for the touches in progress (oldest first): stop if any asks to stop, else
+    /// the action of the latest touch that has one; resume when none has.
+    pub fn decide(&self, open: impl IntoIterator<Item = TouchClass>) -> GateAction {
+        open.into_iter()
+            .fold(None::<GateAction>, |acc, class| match (acc, self.action(class)) {
+                (Some(GateAction::Stop), _) => Some(GateAction::Stop),
+                (_, Some(a)) => Some(a),
+                (acc, None) => acc,
+            })
+            .unwrap_or(GateAction::Resume)
+    }
+}
+
+/// A decision consumed as a [`ContactGate`]: contacts may trigger interaction tasks only while
+/// the robot complies.
+impl ContactGate for GateAction {
+    fn allows(&mut self, _: &str, _: &[Contact]) -> bool {
+        *self == GateAction::Comply
+    }
+}
+
 /// A gate that lets every contact through.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct AllowAll;

@@ -140,3 +140,32 @@ fn the_gate_can_veto_a_contact_and_nan_is_ignored() {
     }];
     assert!(interaction_task(&c, &Q, &elsewhere, &mut AllowAll, &HriParams::default()).is_err());
 }
+
+#[test]
+fn the_class_gate_keeps_the_latest_action_and_stop_wins() {
+    use skin_control::hri::{ClassGate, GateAction, TouchClass};
+    let gate = ClassGate {
+        hand: None,
+        non_hand: Some(GateAction::Slow),
+    };
+    // A class without an action leaves the decision to the others.
+    assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Resume);
+    assert_eq!(
+        gate.decide([TouchClass::NonHand, TouchClass::Hand]),
+        GateAction::Slow
+    );
+    let gate = ClassGate {
+        hand: Some(GateAction::Comply),
+        non_hand: Some(GateAction::Stop),
+    };
+    assert_eq!(
+        gate.decide([TouchClass::Hand, TouchClass::Hand]),
+        GateAction::Comply
+    );
+    assert_eq!(
+        gate.decide([TouchClass::Hand, TouchClass::NonHand, TouchClass::Hand]),
+        GateAction::Stop
+    );
+    assert_eq!(TouchClass::from_name("hand"), TouchClass::Hand);
+    assert_eq!(TouchClass::from_name("ball"), TouchClass::NonHand);
+}
