@@ -72,6 +72,28 @@ pub struct Dataset {
 const HEADER: &str = "file,class,kind,subject,partial,fingertips";
 
 impl Dataset {
+    /// The test set: indices of the samples of the last `fraction` of the subjects (by subject
+    /// number; the whole dataset when `fraction` is 0 or there is one subject), hands only if
+    /// `hands_only`. The same cut as `skin-learn/training/train.py`, so a model is scored on
+    /// subjects it was not trained on.
+    pub fn test_set(&self, fraction: f64, hands_only: bool) -> Vec<usize> {
+        let keep = |i: &usize| !hands_only || self.entries[*i].hand;
+        let mut subjects: Vec<u32> = self.entries.iter().map(|e| e.subject).collect();
+        subjects.sort_unstable();
+        subjects.dedup();
+        if !(fraction > 0.0) || subjects.len() < 2 {
+            return (0..self.entries.len()).filter(keep).collect();
+        }
+        // subjects[round(n * (1 - fraction))] on.
+        let k =
+            ((subjects.len() as f64 * (1.0 - fraction.min(1.0))).round() as usize).min(subjects.len() - 1);
+        let cut = subjects[k];
+        (0..self.entries.len())
+            .filter(|&i| self.entries[i].subject >= cut)
+            .filter(keep)
+            .collect()
+    }
+
     /// Reads `DIR/labels.csv`.
     pub fn read(dir: &Path) -> Result<Dataset, DatasetError> {
         let path = dir.join("labels.csv");
@@ -267,5 +289,36 @@ fn io(path: &Path, e: std::io::Error) -> DatasetError {
     DatasetError::Io {
         path: path.to_path_buf(),
         message: e.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_test_set_is_the_last_subjects_samples() {
+        // Subjects 1..=4, two samples each, the second of each a hand.
+        let entries = (0..8)
+            .map(|k| Entry {
+                file: format!("{k}.png"),
+                hand: k % 2 == 1,
+                kind: String::new(),
+                subject: 1 + k / 2,
+                partial: false,
+                fingertips: false,
+            })
+            .collect();
+        let data = Dataset {
+            dir: PathBuf::from("d"),
+            entries,
+        };
+        // A quarter of 4 subjects: the last one.
+        assert_eq!(data.test_set(0.25, false), [6, 7]);
+        assert_eq!(data.test_set(0.5, true), [5, 7]);
+        // Nothing held out: everything; NaN and more than all are clamped, never a panic.
+        assert_eq!(data.test_set(0.0, false).len(), 8);
+        assert_eq!(data.test_set(f64::NAN, true), [1, 3, 5, 7]);
+        assert_eq!(data.test_set(1.0, false).len(), 8);
     }
 }

@@ -8,7 +8,8 @@
 //!   Ch. 4.3) with any ONNX classifier of grey images, run by tract; `segment` (feature `onnx`):
 //!   hand-part segmentation (Ch. 4.4) the same way. [`card`]: the model card beside a model.
 //!   `max_pool` (feature `onnx`): the vectorised 2 x 2 max-pool both put in tract's plans.
-//! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8.
+//! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8;
+//!   [`segmentation_diagnostics`]: where a segmenter goes wrong (seams, misnamed parts, mirror).
 //! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
 //! - [`script`]: scoring a run against a script of touches (found, right class, extra).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
@@ -34,6 +35,7 @@ pub mod parts;
 pub mod script;
 #[cfg(feature = "onnx")]
 pub mod segment;
+pub mod segmentation_diagnostics;
 pub mod synth;
 #[cfg(feature = "onnx")]
 pub mod touch;
