@@ -5,12 +5,15 @@
 //! ```
 //! Uses the fixture session (20 scripted touches of the forearm, hands and other contacts) and the
 //! shipped models: HandsNet for hand / non-hand and the hand-part segmenter. This is the library
-//! side of `skin run`: a [`TouchPipeline`] finds the contacts of every frame, follows each touch,
-//! and classifies it on its fullest image after three frames of contact.
+//! side of `skin run`: [`LayoutFrames`] puts each assembled frame in layout order,
+//! [`BaselineLearner`] learns the baseline from the first complete frames, and a
+//! [`TouchPipeline`] finds the contacts of every frame, follows each touch, and classifies it on
+//! its fullest image after three frames of contact.
 
 use skin_can::candump::CandumpLog;
-use skin_can::{Assembler, BusMap, DEFAULT_WINDOW_US};
-use skin_core::{Baseline, BaselineOptions};
+use skin_can::{Assembler, BusMap, DEFAULT_WINDOW_US, LayoutFrames, Missing};
+use skin_control::hri::TouchClass;
+use skin_core::{Baseline, BaselineLearner, BaselineOptions};
 use skin_geom::{FlattenOptions, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::segment::Segmenter;
@@ -35,6 +38,7 @@ fn main() -> anyhow::Result<()> {
         threshold: 5.0,
         ..TouchOptions::default()
     };
+    let classes = options.classes.clone();
     let mut pipeline = TouchPipeline::new(
         vec![map],
         Some((classifier, net)),
@@ -42,46 +46,41 @@ fn main() -> anyhow::Result<()> {
         options,
     )?;
 
-    // The bus map lists taxels in its own order; the pipeline wants layout order.
-    let ids = bus.taxel_ids();
-    let column: Vec<usize> = link
-        .taxels
-        .iter()
-        .map(|t| {
-            ids.iter()
-                .position(|id| *id == t.id)
-                .ok_or(anyhow::anyhow!("taxel {} not on the bus", t.id))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let mut frames: Vec<(f64, Vec<f32>)> = Vec::new();
+    // Every assembled frame of the log, flagged when a module was missing.
+    let mut assembled = Vec::new();
     let mut assembler = Assembler::for_map(&bus, &log.interfaces, DEFAULT_WINDOW_US);
-    let mut keep = |f: &skin_can::AssembledFrame| {
-        let raw = column
-            .iter()
-            .map(|&c| f.values[c].map_or(f32::NAN, f32::from))
-            .collect();
-        frames.push((f.time_us as f64 * 1e-6, raw));
-    };
     for can_frame in &log.frames {
-        assembler.push(can_frame, &mut keep);
+        assembler.push(can_frame, &mut |f| assembled.push(f.clone()));
     }
-    assembler.finish(&mut keep);
+    assembler.finish(&mut |f| assembled.push(f.clone()));
 
-    // The session's first second is untouched: it teaches the baseline.
-    let idle = 20;
-    let path = root.join("session/session.candump.log");
-    let (mut baseline, _) = Baseline::from_idle(
-        frames[..idle].iter().map(|f| f.1.as_slice()),
-        &BaselineOptions::default(),
-        &path,
-    )?;
-    let t0 = frames[0].0;
-    let mut pressures = vec![0.0f32; link.taxels.len()];
+    // Bus-map order to layout order, once; a lost module holds its last readings.
+    let layout = LayoutFrames::new(&bus, &[link.ids()], Missing::HoldLast)?;
+    let mut raw = layout.buffers();
+    // The session's first second is untouched: its first 20 complete frames teach the baseline.
+    let mut learner = BaselineLearner::new(layout.sizes(), 20, BaselineOptions::default())?;
+    let mut baselines: Vec<Baseline> = Vec::new();
+    let mut pressures = layout.buffers();
     let mut events = Vec::new();
-    for (time, raw) in &frames[idle..] {
-        baseline.apply(raw, &mut pressures)?;
+    let t0 = assembled.first().map_or(0, |f| f.time_us);
+    for frame in &assembled {
+        let complete = layout.place(frame, &mut raw)?;
+        if baselines.is_empty() {
+            if complete {
+                learner.push(&raw)?;
+            }
+            if learner.is_done() {
+                let source = root.join("session/session.candump.log");
+                baselines = learner.finish(&source)?.into_iter().map(|(b, _)| b).collect();
+            }
+            continue;
+        }
+        for ((b, r), p) in baselines.iter_mut().zip(&raw).zip(&mut pressures) {
+            b.apply(r, p)?;
+        }
         events.clear();
-        pipeline.process(time - t0, &[&pressures], &mut events)?;
+        let time = (frame.time_us - t0) as f64 * 1e-6;
+        pipeline.process(time, &pressures, &mut events)?;
         for e in &events {
             if let TouchEvent::Classified {
                 touch,
@@ -90,7 +89,10 @@ fn main() -> anyhow::Result<()> {
                 ..
             } = e
             {
-                let class = if decision.class == 0 { "hand" } else { "not a hand" };
+                let class = match TouchClass::from_name(&classes[decision.class]) {
+                    TouchClass::Hand => "hand",
+                    TouchClass::NonHand => "not a hand",
+                };
                 let parts: Vec<String> = decision
                     .parts
                     .iter()
