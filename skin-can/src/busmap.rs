@@ -27,7 +27,7 @@ pub const MAX_BUSES: usize = 256;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum WireFormat {
-    /// The project's 16-bit format with a broadcast sync (see [`crate::skin16`]).
+    /// The project's 16-bit format with a broadcast sync (see [`crate::decode::skin16`]).
     Skin16,
     /// The iCub skin periodic message, 8-bit values, no sync.
     Icub8,

@@ -1,5 +1,50 @@
 //! # skin-control: skin-driven robot control
 //!
+//! Each control cycle, the skin's contacts (per link: where, which way, how hard) become tasks,
+//! and a stack of tasks becomes joint velocities:
+//!
+//! ```text
+//! contacts per link --contact_tasks (Eq. 8.13-8.17)--> one task per touched link, activation by force
+//!                   --hri (Ch. 9.2), through a ContactGate--> one interaction task, when a hand may lead
+//! goal --ReachGoal (Eq. 8.18-8.26)--> reaching, in the null space of the contact tasks
+//! tasks --TaskStack (App. D)--> joint velocities
+//! ```
+//! [`SkinController`] runs that cycle for a [`Chain`] read from URDF. A hand classifier decides
+//! through [`hri::ClassGate`] whether contacts may lead the arm. A 2-joint arm whose forearm is
+//! pushed moves away from the push:
+//!
+//! ```
+//! use nalgebra::{Point3, Unit, Vector3};
+//! use skin_control::contact_tasks::{Contact, Gains};
+//! use skin_control::{Chain, LinkContacts, Regularisation, SkinController};
+//!
+//! let urdf = r#"<robot name="arm">
+//!   <link name="base"/><link name="upper"/><link name="fore"/><link name="tool"/>
+//!   <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+//!     <origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+//!   <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/>
+//!     <origin xyz="0.3 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+//!   <joint name="wrist" type="fixed"><parent link="fore"/><child link="tool"/><origin xyz="0.3 0 0" rpy="0 0 0"/></joint>
+//! </robot>"#;
+//! let chain = Chain::from_urdf_str(urdf, "base", "tool")?;
+//! let mut controller = SkinController::new(chain, "tool", Regularisation::default(), Gains::default(), 15.0)?;
+//! // The forearm (along x at q = 0) is pushed from +y, 10 N at 0.15 m along it.
+//! let q = [0.0, 0.0];
+//! let push = LinkContacts {
+//!     link: "fore".into(),
+//!     contacts: vec![Contact {
+//!         point: Point3::new(0.45, 0.0, 0.0),
+//!         normal: Unit::new_normalize(Vector3::y()),
+//!         force: 10.0,
+//!         stiffness: 2000.0,
+//!     }],
+//! };
+//! let qdot = controller.step(&q, &[push], None)?;
+//! // Both joints turn the arm away from the push (towards -y: clockwise about z).
+//! assert!(qdot[0] < 0.0 && qdot.iter().all(|v| v.is_finite()));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! - [`approach_press`]: the probe controller of the self-touch calibration (thesis Ch. 7.2.3):
 //!   align above a target, approach along its normal until the skin reports contact, then hold
 //!   the tangent position while regulating the normal force (hybrid position/force control).

@@ -1,5 +1,37 @@
 //! # skin-learn: touch understanding for robot skin
 //!
+//! What the skin's pressures mean: where each taxel sits (calibration, Ch. 7), and who or what is
+//! touching (Ch. 4). Per frame, the touch path is:
+//!
+//! ```text
+//! pressures per link --ContactFinder--> contacts --touch tracking--> touches (appeared, released)
+//!   fullest image of a touch --HandsNet (tract)--> hand / non-hand --segmenter--> hand parts
+//! ```
+//! (`touch`, feature `onnx`), scored against a script of touches with [`script`].
+//! Calibration fits each taxel from a probe's presses. A simulated probe on a flat patch gives
+//! every taxel back within a millimetre (0.2 mm on average; the thesis' bound on a real patch is
+//! 1.9 mm):
+//!
+//! ```
+//! use nalgebra::{Point3, Unit, Vector3};
+//! use skin_core::{LinkSkin, Taxel, TaxelId};
+//! use skin_learn::calibration::{CalibrationErrors, CalibrationOptions, ProbeSimulator, calibrate};
+//!
+//! // 25 taxels, 8 mm apart.
+//! let taxels = (0..25u32)
+//!     .map(|i| Taxel {
+//!         id: TaxelId(i),
+//!         position: Point3::new(f64::from(i % 5) * 0.008, f64::from(i / 5) * 0.008, 0.0),
+//!         normal: Unit::new_normalize(Vector3::z()),
+//!     })
+//!     .collect();
+//! let patch = LinkSkin::new("patch", taxels);
+//! let presses = ProbeSimulator::default().run(&patch, 300, 1);
+//! let report = calibrate(&presses, &CalibrationOptions::default());
+//! let errors = CalibrationErrors::compare(&report, &patch);
+//! assert!(errors.compared == 25 && errors.max_mm < 1.0, "{errors:?}");
+//! ```
+//!
 //! - [`calibration`]: where each taxel sits, fitted from a probe pressing the skin (thesis Ch. 7):
 //!   probe datasets and their CSV form, the per-taxel Gaussian fit, a probe simulator, and the
 //!   error metrics and convergence curve of the thesis. Example:
