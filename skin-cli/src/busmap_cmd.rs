@@ -35,7 +35,7 @@ pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
     crate::output::replaceable(&inputs, args.output.as_deref(), crate::output::Kind::BusMap)?;
     inputs.check_outputs(&[("-o", args.output.as_deref())])?;
-    let ids: Vec<_> = crate::flatten::load_links(&args.layout)?
+    let ids: Vec<_> = crate::shared::load_links(&args.layout)?
         .iter()
         .flat_map(LinkSkin::ids)
         .collect();

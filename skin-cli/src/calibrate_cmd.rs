@@ -97,7 +97,7 @@ pub fn probe_sim(args: ProbeSimArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([&args.layout]);
     crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Probes)?;
     inputs.check_outputs(&[("-o", Some(&args.output))])?;
-    let link = crate::flatten::load_input(&args.layout)?;
+    let link = crate::shared::load_input(&args.layout)?;
     if link.taxels.is_empty() {
         bail!("{}: no taxels", args.layout.display());
     }
@@ -156,7 +156,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         bail!("--plot draws the error against the truth: give --truth too");
     }
     let truth: Option<LinkSkin> = match &args.truth {
-        Some(p) => Some(crate::flatten::load_input(p)?),
+        Some(p) => Some(crate::shared::load_input(p)?),
         None => None,
     };
     let options = CalibrationOptions {

@@ -1,10 +1,10 @@
 //! `skin classify`: hand or not, from tactile images, with an ONNX classifier (thesis Ch. 4.3).
 
+use crate::shared::{ModelInputs, input_scale, read_model_image};
 use anyhow::{Context, Result, bail};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
 use skin_learn::card::ModelCard;
-use skin_learn::classify::{Classifier, InputScale};
-use std::path::PathBuf;
+use skin_learn::classify::Classifier;
 
 /// Classify tactile images with an ONNX model (HandsNet: hand or not), run by tract on the CPU.
 ///
@@ -27,72 +27,6 @@ pub struct Args {
     /// else class0, class1, ...).
     #[arg(long, value_delimiter = ',')]
     labels: Vec<String>,
-}
-
-/// The model and what it runs on, for `skin classify` and `skin segment`.
-#[derive(clap::Args)]
-pub(crate) struct ModelInputs {
-    /// The ONNX model.
-    #[arg(long, value_name = "MODEL.onnx")]
-    pub(crate) model: PathBuf,
-    /// PNG images, or recordings with --map.
-    #[arg(required = true, value_name = "INPUTS")]
-    pub(crate) inputs: Vec<PathBuf>,
-    /// Tactile map (or layout) of the recordings: run the model on their touched frames.
-    #[arg(long, value_name = "MAP.json")]
-    pub(crate) map: Option<PathBuf>,
-    /// With --map: readings at or below this count as no contact (the recording's units).
-    #[arg(long, default_value_t = 10.0, value_parser = crate::numbers::within(-1e9, 1e9))]
-    pub(crate) threshold: f64,
-    /// Grey levels as the model expects them: 255 (0..255) or 1 (0..1). Default: what the
-    /// model card (MODEL.md beside MODEL.onnx) says, else 255.
-    #[arg(long, value_enum)]
-    pub(crate) input_scale: Option<Scale>,
-}
-
-/// How the model expects grey levels.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub(crate) enum Scale {
-    /// 0..255 as floats.
-    #[value(name = "255")]
-    Bytes,
-    /// 0..1.
-    #[value(name = "1")]
-    Unit,
-}
-
-/// A grey PNG of the model's input size (rows, cols), as row-major pixels.
-pub(crate) fn read_model_image(path: &std::path::Path, (h, w): (usize, usize)) -> Result<Vec<u8>> {
-    let img = image::open(path).with_context(|| format!("cannot read {} as an image", path.display()))?;
-    // A colour or 16-bit image is not a tactile image: converting it would hide the mistake.
-    if img.color() != image::ColorType::L8 {
-        bail!(
-            "{}: a {:?} image; the model takes 8-bit grey tactile images (make them with `skin image`)",
-            path.display(),
-            img.color()
-        );
-    }
-    let img = img.into_luma8();
-    let (iw, ih) = img.dimensions();
-    if (ih as usize, iw as usize) != (h, w) {
-        bail!(
-            "{}: {ih} x {iw} px, the model takes {h} x {w} (make images of that size with `skin image --size {h}x{w}`)",
-            path.display()
-        );
-    }
-    Ok(img.into_raw())
-}
-
-/// The input scaling: as given, else as the model card says, else 0..255 (the MATLAB HandsNet).
-pub(crate) fn input_scale(model: &std::path::Path, given: Option<Scale>) -> InputScale {
-    match given {
-        Some(Scale::Unit) => InputScale::Unit,
-        Some(Scale::Bytes) => InputScale::Bytes,
-        None => match ModelCard::for_model(model).and_then(|c| c.unit_scale) {
-            Some(true) => InputScale::Unit,
-            _ => InputScale::Bytes,
-        },
-    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -141,12 +75,12 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
         Some(map_path) => {
-            let map = crate::image_cmd::load_map(map_path)?;
+            let map = crate::shared::load_map(map_path)?;
             let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
-            let quiet = crate::image_cmd::each_touched_frame(
+            let inputs = crate::shared::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
+            let quiet = crate::shared::each_touched_frame(
                 &inputs,
                 &mut imager,
                 args.run.threshold as f32,

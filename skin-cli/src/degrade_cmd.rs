@@ -43,7 +43,7 @@ pub fn run(args: Args) -> Result<()> {
     crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Map)?;
     crate::output::replaceable(&inputs, args.svg.as_deref(), crate::output::Kind::Svg)?;
     inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
-    let map = crate::image_cmd::load_map(&args.map)?;
+    let map = crate::shared::load_map(&args.map)?;
     let degraded = match (args.blind_spots, args.radius_mm, args.remove) {
         (Some(spots), Some(radius_mm), None) => {
             let d = BlindSpots {

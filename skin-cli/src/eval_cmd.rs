@@ -67,7 +67,7 @@ pub struct Args {
     patterns: usize,
     /// Grey levels as the model expects them (default: from the model card, else 255).
     #[arg(long, value_enum)]
-    input_scale: Option<crate::classify_cmd::Scale>,
+    input_scale: Option<crate::shared::Scale>,
     /// Threads for inference: each batch of 32 images is split between them.
     #[arg(long, default_value_t = 1, value_parser = crate::numbers::threads)]
     threads: usize,
@@ -120,7 +120,7 @@ struct Scores {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let scale = crate::classify_cmd::input_scale(&args.model, args.input_scale);
+    let scale = crate::shared::input_scale(&args.model, args.input_scale);
     let model = match Classifier::load(&args.model, scale) {
         Ok(c) => Model::Classifier(c.with_threads(args.threads)?),
         Err(ModelError::Shape { .. }) => Model::Segmenter(

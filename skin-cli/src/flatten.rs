@@ -1,8 +1,9 @@
 //! `skin flatten`: a link's layout -> tactile map.
 
-use anyhow::{Context, Result, bail};
+use crate::shared::load_input;
+use anyhow::{Context, Result};
 use skin_core::LinkSkin;
-use skin_core::format::{self, cyskin, icub};
+use skin_core::format::cyskin;
 use skin_geom::{FlattenOptions, MeshOptions, MeshSource, TactileMap, load_mesh_file};
 use std::path::{Path, PathBuf};
 
@@ -88,60 +89,6 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!("wrote {}", svg.display());
     }
     Ok(())
-}
-
-/// All links of a skin-layout/1 file, or the one link of any other layout file.
-pub(crate) fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if text.contains("skin-layout/") {
-        let layout = skin_core::format::native::read_layout(path)?;
-        if layout.links.is_empty() {
-            bail!("{}: the layout has no link", path.display());
-        }
-        return Ok(layout.links);
-    }
-    Ok(vec![crate::flatten::load_input(path)?])
-}
-
-pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    match ext.as_str() {
-        "obj" | "gltf" | "glb" => {
-            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
-            Ok(load_mesh_file(path)?.into_link(name)?)
-        }
-        "txt" => {
-            let read = icub::read(path, icub::Duplicates::Merge)?;
-            crate::say!(
-                "{}: {} taxel rows, {} unused (all-zero) rows dropped",
-                path.display(),
-                read.skin.taxels.len()
-                    + read.zero_slots.len()
-                    + read.duplicates.iter().map(|g| g.slots.len() - 1).sum::<usize>(),
-                read.zero_slots.len()
-            );
-            if !read.duplicates.is_empty() {
-                let merged: usize = read.duplicates.iter().map(|g| g.slots.len() - 1).sum();
-                crate::say!(
-                    "duplicated positions: {} groups, {merged} taxels merged into the first of their group:",
-                    read.duplicates.len()
-                );
-                for g in &read.duplicates {
-                    crate::say!("  lines {:?} (taxels {:?})", g.lines, g.slots);
-                }
-            }
-            Ok(read.skin)
-        }
-        "json" => Ok(format::load_link(path)?),
-        _ => bail!(
-            "{}: unknown layout format (expected .json, .txt, .obj, .gltf or .glb)",
-            path.display()
-        ),
-    }
 }
 
 fn print_report(input: &Path, link: &LinkSkin, map: &TactileMap) {

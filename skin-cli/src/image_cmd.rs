@@ -1,13 +1,11 @@
 //! `skin image`: recordings -> tactile images (PNG), one per frame.
 
+use crate::shared::{load_inputs, load_map};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use skin_core::Recording;
-use skin_core::format::recording;
-use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
-use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
+use std::path::PathBuf;
 
 /// Turn every frame of every recording into a tactile image (8-bit grey PNG).
 ///
@@ -71,38 +69,6 @@ pub struct Args {
 enum Norm {
     FullScale,
     ContactMax,
-}
-
-/// One recording, with its readings reordered to map order.
-pub(crate) struct Input {
-    /// The recording.
-    pub(crate) path: PathBuf,
-    pub(crate) dir: PathBuf,
-    pub(crate) rec: Recording,
-    pub(crate) columns: Vec<usize>,
-    /// Each frame's image file name: `frame_<number>.png`, and `frame_<number>_dup<k>.png` for
-    /// the k-th repeat of a frame number (a recording joined from two, a counter reset).
-    pub(crate) names: Vec<String>,
-}
-
-/// Image names for `frame_numbers`: repeats get a suffix instead of overwriting an image.
-pub(crate) fn frame_names(frame_numbers: &[u64]) -> (Vec<String>, usize) {
-    let mut seen: HashMap<u64, usize> = HashMap::new();
-    let mut repeats = 0;
-    let names = frame_numbers
-        .iter()
-        .map(|&n| {
-            let k = seen.entry(n).or_default();
-            *k += 1;
-            if *k == 1 {
-                format!("frame_{n:05}.png")
-            } else {
-                repeats += 1;
-                format!("frame_{n:05}_dup{}.png", *k - 1)
-            }
-        })
-        .collect();
-    (names, repeats)
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -171,141 +137,4 @@ pub fn run(args: Args) -> Result<()> {
         args.output.display()
     );
     Ok(())
-}
-
-/// Reads a tactile map, or flattens a layout given instead of one.
-pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if text.contains(skin_geom::MAP_FORMAT) || text.contains("\"tactile_maps\"") {
-        return Ok(TactileMap::read(path)?);
-    }
-    let link = crate::flatten::load_input(path)?;
-    let map = TactileMap::flatten(&link, &skin_geom::FlattenOptions::default())
-        .with_context(|| format!("{}", path.display()))?;
-    let (w, h) = map.extent();
-    crate::say!(
-        "{}: a layout, flattened to a {:.0} x {:.0} mm tactile map (mean angle error {:.3} deg); save it with `skin flatten` to skip this step",
-        path.display(),
-        w * 1e3,
-        h * 1e3,
-        map.report.distortion.angle_error_mean_deg
-    );
-    Ok(map)
-}
-
-/// Runs `each(input, frame, pressures, grey)` on every frame of `inputs` with a reading above
-/// `threshold` (readings at or below it count as zero), imaged by `imager`; returns how many
-/// frames had no contact.
-pub(crate) fn each_touched_frame(
-    inputs: &[Input],
-    imager: &mut TactileImager,
-    threshold: f32,
-    mut each: impl FnMut(&Input, usize, &[f32], &[u8]) -> Result<()>,
-) -> Result<usize> {
-    let mut pressures = vec![0.0f32; imager.raster().taxel_count()];
-    let mut quiet = 0usize;
-    for input in inputs {
-        for (f, frame) in input.rec.frames.iter().enumerate() {
-            let mut any = false;
-            for (p, &c) in pressures.iter_mut().zip(&input.columns) {
-                let v = frame.values[c];
-                *p = if v > threshold { v } else { 0.0 };
-                any |= *p > 0.0;
-            }
-            if !any {
-                quiet += 1;
-                continue;
-            }
-            let grey = imager.process(&pressures)?;
-            each(input, f, &pressures, grey)?;
-        }
-    }
-    Ok(quiet)
-}
-
-/// One output name per input: its file stem, prefixed with its folder's name where two inputs
-/// share a stem; an error where even that leaves two alike (nothing is written over another).
-pub(crate) fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
-    let stem = |p: &Path| {
-        p.file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("input")
-            .to_string()
-    };
-    let mut count: HashMap<String, usize> = HashMap::new();
-    for p in paths {
-        *count.entry(stem(p)).or_default() += 1;
-    }
-    let mut used: HashMap<String, &Path> = HashMap::new();
-    let mut names = Vec::with_capacity(paths.len());
-    for p in paths {
-        let mut name = stem(p);
-        if count[&name] > 1 {
-            let parent = p
-                .parent()
-                .and_then(|d| d.file_name())
-                .and_then(|s| s.to_str())
-                .unwrap_or("input");
-            name = format!("{parent}_{name}");
-        }
-        if let Some(first) = used.insert(name.clone(), p) {
-            bail!(
-                "{} and {}: both would be written as {name}; give inputs distinct names (or list each once)",
-                first.display(),
-                p.display()
-            );
-        }
-        names.push(name);
-    }
-    Ok(names)
-}
-
-/// Reads the recordings and maps their columns onto the map's taxels; names each output folder
-/// after the recording (with its parent folder when two recordings share a name).
-pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
-    let names = output_names(paths)?;
-    let mut inputs = Vec::with_capacity(paths.len());
-    for p in paths {
-        let rec = recording::read(p)?;
-        let index: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
-        let mut columns = Vec::with_capacity(map.ids.len());
-        let mut missing = Vec::new();
-        for id in &map.ids {
-            match index.get(id) {
-                Some(&c) => columns.push(c),
-                None => missing.push(id.0),
-            }
-        }
-        if !missing.is_empty() {
-            bail!(
-                "{}: {} taxel(s) of the map are not in the recording (first: {:?}); is it a recording of this link?",
-                p.display(),
-                missing.len(),
-                &missing[..missing.len().min(5)]
-            );
-        }
-        let extra = rec.taxel_ids.len() - map.ids.len().min(rec.taxel_ids.len());
-        if extra > 0 {
-            crate::say!(
-                "{}: {extra} reading column(s) are not taxels of the map and are ignored",
-                p.display()
-            );
-        }
-        let name = names[inputs.len()].clone();
-        let (files, repeats) = frame_names(&rec.frame_numbers);
-        if repeats > 0 {
-            crate::say!(
-                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
-                p.display()
-            );
-        }
-        inputs.push(Input {
-            path: p.clone(),
-            dir: out.join(name),
-            rec,
-            columns,
-            names: files,
-        });
-    }
-    Ok(inputs)
 }

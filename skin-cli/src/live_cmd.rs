@@ -80,7 +80,7 @@ struct Sinks {
 struct Summary {
     can_frames: u64,
     outages: Vec<String>,
-    tally: crate::replay::Tally,
+    tally: crate::shared::Tally,
 }
 
 pub fn live(args: LiveArgs) -> Result<()> {
@@ -98,7 +98,7 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
     crate::output::replaceable(
         &inputs,
         csv,
-        crate::output::Kind::Table(crate::replay::CSV_HEADER),
+        crate::output::Kind::Table(crate::shared::CSV_HEADER),
     )?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
@@ -274,7 +274,7 @@ impl Sinks {
             None => None,
         };
         let csv = csv.map(|p| {
-            let mut s = String::from(crate::replay::CSV_HEADER);
+            let mut s = String::from(crate::shared::CSV_HEADER);
             for id in map.taxel_ids() {
                 let _ = write!(s, ",{id}");
             }
@@ -301,7 +301,7 @@ impl Sinks {
 
     fn assembled(&mut self, f: &AssembledFrame) {
         if let Some((_, csv)) = &mut self.csv {
-            crate::replay::csv_row(csv, f);
+            crate::shared::csv_row(csv, f);
         }
     }
 

@@ -36,6 +36,7 @@ mod run_cmd;
 mod run_stitch;
 #[cfg(feature = "onnx")]
 mod segment_cmd;
+mod shared;
 mod stitch_cmd;
 mod synth_cmd;
 

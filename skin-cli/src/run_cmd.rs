@@ -373,7 +373,7 @@ fn load(config_path: &Path) -> Result<Setup> {
         .as_ref()
         .map(|s| resolve("[stitch] poses", &s.poses))
         .transpose()?;
-    let links = crate::flatten::load_links(&layout_path)?;
+    let links = crate::shared::load_links(&layout_path)?;
     let busmap = BusMap::read(&busmap_path)?;
     let ids: Vec<Vec<_>> = links.iter().map(LinkSkin::ids).collect();
     let slots = LayoutFrames::new(&busmap, &ids, Missing::HoldLast).map_err(|e| match e {
@@ -413,7 +413,7 @@ fn load(config_path: &Path) -> Result<Setup> {
     let mut classes = vec!["hand".to_string(), "non_hand".to_string()];
     let classifier = match &classifier_path {
         Some(p) => {
-            let net = Classifier::load(p, crate::classify_cmd::input_scale(p, None))?;
+            let net = Classifier::load(p, crate::shared::input_scale(p, None))?;
             check_size(p, net.input_size(), size, config_path)?;
             if let Some(card) = ModelCard::for_model(p).filter(|c| c.classes.len() == net.classes()) {
                 classes = card.classes;
@@ -431,7 +431,7 @@ fn load(config_path: &Path) -> Result<Setup> {
     };
     let segmenter = match &segmenter_path {
         Some(p) => {
-            let net = Segmenter::load(p, crate::classify_cmd::input_scale(p, None))?;
+            let net = Segmenter::load(p, crate::shared::input_scale(p, None))?;
             check_size(p, net.input_size(), size, config_path)?;
             Some((net, p.clone()))
         }

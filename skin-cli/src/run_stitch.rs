@@ -41,7 +41,7 @@ impl Stitching {
     /// its postures.
     pub(crate) fn new(poses: &Path, layout: &Path, maps: &[TactileMap]) -> Result<Stitching> {
         let names: Vec<&str> = maps.iter().map(|m| m.name.as_str()).collect();
-        let postures = crate::stitch_cmd::read_postures(poses, layout, &names)?;
+        let postures = crate::shared::read_postures(poses, layout, &names)?;
         let Some(reference) = postures.postures.get(postures.postures.len() / 2) else {
             bail!("{}: no posture", poses.display());
         };

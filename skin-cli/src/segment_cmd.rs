@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 #[command(verbatim_doc_comment)]
 pub struct Args {
     #[command(flatten)]
-    run: crate::classify_cmd::ModelInputs,
+    run: crate::shared::ModelInputs,
     /// Where to write the coloured part images: a folder, created if missing; an existing one
     /// is written into only if it holds an earlier output of `skin segment` (or with --force).
     #[arg(short, long, value_name = "DIR", default_value = "segments")]
@@ -53,7 +53,7 @@ const COLOURS: [[u8; 3]; 7] = [
 ];
 
 pub fn run(args: Args) -> Result<()> {
-    let scale = crate::classify_cmd::input_scale(&args.run.model, args.run.input_scale);
+    let scale = crate::shared::input_scale(&args.run.model, args.run.input_scale);
     let mut net = Segmenter::load(&args.run.model, scale)?.with_mirror_averaging(args.mirrors);
     let (h, w) = net.input_size();
     let sources = crate::output::Inputs::new(
@@ -70,9 +70,9 @@ pub fn run(args: Args) -> Result<()> {
     );
     match &args.run.map {
         None => {
-            let names = crate::image_cmd::output_names(&args.run.inputs)?;
+            let names = crate::shared::output_names(&args.run.inputs)?;
             for (path, name) in args.run.inputs.iter().zip(&names) {
-                let img = crate::classify_cmd::read_model_image(path, (h, w))?;
+                let img = crate::shared::read_model_image(path, (h, w))?;
                 let labels = net.segment(&img)?;
                 let file = format!("{name}_parts.png");
                 write_colour(&out.path().join(&file), &labels, h, w)?;
@@ -85,18 +85,18 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
         Some(map_path) => {
-            let map = crate::image_cmd::load_map(map_path)?;
+            let map = crate::shared::load_map(map_path)?;
             let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
                 .with_context(|| format!("{}", map_path.display()))?;
             let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::image_cmd::load_inputs(&args.run.inputs, &map, out.path())?;
+            let inputs = crate::shared::load_inputs(&args.run.inputs, &map, out.path())?;
             // The per-part table needs the grid while the imager is busy.
             let raster = imager.raster().clone();
             for input in &inputs {
                 std::fs::create_dir_all(&input.dir)
                     .with_context(|| format!("cannot write into {}", args.output.display()))?;
             }
-            let quiet = crate::image_cmd::each_touched_frame(
+            let quiet = crate::shared::each_touched_frame(
                 &inputs,
                 &mut imager,
                 args.run.threshold as f32,

@@ -1,9 +1,9 @@
 //! `skin stitch`: the maps of a chain of links stitched at every posture, and tactile images over
 //! all of them.
 
-use anyhow::{Context, Result, bail};
+use crate::shared::read_postures;
+use anyhow::{Context, Result};
 use skin_core::format::native;
-use skin_core::format::poses::Postures;
 use skin_core::format::recording;
 use skin_geom::raster::to_grey;
 use skin_geom::{
@@ -63,7 +63,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let sources = crate::output::Inputs::new([&args.layout, &args.poses].into_iter().chain(&args.frames));
     let out = crate::output::open_dir(&args.output, "skin stitch", args.force, &sources)?;
-    let stems = crate::image_cmd::output_names(&args.frames)?;
+    let stems = crate::shared::output_names(&args.frames)?;
     let threshold = args.threshold as f32;
     let layout = native::read_layout(&args.layout)?;
     let names: Vec<&str> = layout.links.iter().map(|l| l.name.as_str()).collect();
@@ -155,7 +155,7 @@ pub fn run(args: Args) -> Result<()> {
         let dir = out.path().join(stem);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot write into {}", args.output.display()))?;
-        let (files, repeats) = crate::image_cmd::frame_names(&rec.frame_numbers);
+        let (files, repeats) = crate::shared::frame_names(&rec.frame_numbers);
         if repeats > 0 {
             crate::say!(
                 "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
@@ -202,25 +202,6 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!("wrote the stitched maps to {}", args.output.display());
     }
     Ok(())
-}
-
-/// Reads the postures of `poses`, which must name the links of `layout` (`names`), in order.
-pub(crate) fn read_postures(
-    poses: &std::path::Path,
-    layout: &std::path::Path,
-    names: &[&str],
-) -> Result<Postures> {
-    let postures = Postures::read(poses)?;
-    if postures.links != names {
-        bail!(
-            "{}: links {:?}, but the layout {} has {:?} (same names, same order)",
-            poses.display(),
-            postures.links,
-            layout.display(),
-            names
-        );
-    }
-    Ok(postures)
 }
 
 /// The worst relative difference between the 3D length and the stitched 2D length over

@@ -80,7 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         .subjects
         .unwrap_or(args.count.div_ceil(40))
         .clamp(1, args.count);
-    let map = crate::image_cmd::load_map(&args.layout)?;
+    let map = crate::shared::load_map(&args.layout)?;
     let options = SynthOptions {
         image_size: args.size,
         hand_fraction: args.hand_fraction,
