@@ -24,6 +24,11 @@
 //! - [`faults`] (Ch. 5): blind spots and removed taxels, deterministic per seed, for robustness
 //!   studies.
 //!
+//! The fixture forearm's tactile map (715 taxels, 1,328 triangles), as `skin flatten --svg`
+//! draws it:
+//!
+#![doc = concat!("<div style=\"max-width: 640px\">", include_str!("../../docs/forearm_map.svg"), "</div>")]
+//!
 //! ```
 //! use skin_core::{LinkSkin, Taxel, TaxelId};
 //! use skin_geom::{FlattenOptions, Grid, Rasterizer, TactileMap};

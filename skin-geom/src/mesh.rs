@@ -1,7 +1,7 @@
 //! The triangle mesh S* = (T, F) over a link's taxels (thesis Ch. 3.2).
 //!
 //! [`SkinMesh::build`] takes the triangles a file gives (Cyskin `faces`) or triangulates the taxel
-//! cloud (Delaunay in a 2D [`Chart`](crate::Chart), then triangles that bridge holes or the outer
+//! cloud (Delaunay in a 2D [`Chart`], then triangles that bridge holes or the outer
 //! concavity removed). Either way it repairs what it safely can and says so in a [`MeshReport`]:
 //! taxels at the same position share one vertex, zero-area and repeated triangles are dropped.
 //! What it cannot repair (an edge shared by three triangles) is an error naming the taxels.
