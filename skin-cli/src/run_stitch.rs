@@ -82,17 +82,14 @@ impl Stitching {
         min_taxels: usize,
     ) -> Result<Vec<Spanning>> {
         self.current = self.postures.at(time);
-        let finder = &mut self.finders[self.current];
-        let contacts = finder.find(pressures, threshold, min_taxels)?.to_vec();
+        let (contacts, index) = self.finders[self.current].find(pressures, threshold, min_taxels)?;
         Ok(contacts
             .iter()
-            .filter_map(|c| {
-                let links = finder.links(c);
-                (links.len() > 1).then(|| Spanning {
-                    links,
-                    taxels: c.taxels.len(),
-                    centroid: [c.centroid.x, c.centroid.y, c.centroid.z],
-                })
+            .filter(|c| index.spans(c))
+            .map(|c| Spanning {
+                links: index.links(c),
+                taxels: c.taxels.len(),
+                centroid: [c.centroid.x, c.centroid.y, c.centroid.z],
             })
             .collect())
     }

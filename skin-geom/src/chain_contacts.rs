@@ -11,10 +11,43 @@ use std::path::Path;
 #[derive(Debug, Clone)]
 pub struct ChainContacts {
     finder: ContactFinder,
-    /// First index of each link in the chain's frame; one more entry, the total.
-    offsets: Vec<usize>,
+    index: ChainIndex,
     /// The frame over the whole chain, thresholded.
     all: Vec<f32>,
+}
+
+/// Which link each taxel of the chain's numbering belongs to (links in chain order, each link's
+/// taxels in its map's order).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChainIndex {
+    /// First index of each link; one more entry, the total.
+    offsets: Vec<usize>,
+}
+
+impl ChainIndex {
+    /// The (link, taxel index in the link) of a chain index.
+    pub fn link_of(&self, chain_index: usize) -> (usize, usize) {
+        let l = self
+            .offsets
+            .partition_point(|&o| o <= chain_index)
+            .saturating_sub(1);
+        (l, chain_index - self.offsets[l])
+    }
+
+    /// Whether a contact covers more than one link (its taxels are in ascending order).
+    pub fn spans(&self, contact: &Contact) -> bool {
+        match (contact.taxels.first(), contact.taxels.last()) {
+            (Some(&a), Some(&b)) => self.link_of(a).0 != self.link_of(b).0,
+            _ => false,
+        }
+    }
+
+    /// The links a contact covers, in chain order.
+    pub fn links(&self, contact: &Contact) -> Vec<usize> {
+        let mut links: Vec<usize> = contact.taxels.iter().map(|&i| self.link_of(i).0).collect();
+        links.dedup();
+        links
+    }
 }
 
 impl ChainContacts {
@@ -57,22 +90,23 @@ impl ChainContacts {
         let n = positions.len();
         Ok(ChainContacts {
             finder: ContactFinder::new(&positions, &[], &faces, Path::new("the stitched chain"))?,
-            offsets,
+            index: ChainIndex { offsets },
             all: vec![0.0; n],
         })
     }
 
     /// The contacts of one frame (one pressure slice per link, in map order); readings at or
     /// below `threshold` count as none, contacts of fewer than `min_taxels` are dropped. A
-    /// contact's taxels index the chain ([`Self::link_of`]); its centroid and normal are in the
-    /// poses' common frame. Allocates nothing once warm.
+    /// contact's taxels index the chain, which the [`ChainIndex`] returned with them maps back to
+    /// links; its centroid and normal are in the poses' common frame. Allocates nothing once warm.
     pub fn find(
         &mut self,
         pressures: &[impl AsRef<[f32]>],
         threshold: f32,
         min_taxels: usize,
-    ) -> Result<&[Contact]> {
-        let links = self.offsets.len() - 1;
+    ) -> Result<(&[Contact], &ChainIndex)> {
+        let offsets = &self.index.offsets;
+        let links = offsets.len() - 1;
         if pressures.len() != links {
             return Err(Error::Length {
                 what: "pressure slices for the chain's links",
@@ -81,7 +115,7 @@ impl ChainContacts {
             });
         }
         for (l, p) in pressures.iter().enumerate() {
-            let (a, b) = (self.offsets[l], self.offsets[l + 1]);
+            let (a, b) = (offsets[l], offsets[l + 1]);
             let p = p.as_ref();
             if p.len() != b - a {
                 return Err(Error::Length {
@@ -94,29 +128,18 @@ impl ChainContacts {
                 *dst = if v > threshold { v } else { 0.0 };
             }
         }
-        Ok(self.finder.find(&self.all, 0.0, min_taxels)?)
+        Ok((self.finder.find(&self.all, 0.0, min_taxels)?, &self.index))
     }
 
-    /// The (link, taxel index in the link) of a chain index.
-    pub fn link_of(&self, chain_index: usize) -> (usize, usize) {
-        let l = self
-            .offsets
-            .partition_point(|&o| o <= chain_index)
-            .saturating_sub(1);
-        (l, chain_index - self.offsets[l])
-    }
-
-    /// The links a contact covers, in chain order.
-    pub fn links(&self, contact: &Contact) -> Vec<usize> {
-        let mut links: Vec<usize> = contact.taxels.iter().map(|&i| self.link_of(i).0).collect();
-        links.dedup();
-        links
+    /// The chain's numbering of taxels.
+    pub fn index(&self) -> &ChainIndex {
+        &self.index
     }
 
     /// The last frame over the whole chain, thresholded, one slice per link (for a stitched
     /// image of it).
     pub fn link_frames(&self) -> impl Iterator<Item = &[f32]> {
-        self.offsets.windows(2).map(|w| &self.all[w[0]..w[1]])
+        self.index.offsets.windows(2).map(|w| &self.all[w[0]..w[1]])
     }
 }
 
@@ -164,9 +187,11 @@ mod tests {
             p1[r * 4 + 1] = 50.0;
         }
         let mut joined = ChainContacts::new(&maps, &poses, &bridges).unwrap();
-        let found = joined.find(&[&p0, &p1], 5.0, 2).unwrap().to_vec();
+        let (found, index) = joined.find(&[&p0, &p1], 5.0, 2).unwrap();
         assert_eq!(found.len(), 1, "{found:?}");
-        assert_eq!(joined.links(&found[0]), [0, 1]);
+        assert!(index.spans(&found[0]));
+        assert_eq!(index.links(&found[0]), [0, 1]);
+        let found = found.to_vec();
         assert_eq!(found[0].taxels.len(), 8);
         // Symmetric pressures: the centroid is on the joint, 4 mm past column 3, between rows 1 and 2.
         assert!(
@@ -174,10 +199,11 @@ mod tests {
             "{}",
             found[0].centroid
         );
-        assert_eq!(joined.link_of(16 + 5), (1, 5));
+        assert_eq!(joined.index().link_of(16 + 5), (1, 5));
         // Without the bridges, two contacts.
         let mut apart = ChainContacts::new(&maps, &poses, &[]).unwrap();
-        assert_eq!(apart.find(&[&p0, &p1], 5.0, 2).unwrap().len(), 2);
+        let (found, index) = apart.find(&[&p0, &p1], 5.0, 2).unwrap();
+        assert!(found.len() == 2 && !found.iter().any(|c| index.spans(c)));
         // Frames that do not fit the chain are errors.
         assert!(joined.find(&[&p0], 5.0, 2).is_err());
         assert!(joined.find(&[&p0, &p1[..3]], 5.0, 2).is_err());

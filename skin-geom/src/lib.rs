@@ -69,7 +69,7 @@ mod stitch_raster;
 mod tactile_map;
 mod triangulate;
 
-pub use chain_contacts::ChainContacts;
+pub use chain_contacts::{ChainContacts, ChainIndex};
 pub use chart::Chart;
 pub use distortion::DistortionReport;
 pub use error::{ChainError, Error, Result};

@@ -110,7 +110,7 @@ impl PerFrame {
         self.pipeline
             .process(time, &self.pressures, &mut self.events)
             .unwrap();
-        self.spanning = self.chain.find(&self.pressures, 5.0, 2).unwrap().len();
+        self.spanning = self.chain.find(&self.pressures, 5.0, 2).unwrap().0.len();
     }
 }
 
