@@ -190,20 +190,7 @@ impl IdleStats {
     /// Takes one idle frame (one reading per taxel). A frame of the wrong length or with a
     /// reading that is not finite is an error and changes nothing.
     pub fn push(&mut self, frame: &[f32]) -> Result<()> {
-        if frame.len() != self.mean.len() {
-            return Err(Error::Length {
-                what: "readings of the idle frame for the link's taxels",
-                got: frame.len(),
-                expected: self.mean.len(),
-            });
-        }
-        if let Some(i) = frame.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid {
-                path: Path::new("idle frames").to_owned(),
-                place: format!("taxel index {i}"),
-                message: "reading is not finite".into(),
-            });
-        }
+        self.check(frame)?;
         self.n += 1;
         let n = self.n as f64;
         for (i, &v) in frame.iter().enumerate() {
@@ -214,6 +201,25 @@ impl IdleStats {
             self.hi[i] = self.hi[i].max(v);
         }
         Ok(())
+    }
+
+    /// Whether `frame` can be taken: one finite reading per taxel.
+    fn check(&self, frame: &[f32]) -> Result<()> {
+        if frame.len() != self.mean.len() {
+            return Err(Error::Length {
+                what: "readings of the idle frame for the link's taxels",
+                got: frame.len(),
+                expected: self.mean.len(),
+            });
+        }
+        match frame.iter().position(|v| !v.is_finite()) {
+            Some(i) => Err(Error::Invalid {
+                path: Path::new("idle frames").to_owned(),
+                place: format!("taxel index {i}"),
+                message: "reading is not finite".into(),
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The baseline and the taxels the frames show to be unusable; at least 2 frames are needed
@@ -310,20 +316,14 @@ impl BaselineLearner {
         }
         // Check every link before taking any, so a bad frame changes nothing.
         for (l, (stats, raw)) in self.links.iter().zip(links).enumerate() {
-            if raw.len() != stats.mean.len() {
-                return Err(Error::Length {
-                    what: "readings of the idle frame for the link's taxels",
-                    got: raw.len(),
-                    expected: stats.mean.len(),
-                });
-            }
-            if let Some(i) = raw.iter().position(|v| !v.is_finite()) {
-                return Err(Error::Invalid {
-                    path: Path::new("idle frames").to_owned(),
-                    place: format!("link {l}, taxel index {i}"),
-                    message: "reading is not finite".into(),
-                });
-            }
+            stats.check(raw).map_err(|e| match e {
+                Error::Invalid { path, place, message } => Error::Invalid {
+                    path,
+                    place: format!("link {l}, {place}"),
+                    message,
+                },
+                e => e,
+            })?;
         }
         for (stats, raw) in self.links.iter_mut().zip(links) {
             stats.push(raw)?;

@@ -73,11 +73,7 @@ pub struct Score {
 impl Script {
     /// Reads a script file.
     pub fn read(path: &Path) -> Result<Script> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
-        Script::parse(&text, path)
+        Script::parse(&skin_core::format::read_text(path)?, path)
     }
 
     /// Parses a script; `path` names it in errors. Times must be finite, and no touch may end

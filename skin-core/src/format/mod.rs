@@ -66,7 +66,8 @@ pub(crate) fn locate<T: serde::de::DeserializeOwned>(
     })
 }
 
-pub(crate) fn read_text(path: &Path) -> Result<String> {
+/// The text of the file at `path`, an [`Error::Io`] naming it if it cannot be read.
+pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
 }
 

@@ -58,11 +58,7 @@ pub struct TaxelSamples {
 impl ProbeDataset {
     /// Reads the CSV form.
     pub fn read(path: &Path) -> Result<ProbeDataset> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
-        Self::parse(&text, path)
+        Self::parse(&skin_core::format::read_text(path)?, path)
     }
 
     /// Parses the CSV form; `path` names the file in errors.
