@@ -39,6 +39,7 @@
 
 use crate::candump::{CanFrame, Direction};
 use crate::decode::skin16::encode_sync;
+use crate::{AssembledFrame, Assembler, AssemblyStats, BusMap};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -172,6 +173,129 @@ impl Acquisition {
 impl Drop for Acquisition {
     fn drop(&mut self) {
         self.halt();
+    }
+}
+
+/// What [`LiveFrames::poll`] hands on, in arrival order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Live<'a> {
+    /// A CAN frame received, or a sync this side sent (to record it).
+    Can(&'a CanFrame),
+    /// A skin frame the assembler completed.
+    Frame(&'a AssembledFrame),
+    /// An interface failed; it will be reopened.
+    Down {
+        /// Its name.
+        interface: &'a str,
+        /// What the system said.
+        error: &'a str,
+    },
+    /// An interface is open again after a failure.
+    Reopened {
+        /// Its name.
+        interface: &'a str,
+    },
+}
+
+/// Live skin frames: an [`Acquisition`] feeding an [`Assembler`], the one acquisition loop of
+/// every live consumer (`skin live`, `skin record`, `skin run --can`, a robot stack).
+///
+/// ```no_run
+/// # #[cfg(all(feature = "socketcan", target_os = "linux"))] {
+/// use skin_can::live::{Live, LiveFrames, LiveOptions, socketcan::SocketCanPort};
+/// use std::time::Duration;
+///
+/// let map = skin_can::BusMap::read("busmap.toml".as_ref())?;
+/// let ports = map.buses.iter().map(|b| SocketCanPort::new(&b.interface)).collect();
+/// let mut frames = LiveFrames::start(ports, LiveOptions::default(), &map, Duration::from_millis(50));
+/// loop {
+///     frames.poll(Duration::from_millis(50), &mut |item| {
+///         if let Live::Frame(f) = item {
+///             println!("cycle {}: {} modules missing", f.cycle, f.missing.len());
+///         }
+///     });
+/// }
+/// # }
+/// # Ok::<(), skin_can::Error>(())
+/// ```
+pub struct LiveFrames {
+    acquisition: Acquisition,
+    assembler: Assembler<Box<dyn crate::decode::Decoder + Send>>,
+}
+
+impl std::fmt::Debug for LiveFrames {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveFrames")
+            .field("interfaces", &self.acquisition.interfaces())
+            .field("stats", self.assembler.stats())
+            .finish()
+    }
+}
+
+impl LiveFrames {
+    /// Starts reading `ports` (interface `k` is bus `k`: name them as the bus map does) and
+    /// assembling frames of `map`; `window` is the acquisition period (the icub8 time window).
+    pub fn start<P: CanPort>(
+        ports: Vec<P>,
+        options: LiveOptions,
+        map: &BusMap,
+        window: Duration,
+    ) -> LiveFrames {
+        let acquisition = Acquisition::start(ports, options);
+        let assembler = Assembler::for_map(map, acquisition.interfaces(), window.as_micros() as u64);
+        LiveFrames {
+            acquisition,
+            assembler,
+        }
+    }
+
+    /// Interface names, in bus order.
+    pub fn interfaces(&self) -> &[String] {
+        self.acquisition.interfaces()
+    }
+
+    /// The assembler's counts so far.
+    pub fn stats(&self) -> &AssemblyStats {
+        self.assembler.stats()
+    }
+
+    /// Waits at most `timeout` for the next event of the acquisition and hands it to `each`: a
+    /// CAN frame first, then the skin frame it completed, if any. False when nothing came.
+    pub fn poll(&mut self, timeout: Duration, each: &mut dyn FnMut(Live<'_>)) -> bool {
+        let Some(event) = self.acquisition.recv(timeout) else {
+            return false;
+        };
+        let name = |bus: u16| {
+            self.acquisition
+                .interfaces()
+                .get(usize::from(bus))
+                .map_or("?", String::as_str)
+        };
+        match &event {
+            LiveEvent::Frame(f) => {
+                each(Live::Can(f));
+                self.assembler.push(f, &mut |a| each(Live::Frame(a)));
+            }
+            LiveEvent::Down { bus, error } => each(Live::Down {
+                interface: name(*bus),
+                error,
+            }),
+            LiveEvent::Reopened { bus } => each(Live::Reopened {
+                interface: name(*bus),
+            }),
+        }
+        true
+    }
+
+    /// Stops the readers and hands on the frame still being assembled.
+    pub fn finish(self, each: &mut dyn FnMut(Live<'_>)) -> AssemblyStats {
+        let LiveFrames {
+            acquisition,
+            mut assembler,
+        } = self;
+        acquisition.stop();
+        assembler.finish(&mut |a| each(Live::Frame(a)));
+        assembler.stats().clone()
     }
 }
 

@@ -7,7 +7,7 @@
 use skin_can::candump::{CanFrame, CandumpLog, Direction, write_line};
 use skin_can::decode::Skin16;
 use skin_can::decode::skin16::encode_module;
-use skin_can::live::{Acquisition, CanPort, LiveEvent, LiveOptions, now_us};
+use skin_can::live::{Acquisition, CanPort, Live, LiveEvent, LiveFrames, LiveOptions, now_us};
 use skin_can::{AssembledFrame, Assembler};
 use std::collections::VecDeque;
 use std::io::{Error, ErrorKind};
@@ -252,4 +252,50 @@ fn as_master_it_syncs_every_bus_and_a_live_session_replays_to_the_same_frames() 
             .lines()
             .any(|l| l.contains(" 080#") && l.ends_with(" T"))
     );
+}
+
+#[test]
+fn live_frames_hand_on_can_frames_then_the_skin_frames_they_complete() {
+    let map = common::two_buses();
+    let mut can0 = Scripted::new("can0");
+    can0.modules = vec![0, 5];
+    // can1 fails once to open: reported by name, then read on.
+    let mut can1 = Scripted::new("can1");
+    can1.modules = vec![1];
+    can1.open_failures = 1;
+    let options = LiveOptions {
+        sync_period: Some(Duration::from_millis(5)),
+        reopen_after: Duration::from_millis(1),
+        ..LiveOptions::default()
+    };
+    let mut frames = LiveFrames::start(vec![can0, can1], options, &map, Duration::from_millis(5));
+    assert_eq!(frames.interfaces(), ["can0", "can1"]);
+    let (mut can, mut complete, mut down, mut reopened) = (0usize, Vec::new(), Vec::new(), 0);
+    let give_up = Instant::now() + Duration::from_secs(30);
+    while complete.len() < 5 {
+        assert!(Instant::now() < give_up, "{can} CAN frames, {complete:?}");
+        frames.poll(Duration::from_millis(100), &mut |item| match item {
+            Live::Can(_) => can += 1,
+            Live::Frame(f) if f.is_complete() => complete.push((f.cycle, f.values.clone())),
+            Live::Frame(_) => {}
+            Live::Down { interface, error } => down.push(format!("{interface}: {error}")),
+            Live::Reopened { interface } => {
+                assert_eq!(interface, "can1");
+                reopened += 1;
+            }
+        });
+    }
+    let stats = frames.finish(&mut |_| {});
+    assert!(stats.complete >= 5, "{stats:?}");
+    assert!(can > 5 * 3, "the CAN frames come out too: {can}");
+    assert_eq!((down.len(), reopened), (1, 1), "{down:?}");
+    assert!(down[0].starts_with("can1: cannot open"), "{down:?}");
+    for (cycle, values) in &complete {
+        let counter = *cycle as u8;
+        let want: Vec<_> = [0u32, 5, 1]
+            .iter()
+            .flat_map(|&a| (0..11).map(move |s| Some(reading(counter, a, s))))
+            .collect();
+        assert_eq!(values, &want, "cycle {cycle}");
+    }
 }
