@@ -8,12 +8,12 @@ use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, Tactile
 use skin_learn::classify::{Classifier, ModelError};
 use skin_learn::dataset::Dataset;
 use skin_learn::metrics::ConfusionMatrix;
+use skin_learn::parts::Part;
 use skin_learn::parts::taxel_labels;
 use skin_learn::segment::Segmenter;
 use skin_learn::segmentation_diagnostics::{
     Naming, SEAM_BINS, mirror_hand, name_regions, off_borders, seam_distance,
 };
-use skin_learn::synth::Part;
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

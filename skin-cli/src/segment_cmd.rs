@@ -2,9 +2,9 @@
 
 use anyhow::{Context, Result};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
+use skin_learn::parts::Part;
 use skin_learn::parts::part_contacts;
 use skin_learn::segment::Segmenter;
-use skin_learn::synth::Part;
 use std::path::{Path, PathBuf};
 
 /// Segment tactile images into hand parts (thumb, index, middle, ring, pinkie, palm) with an

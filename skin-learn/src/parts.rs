@@ -5,9 +5,66 @@
 //! reading-weighted mean of those taxels' 3D positions, so it lies where the part presses on the
 //! link, not on the flat map.
 
-use crate::synth::Part;
 use nalgebra::Point3;
 use skin_geom::{Rasterizer, TactileMap};
+
+/// The segmentation classes (thesis Ch. 4.4), as stored in part masks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum Part {
+    /// No hand part: no contact, or a contact that is not a hand.
+    Background = 0,
+    /// Thumb.
+    Thumb = 1,
+    /// Index finger.
+    Index = 2,
+    /// Middle finger.
+    Middle = 3,
+    /// Ring finger.
+    Ring = 4,
+    /// Little finger.
+    Pinkie = 5,
+    /// Palm.
+    Palm = 6,
+}
+
+impl Part {
+    /// All classes in label order.
+    pub const ALL: [Part; 7] = [
+        Part::Background,
+        Part::Thumb,
+        Part::Index,
+        Part::Middle,
+        Part::Ring,
+        Part::Pinkie,
+        Part::Palm,
+    ];
+
+    /// The class of a mask value, if it is one.
+    pub fn from_label(label: u8) -> Option<Part> {
+        Part::ALL.get(usize::from(label)).copied()
+    }
+
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Part::Background => "background",
+            Part::Thumb => "thumb",
+            Part::Index => "index",
+            Part::Middle => "middle",
+            Part::Ring => "ring",
+            Part::Pinkie => "pinkie",
+            Part::Palm => "palm",
+        }
+    }
+}
+
+/// A part is written by its name (`"thumb"`, ...), as events and tables give it.
+impl serde::Serialize for Part {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
 
 /// One hand part's share of a contact.
 #[derive(Debug, Clone, PartialEq)]

@@ -3,7 +3,7 @@
 //! on the hand taken for the other side. `skin eval` reports these; they are plain functions on
 //! label images (row-major, 0 = background, the [`Part`] labels) for any other tool too.
 
-use crate::synth::Part;
+use crate::parts::Part;
 
 /// The labels `truth` would have if the hand were the mirror image of itself, a right hand for a
 /// left one: the same pixels, with the fingers in the other order (index and pinkie swap, middle

@@ -7,8 +7,9 @@ use nalgebra::{Point3, Unit, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
 use skin_geom::{FlattenOptions, Grid, Rasterizer, TactileMap};
+use skin_learn::parts::Part;
 use skin_learn::parts::taxel_labels;
-use skin_learn::synth::{Kind, Part, SynthOptions, Synthesizer};
+use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 
 /// A half cylinder like a forearm cover (radius 80 mm, 300 mm long), taxels ~10 mm apart.
 fn forearm() -> TactileMap {

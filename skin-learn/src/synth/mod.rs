@@ -37,8 +37,9 @@ pub mod hand;
 pub mod objects;
 mod shapes;
 
+use crate::parts::Part;
 pub use hand::{Interaction, Subject};
-pub use objects::Contact;
+pub use objects::ObjectKind;
 
 use nalgebra::{Point2, Vector2};
 use rand::{Rng, SeedableRng};
@@ -46,57 +47,6 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use shapes::{Patch, press};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
-
-/// The segmentation classes (thesis Ch. 4.4), as stored in part masks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[repr(u8)]
-pub enum Part {
-    /// No hand part: no contact, or a contact that is not a hand.
-    Background = 0,
-    /// Thumb.
-    Thumb = 1,
-    /// Index finger.
-    Index = 2,
-    /// Middle finger.
-    Middle = 3,
-    /// Ring finger.
-    Ring = 4,
-    /// Little finger.
-    Pinkie = 5,
-    /// Palm.
-    Palm = 6,
-}
-
-impl Part {
-    /// All classes in label order.
-    pub const ALL: [Part; 7] = [
-        Part::Background,
-        Part::Thumb,
-        Part::Index,
-        Part::Middle,
-        Part::Ring,
-        Part::Pinkie,
-        Part::Palm,
-    ];
-
-    /// The class of a mask value, if it is one.
-    pub fn from_label(label: u8) -> Option<Part> {
-        Part::ALL.get(usize::from(label)).copied()
-    }
-
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Part::Background => "background",
-            Part::Thumb => "thumb",
-            Part::Index => "index",
-            Part::Middle => "middle",
-            Part::Ring => "ring",
-            Part::Pinkie => "pinkie",
-            Part::Palm => "palm",
-        }
-    }
-}
 
 /// Where a contact sits on the map: its centre (metres, map coordinates) and rotation (radians).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,7 +63,7 @@ pub enum Kind {
     /// A hand, doing one of the actions of Ch. 4.5.
     Hand(Interaction),
     /// Anything else.
-    Other(Contact),
+    Other(ObjectKind),
 }
 
 impl Kind {
@@ -135,7 +85,7 @@ impl Kind {
         Interaction::ALL
             .iter()
             .map(|&i| Kind::Hand(i))
-            .chain(Contact::ALL.iter().map(|&c| Kind::Other(c)))
+            .chain(ObjectKind::ALL.iter().map(|&c| Kind::Other(c)))
             .find(|k| k.name() == name)
     }
 }
@@ -264,7 +214,7 @@ impl Synthesizer {
         let kind = if rng.random_bool(self.options.hand_fraction.clamp(0.0, 1.0)) {
             Kind::Hand(Interaction::ALL[rng.random_range(0..Interaction::ALL.len())])
         } else {
-            Kind::Other(Contact::sample(&mut rng))
+            Kind::Other(ObjectKind::sample(&mut rng))
         };
         self.sample_kind(&who, subject, kind, &mut rng)
     }

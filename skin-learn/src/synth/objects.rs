@@ -9,7 +9,7 @@ use rand::Rng;
 
 /// What touched the skin, when it was not a hand.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Contact {
+pub enum ObjectKind {
     /// A ball or rounded knob, 2-12 cm across.
     Ball,
     /// The edge of a table or a sheet: a long thin line.
@@ -34,36 +34,36 @@ pub enum Contact {
     Back,
 }
 
-impl Contact {
+impl ObjectKind {
     /// Objects, then body parts.
-    pub const ALL: [Contact; 11] = [
-        Contact::Ball,
-        Contact::Edge,
-        Contact::Bar,
-        Contact::Plate,
-        Contact::Corner,
-        Contact::Tool,
-        Contact::Forearm,
-        Contact::Arm,
-        Contact::Shoulder,
-        Contact::Torso,
-        Contact::Back,
+    pub const ALL: [ObjectKind; 11] = [
+        ObjectKind::Ball,
+        ObjectKind::Edge,
+        ObjectKind::Bar,
+        ObjectKind::Plate,
+        ObjectKind::Corner,
+        ObjectKind::Tool,
+        ObjectKind::Forearm,
+        ObjectKind::Arm,
+        ObjectKind::Shoulder,
+        ObjectKind::Torso,
+        ObjectKind::Back,
     ];
 
     /// The name used in dataset files.
     pub fn name(self) -> &'static str {
         match self {
-            Contact::Ball => "ball",
-            Contact::Edge => "edge",
-            Contact::Bar => "bar",
-            Contact::Plate => "plate",
-            Contact::Corner => "corner",
-            Contact::Tool => "tool",
-            Contact::Forearm => "forearm",
-            Contact::Arm => "arm",
-            Contact::Shoulder => "shoulder",
-            Contact::Torso => "torso",
-            Contact::Back => "back",
+            ObjectKind::Ball => "ball",
+            ObjectKind::Edge => "edge",
+            ObjectKind::Bar => "bar",
+            ObjectKind::Plate => "plate",
+            ObjectKind::Corner => "corner",
+            ObjectKind::Tool => "tool",
+            ObjectKind::Forearm => "forearm",
+            ObjectKind::Arm => "arm",
+            ObjectKind::Shoulder => "shoulder",
+            ObjectKind::Torso => "torso",
+            ObjectKind::Back => "back",
         }
     }
 
@@ -71,30 +71,39 @@ impl Contact {
     pub fn is_body_part(self) -> bool {
         matches!(
             self,
-            Contact::Forearm | Contact::Arm | Contact::Shoulder | Contact::Torso | Contact::Back
+            ObjectKind::Forearm
+                | ObjectKind::Arm
+                | ObjectKind::Shoulder
+                | ObjectKind::Torso
+                | ObjectKind::Back
         )
     }
 
     /// 65% objects, 35% body parts, uniform within each.
-    pub(crate) fn sample<R: Rng>(rng: &mut R) -> Contact {
+    pub(crate) fn sample<R: Rng>(rng: &mut R) -> ObjectKind {
         if rng.random_bool(0.35) {
-            Contact::ALL[6 + rng.random_range(0..5)]
+            ObjectKind::ALL[6 + rng.random_range(0..5)]
         } else {
-            Contact::ALL[rng.random_range(0..6)]
+            ObjectKind::ALL[rng.random_range(0..6)]
         }
     }
 }
 
 /// The patches of `contact` placed by `at` (all labelled 0: no hand part). `body_scale` sizes
 /// body parts with the subject (1 for a 18.5 cm hand).
-pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, rng: &mut R) -> Vec<Patch> {
+pub(crate) fn object<R: Rng>(
+    contact: ObjectKind,
+    at: &Placement,
+    body_scale: f64,
+    rng: &mut R,
+) -> Vec<Patch> {
     let cm = 0.01;
     let x = Vector2::x();
     let o = Point2::origin();
     // Softness: a rigid object is a dome (0.5) or flat (0.2), a soft one spreads (0.8-1).
     let gamma = |rng: &mut R, lo: f64, hi: f64| rng.random_range(lo..hi);
     let mut patches = match contact {
-        Contact::Ball => {
+        ObjectKind::Ball => {
             let r = rng.random_range(1.0..6.0) * cm;
             let squash = rng.random_range(0.85..1.0);
             vec![Patch::new(
@@ -109,7 +118,7 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
                 0,
             )]
         }
-        Contact::Edge => {
+        ObjectKind::Edge => {
             let half = rng.random_range(5.0..25.0) * cm;
             vec![Patch::new(
                 Shape::Capsule {
@@ -122,7 +131,7 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
                 0,
             )]
         }
-        Contact::Bar => {
+        ObjectKind::Bar => {
             let half = rng.random_range(5.0..20.0) * cm;
             vec![Patch::new(
                 Shape::Capsule {
@@ -135,7 +144,7 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
                 0,
             )]
         }
-        Contact::Plate => vec![Patch::new(
+        ObjectKind::Plate => vec![Patch::new(
             Shape::Rect {
                 c: o,
                 dir: x,
@@ -146,7 +155,7 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
             gamma(rng, 0.1, 0.4),
             0,
         )],
-        Contact::Corner => {
+        ObjectKind::Corner => {
             // Two edges of a box meeting at the origin, at 60-120 degrees; the load peaks at the
             // corner when the box is tilted onto it.
             let angle = rng.random_range(60.0f64..120.0).to_radians();
@@ -177,7 +186,7 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
                 ),
             ]
         }
-        Contact::Tool => {
+        ObjectKind::Tool => {
             let half = rng.random_range(6.0..14.0) * cm;
             let grip = rng.random_range(1.0..1.8) * cm;
             let head_u = rng.random_range(1.0..3.5) * cm;
@@ -206,11 +215,15 @@ pub(crate) fn object<R: Rng>(contact: Contact, at: &Placement, body_scale: f64, 
                 ),
             ]
         }
-        Contact::Forearm | Contact::Arm | Contact::Shoulder | Contact::Torso | Contact::Back => {
+        ObjectKind::Forearm
+        | ObjectKind::Arm
+        | ObjectKind::Shoulder
+        | ObjectKind::Torso
+        | ObjectKind::Back => {
             let (u, v) = match contact {
-                Contact::Forearm => (rng.random_range(9.0..14.0), rng.random_range(2.5..4.5)),
-                Contact::Arm => (rng.random_range(11.0..17.0), rng.random_range(3.5..6.0)),
-                Contact::Shoulder => (rng.random_range(5.0..9.0), rng.random_range(4.0..7.0)),
+                ObjectKind::Forearm => (rng.random_range(9.0..14.0), rng.random_range(2.5..4.5)),
+                ObjectKind::Arm => (rng.random_range(11.0..17.0), rng.random_range(3.5..6.0)),
+                ObjectKind::Shoulder => (rng.random_range(5.0..9.0), rng.random_range(4.0..7.0)),
                 _ => (rng.random_range(12.0..25.0), rng.random_range(9.0..18.0)),
             };
             let (u, v) = (u * cm * body_scale, v * cm * body_scale);
