@@ -2,8 +2,8 @@
 
 use anyhow::{Context, Result, bail};
 use skin_can::candump::{CanFrame, write_line};
-use skin_can::live::{Acquisition, CanPort, LiveEvent, LiveOptions};
-use skin_can::{AssembledFrame, Assembler, BusMap};
+use skin_can::live::{CanPort, Live, LiveFrames, LiveOptions};
+use skin_can::{AssembledFrame, AssemblyStats, BusMap};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -191,7 +191,7 @@ impl CanPort for NoPort {
     }
 }
 
-/// The session loop: events -> sinks and the assembler, until `done`.
+/// The session loop: CAN frames to the sinks, assembled frames to the tally, until `done`.
 fn run<P: CanPort>(
     ports: Vec<P>,
     options: LiveOptions,
@@ -200,37 +200,19 @@ fn run<P: CanPort>(
     sinks: &mut Sinks,
     mut done: impl FnMut() -> bool,
 ) -> Result<Summary> {
-    let acq = Acquisition::start(ports, options);
-    let interfaces = acq.interfaces().to_vec();
-    let mut assembler = Assembler::for_map(map, &interfaces, period.as_micros() as u64);
+    let mut frames = LiveFrames::start(ports, options, map, period);
+    let interfaces = frames.interfaces().to_vec();
     let mut summary = Summary::default();
     let started = Instant::now();
     let mut next_status = Duration::from_secs(1);
     let mut result = Ok(());
-    while !done() {
-        match acq.recv(Duration::from_millis(50)) {
-            Some(LiveEvent::Frame(f)) => {
-                summary.can_frames += 1;
-                if let Err(e) = sinks.frame(&f, &interfaces) {
-                    result = Err(e);
-                    break;
-                }
-                assembler.push(&f, &mut |a| {
-                    summary.tally.add(a);
-                    sinks.assembled(a);
-                });
-            }
-            Some(LiveEvent::Down { bus, error }) => {
-                let line = format!("{}: {error}; reopening", interfaces[usize::from(bus)]);
-                crate::say!("{line}");
-                summary.outages.push(line);
-            }
-            Some(LiveEvent::Reopened { bus }) => crate::say!("{}: open again", interfaces[usize::from(bus)]),
-            None => {}
-        }
+    while result.is_ok() && !done() {
+        frames.poll(Duration::from_millis(50), &mut |item| {
+            on_item(item, &mut summary, sinks, &interfaces, &mut result);
+        });
         if sinks.status && started.elapsed() >= next_status {
             next_status += Duration::from_secs(1);
-            let s = assembler.stats();
+            let s = frames.stats();
             crate::say!(
                 "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
                 started.elapsed().as_secs_f64(),
@@ -241,13 +223,8 @@ fn run<P: CanPort>(
             );
         }
     }
-    acq.stop();
-    assembler.finish(&mut |a| {
-        summary.tally.add(a);
-        sinks.assembled(a);
-    });
+    let s = frames.finish(&mut |item| on_item(item, &mut summary, sinks, &interfaces, &mut result));
     result?;
-    let s = assembler.stats();
     crate::say!(
         "{} CAN frames -> {} skin frames of {} taxels: {} complete, {} partial; {} interface outage(s)",
         summary.can_frames,
@@ -257,8 +234,37 @@ fn run<P: CanPort>(
         s.frames - s.complete,
         summary.outages.len()
     );
-    summary.tally.report(map, s);
+    summary.tally.report(map, &s);
     Ok(summary)
+}
+
+/// One item of the acquisition: CAN frames to the recording, skin frames to the tally and the
+/// CSV, outages said.
+fn on_item(
+    item: Live<'_>,
+    summary: &mut Summary,
+    sinks: &mut Sinks,
+    interfaces: &[String],
+    result: &mut Result<()>,
+) {
+    match item {
+        Live::Can(f) => {
+            summary.can_frames += 1;
+            if result.is_ok() {
+                *result = sinks.frame(f, interfaces);
+            }
+        }
+        Live::Frame(a) => {
+            summary.tally.add(a);
+            sinks.assembled(a);
+        }
+        Live::Down { interface, error } => {
+            let line = format!("{interface}: {error}; reopening");
+            crate::say!("{line}");
+            summary.outages.push(line);
+        }
+        Live::Reopened { interface } => crate::say!("{interface}: open again"),
+    }
 }
 
 impl Sinks {
@@ -321,22 +327,22 @@ impl Sinks {
     }
 }
 
-/// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) through the
-/// assembler and hands every assembled frame to `each`, until Ctrl-C, `duration` seconds, or
-/// `each` returns false. Interface outages go to standard error (standard output carries the
-/// run's events).
-pub(crate) fn run_frames(
+/// One step of [`each_live`]: an item of the acquisition, or the assembler's counts after a poll.
+pub(crate) enum LiveStep<'a> {
+    Item(Live<'a>),
+    Polled(&'a AssemblyStats),
+}
+
+/// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
+/// item of the acquisition, and the assembler's counts after each poll, to `each`, until Ctrl-C,
+/// `duration` seconds, or `each` returns false.
+pub(crate) fn each_live(
     map: &BusMap,
     names: &[String],
     master: bool,
     duration: Option<f64>,
-    each: &mut dyn FnMut(&AssembledFrame) -> bool,
+    each: &mut dyn FnMut(LiveStep<'_>) -> bool,
 ) -> Result<()> {
-    if let Some(d) = duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        bail!("--duration must be a positive number of seconds, not {d}");
-    }
     let names: Vec<String> = if names.is_empty() {
         map.buses.iter().map(|b| b.interface.clone()).collect()
     } else {
@@ -351,51 +357,19 @@ pub(crate) fn run_frames(
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
-    pump_frames(
-        ports,
-        options,
-        map,
-        period,
-        || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d),
-        each,
-    );
-    Ok(())
-}
-
-/// The loop of [`run_frames`]: CAN frames from `ports` -> assembled frames -> `each`, until
-/// `done` or `each` says stop.
-fn pump_frames<P: CanPort>(
-    ports: Vec<P>,
-    options: LiveOptions,
-    map: &BusMap,
-    period: Duration,
-    mut done: impl FnMut() -> bool,
-    each: &mut dyn FnMut(&AssembledFrame) -> bool,
-) {
-    let acq = Acquisition::start(ports, options);
-    let interfaces = acq.interfaces().to_vec();
-    let mut assembler = Assembler::for_map(map, &interfaces, period.as_micros() as u64);
+    let mut frames = LiveFrames::start(ports, options, map, period);
     let mut go = true;
-    while go && !done() {
-        match acq.recv(Duration::from_millis(50)) {
-            Some(LiveEvent::Frame(f)) => assembler.push(&f, &mut |a| {
-                if go {
-                    go = each(a);
-                }
-            }),
-            Some(LiveEvent::Down { bus, error }) => {
-                eprintln!("{}: {error}; reopening", interfaces[usize::from(bus)]);
-            }
-            Some(LiveEvent::Reopened { bus }) => eprintln!("{}: open again", interfaces[usize::from(bus)]),
-            None => {}
-        }
+    while go && !(stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d)) {
+        frames.poll(Duration::from_millis(50), &mut |i| {
+            go = go && each(LiveStep::Item(i))
+        });
+        go = go && each(LiveStep::Polled(frames.stats()));
     }
-    acq.stop();
-    assembler.finish(&mut |a| {
-        if go {
-            go = each(a);
-        }
-    });
+    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i)));
+    if go {
+        each(LiveStep::Polled(&s));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -497,37 +471,5 @@ mod tests {
         })
         .unwrap();
         assert_eq!(std::fs::read_to_string(replayed).unwrap(), live_csv);
-    }
-
-    #[test]
-    fn live_frames_reach_the_run_callback_until_it_says_stop() {
-        let map = BusMap::parse(
-            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
-            Path::new("m.toml"),
-        )
-        .unwrap();
-        let (period, options, bus) = master_and_module_2();
-        let mut seen = Vec::new();
-        let mut turns = 0;
-        pump_frames(
-            vec![bus],
-            options,
-            &map,
-            period,
-            || {
-                turns += 1;
-                turns > 100_000
-            },
-            &mut |a| {
-                seen.push((a.cycle, a.is_complete(), a.values[0]));
-                seen.len() < 5
-            },
-        );
-        assert_eq!(seen.len(), 5, "stopped by the callback, not by the turn limit");
-        for (cycle, complete, first) in &seen {
-            assert!(complete);
-            // The mock modules answer sync k with readings k + slot.
-            assert_eq!(*first, Some((*cycle % 256) as u16), "{seen:?}");
-        }
     }
 }

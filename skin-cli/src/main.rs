@@ -33,8 +33,6 @@ mod replay;
 #[cfg(feature = "onnx")]
 mod run_cmd;
 #[cfg(feature = "onnx")]
-mod run_stitch;
-#[cfg(feature = "onnx")]
 mod segment_cmd;
 mod shared;
 mod stitch_cmd;

@@ -35,6 +35,10 @@ pub enum Error {
     #[cfg(feature = "onnx")]
     #[error(transparent)]
     Touch(#[from] crate::touch::TouchError),
+    /// A session: its configuration, its inputs, its frames.
+    #[cfg(feature = "onnx")]
+    #[error(transparent)]
+    Session(#[from] crate::session::SessionError),
 }
 
 /// `Result` with skin-learn's [`Error`].

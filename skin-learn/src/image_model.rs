@@ -21,6 +21,16 @@ pub enum InputScale {
     Unit,
 }
 
+impl InputScale {
+    /// The scale a model's card states ([`crate::card::ModelCard`]), `Bytes` without one.
+    pub fn for_model(model: &std::path::Path) -> InputScale {
+        match crate::card::ModelCard::for_model(model).and_then(|c| c.unit_scale) {
+            Some(true) => InputScale::Unit,
+            _ => InputScale::Bytes,
+        }
+    }
+}
+
 /// What can go wrong with a model or its input.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {

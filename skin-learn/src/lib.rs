@@ -68,6 +68,8 @@ pub mod script;
 #[cfg(feature = "onnx")]
 pub mod segment;
 pub mod segmentation_diagnostics;
+#[cfg(feature = "onnx")]
+pub mod session;
 pub mod synth;
 #[cfg(feature = "onnx")]
 pub mod touch;

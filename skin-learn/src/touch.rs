@@ -365,6 +365,21 @@ impl TouchPipeline {
             .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| d.class))
     }
 
+    /// Taxels of `link`'s map.
+    pub fn taxels(&self, link: usize) -> Option<usize> {
+        self.links.get(link).map(|l| l.map.ids.len())
+    }
+
+    /// The class names, in the classifier's output order.
+    pub fn classes(&self) -> &[String] {
+        &self.options.classes
+    }
+
+    /// The options it was built with.
+    pub fn options(&self) -> &TouchOptions {
+        &self.options
+    }
+
     /// Time per stage so far.
     pub fn times(&self) -> &StageTimes {
         &self.times

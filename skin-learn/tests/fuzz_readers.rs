@@ -83,3 +83,75 @@ proptest! {
         }
     }
 }
+
+/// The session configuration (`run.toml`): hostile edits of the fixture's and arbitrary text
+/// give values in their documented ranges or an error, never a panic, and never a message that
+/// echoes a long line.
+#[cfg(feature = "onnx")]
+mod session_config {
+    use super::*;
+    use skin_learn::session::{MAX_IMAGE_SIDE, SessionConfig};
+
+    const SESSION: &str = include_str!("../../fixtures/session/run.toml");
+
+    #[test]
+    fn the_fixture_configuration_parses() {
+        let config = SessionConfig::parse(SESSION, Path::new("run.toml")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            (config.baseline.frames, config.image_size().unwrap()),
+            (20, (68, 100))
+        );
+        assert!(config.gate.is_some());
+    }
+
+    #[test]
+    fn a_bad_line_is_named_not_echoed() {
+        let text = format!("{SESSION}\ncolour = \"{}\"\n", "x".repeat(1_000_000));
+        let e = SessionConfig::parse(&text, Path::new("run.toml"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        let line = SESSION.lines().count() + 2;
+        assert!(
+            e.contains(&format!("line {line}")) && e.contains("colour") && e.len() < 300,
+            "{}",
+            &e[..e.len().min(400)]
+        );
+    }
+
+    #[test]
+    fn each_range_is_checked_and_named() {
+        for (edit, field) in [
+            ("[baseline]\nframes = 1", "[baseline] frames = 1"),
+            ("[touch]\nthreshold = nan", "[touch] threshold = NaN"),
+            ("[touch]\nreclassify_growth = 0.5", "reclassify_growth = 0.5"),
+            ("[touch]\nrelease_frames = 0", "release_frames = 0"),
+            ("image_size = \"0x5\"", "image_size = 0x5"),
+            ("image_size = \"5000x5\"", "image_size = 5000x5"),
+        ] {
+            let text = format!("layout = \"l.json\"\nbusmap = \"b.toml\"\n{edit}\n");
+            let e = SessionConfig::parse(&text, Path::new("run.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("run.toml: ") && e.contains(field), "{edit}: {e}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config())]
+
+        #[test]
+        fn configurations_are_parsed_or_refused(text in prop_oneof![mutated(SESSION), arbitrary_text()]) {
+            match SessionConfig::parse(&text, Path::new("run.toml")) {
+                Ok(c) => {
+                    prop_assert!((2..=100_000).contains(&c.baseline.frames));
+                    prop_assert!(c.touch.threshold.is_finite() && c.touch.reclassify_growth >= 1.0);
+                    let (rows, cols) = c.image_size().unwrap();
+                    let side = 1..=MAX_IMAGE_SIDE;
+                    prop_assert!(side.contains(&rows) && side.contains(&cols));
+                }
+                Err(e) => prop_assert!(e.to_string().len() < 600, "{e}"),
+            }
+        }
+    }
+}

@@ -1,0 +1,279 @@
+//! A session's configuration: the TOML file `skin run` takes (`run.toml`), typed and checked.
+//! Paths in it are relative to the file. [`SessionConfig::parse`] checks every value; the files
+//! are read when a [`Session`](super::Session) is built from it ([`Session::from_config`]).
+//!
+//! ```toml
+//! layout = "layout.json"          # the skin: every link of a skin-layout/1 file
+//! busmap = "busmap.toml"          # which taxel each CAN slot carries
+//! classifier = "handsnet.onnx"    # optional; class names and input scale from its card
+//! segmenter = "handseg.onnx"      # optional: hand parts of touches classified as hands
+//! image_size = "68x100"           # the models' input; default 68x100
+//! cache = ".skin-cache"           # tactile maps, made on first use; default as shown
+//! truth = "session.tsv"           # optional: the scripted touches, to score the run
+//! [baseline]
+//! frames = 20                     # untouched frames at the start that learn offsets
+//! polarity = "rising"             # "falling" for iCub (255 = no load)
+//! [touch]
+//! threshold = 5.0                 # counts above the baseline that press a taxel
+//! min_taxels = 2
+//! decide_frames = 3               # frames of contact before the first decision
+//! release_frames = 2              # frames without contact that end a touch
+//! reclassify_growth = 1.25        # classify again when the touch grows by this factor
+//! [gate]                          # optional: what the robot should do
+//! hand = "comply"                 # stop, comply, slow or resume
+//! non_hand = "stop"
+//! [stitch]                        # optional: links stitched across joints (Ch. 6)
+//! poses = "poses.json"            # skin-poses/1: every link's pose over time
+//! ```
+//!
+//! [`Session::from_config`]: super::Session::from_config
+
+use super::SessionError;
+use crate::touch::TouchOptions;
+use serde::Deserialize;
+use skin_control::hri::ClassGate;
+use skin_core::Polarity;
+use std::path::{Path, PathBuf};
+
+/// The largest side of a model's input image, pixels.
+pub const MAX_IMAGE_SIDE: usize = 4096;
+
+/// A session's configuration (see the [module](self) for the file).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionConfig {
+    /// The skin: a skin-layout/1 file (all its links), or one link's Cyskin or iCub file.
+    pub layout: PathBuf,
+    /// The bus map: which taxel each CAN slot carries.
+    pub busmap: PathBuf,
+    /// The hand / non-hand classifier (ONNX); its card names the classes.
+    pub classifier: Option<PathBuf>,
+    /// The hand-part segmenter (ONNX), run on touches classified as hands.
+    pub segmenter: Option<PathBuf>,
+    /// The models' input, `ROWSxCOLS`; default `68x100`.
+    pub image_size: Option<String>,
+    /// Folder of cached tactile maps; default `.skin-cache`.
+    pub cache: Option<PathBuf>,
+    /// Scripted touches to score the session against.
+    pub truth: Option<PathBuf>,
+    /// How the baseline is learned.
+    #[serde(default)]
+    pub baseline: BaselineConfig,
+    /// Touch tracking.
+    #[serde(default)]
+    pub touch: TouchConfig,
+    /// What the robot does for each class of touch.
+    pub gate: Option<ClassGate>,
+    /// Links stitched across joints.
+    pub stitch: Option<StitchConfig>,
+    /// The file this came from; paths are relative to its folder.
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+/// `[baseline]`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BaselineConfig {
+    /// Untouched complete frames at the start that learn the offsets (2 to 100,000).
+    pub frames: usize,
+    /// Which way pressure moves a reading.
+    pub polarity: Polarity,
+}
+
+impl Default for BaselineConfig {
+    fn default() -> Self {
+        BaselineConfig {
+            frames: 20,
+            polarity: Polarity::Rising,
+        }
+    }
+}
+
+/// `[touch]`: see [`TouchOptions`].
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TouchConfig {
+    /// Counts above the baseline that press a taxel (0 to 1e9); default 5.
+    pub threshold: f32,
+    /// Patches of fewer taxels are noise.
+    pub min_taxels: usize,
+    /// Frames of contact before the first decision.
+    pub decide_frames: usize,
+    /// Frames without contact that end a touch.
+    pub release_frames: usize,
+    /// Classify again when the touch grows by this factor (1 to 1e6).
+    pub reclassify_growth: f32,
+}
+
+impl Default for TouchConfig {
+    fn default() -> Self {
+        let d = TouchOptions::default();
+        TouchConfig {
+            threshold: 5.0,
+            min_taxels: d.min_taxels,
+            decide_frames: d.decide_frames,
+            release_frames: d.release_frames,
+            reclassify_growth: d.reclassify_growth,
+        }
+    }
+}
+
+/// `[stitch]`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StitchConfig {
+    /// Link poses over time (skin-poses/1), links in the layout's order.
+    pub poses: PathBuf,
+}
+
+impl SessionConfig {
+    /// Reads and checks a configuration file.
+    pub fn read(path: &Path) -> Result<SessionConfig, SessionError> {
+        let text = skin_core::format::read_text(path)?;
+        SessionConfig::parse(&text, path)
+    }
+
+    /// Parses and checks a configuration (not the files it names): every number in its range,
+    /// every closed set one of its values. `path` names it in errors and anchors its paths.
+    pub fn parse(text: &str, path: &Path) -> Result<SessionConfig, SessionError> {
+        // toml's own message quotes the whole line at fault, whatever its length: name the line
+        // and say what is wrong instead.
+        let mut config: SessionConfig = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text.get(..s.start).unwrap_or(text).matches('\n').count() + 1);
+            // The message names the key and the allowed values; only a huge key makes it long.
+            let message = e.message().trim_end();
+            let mut short: String = message.chars().take(200).collect();
+            if short.len() < message.len() {
+                short.push_str("...");
+            }
+            SessionError::Syntax {
+                file: path.to_owned(),
+                line,
+                message: short,
+            }
+        })?;
+        config.path = path.to_owned();
+        let value = |field: &'static str, value: String, expected: &'static str| SessionError::Value {
+            file: path.to_owned(),
+            field,
+            value,
+            expected,
+        };
+        let b = &config.baseline;
+        if !(2..=100_000).contains(&b.frames) {
+            return Err(value(
+                "[baseline] frames",
+                b.frames.to_string(),
+                "2 to 100000 untouched frames (2 at least to measure noise)",
+            ));
+        }
+        let t = &config.touch;
+        if !(t.threshold.is_finite() && (0.0..=1e9).contains(&t.threshold)) {
+            return Err(value(
+                "[touch] threshold",
+                t.threshold.to_string(),
+                "counts from 0 to 1e9",
+            ));
+        }
+        if !(t.reclassify_growth.is_finite() && (1.0..=1e6).contains(&t.reclassify_growth)) {
+            return Err(value(
+                "[touch] reclassify_growth",
+                t.reclassify_growth.to_string(),
+                "a factor from 1 to 1e6",
+            ));
+        }
+        for (field, v) in [
+            ("[touch] min_taxels", t.min_taxels),
+            ("[touch] decide_frames", t.decide_frames),
+            ("[touch] release_frames", t.release_frames),
+        ] {
+            if !(1..=1_000_000).contains(&v) {
+                return Err(value(field, v.to_string(), "1 to 1000000"));
+            }
+        }
+        config.image_size()?;
+        Ok(config)
+    }
+
+    /// The models' input size (rows, cols).
+    pub fn image_size(&self) -> Result<(usize, usize), SessionError> {
+        let Some(s) = &self.image_size else {
+            return Ok((68, 100));
+        };
+        let side = |t: &str| {
+            t.trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|n| (1..=MAX_IMAGE_SIDE).contains(n))
+        };
+        match s.split_once(['x', 'X']).map(|(r, c)| (side(r), side(c))) {
+            Some((Some(r), Some(c))) => Ok((r, c)),
+            _ => Err(SessionError::Value {
+                file: self.path.clone(),
+                field: "image_size",
+                value: s.chars().take(40).collect(),
+                expected: "ROWSxCOLS, e.g. 68x100, each side 1 to 4096 pixels",
+            }),
+        }
+    }
+
+    /// The touch options it gives, with the classifier's class names.
+    pub fn touch_options(&self, classes: Vec<String>) -> TouchOptions {
+        let t = &self.touch;
+        TouchOptions {
+            threshold: t.threshold,
+            min_taxels: t.min_taxels,
+            decide_frames: t.decide_frames,
+            release_frames: t.release_frames,
+            reclassify_growth: t.reclassify_growth,
+            classes,
+            ..TouchOptions::default()
+        }
+    }
+
+    /// A path of the configuration, resolved against its folder; `field` names it if the file
+    /// is missing.
+    pub fn resolve(&self, field: &'static str, p: &Path) -> Result<PathBuf, SessionError> {
+        let full = self.path.parent().unwrap_or(Path::new(".")).join(p);
+        if !full.is_file() {
+            return Err(SessionError::NoFile {
+                config: self.path.clone(),
+                field,
+                path: p.to_owned(),
+                resolved: full,
+            });
+        }
+        Ok(full)
+    }
+
+    /// Every file the configuration names, resolved (no output may land on one); an error for
+    /// the first that does not exist.
+    pub fn inputs(&self) -> Result<Vec<PathBuf>, SessionError> {
+        let mut files = vec![
+            self.resolve("layout", &self.layout)?,
+            self.resolve("busmap", &self.busmap)?,
+        ];
+        for (field, p) in [
+            ("classifier", &self.classifier),
+            ("segmenter", &self.segmenter),
+            ("truth", &self.truth),
+            ("[stitch] poses", &self.stitch.as_ref().map(|s| s.poses.clone())),
+        ] {
+            if let Some(p) = p {
+                files.push(self.resolve(field, p)?);
+            }
+        }
+        Ok(files)
+    }
+
+    /// The map cache's folder, resolved.
+    pub fn cache_dir(&self) -> PathBuf {
+        self.path
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(self.cache.clone().unwrap_or_else(|| PathBuf::from(".skin-cache")))
+    }
+}

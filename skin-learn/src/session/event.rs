@@ -1,0 +1,252 @@
+//! What a [`Session`](super::Session) reports: one schema for every consumer. A robot stack
+//! matches on [`Event`]; `skin run` writes each one as a line of `events.jsonl` with
+//! [`JsonLines`](super::JsonLines) (the field names below, `"event"` holding the variant's name in
+//! snake case, keys sorted) and the decision images with [`PngImages`](super::PngImages).
+//!
+//! Units: times in seconds from the session's first frame, centroids in metres (in the link's
+//! frame, or the poses' common frame for a contact across joints), areas in cm², pressures in
+//! counts above the baseline. In JSON, times are rounded to 1 ms, centroids to 0.1 mm, areas to
+//! 0.01 cm², pressures to 0.1 count and probabilities to 1e-4; the events themselves carry the
+//! full values.
+
+use crate::parts::PartContact;
+use crate::touch::Footprint;
+use serde::{Serialize, Serializer};
+use skin_control::hri::GateAction;
+
+/// Something that happened in a session, as it happened.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// A frame came with modules missing: their taxels keep their last readings (so a lost CAN
+    /// frame is not taken for a release) and the frame is still processed.
+    Incomplete {
+        /// Frame time, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The modules whose readings did not arrive.
+        missing: Vec<MissingModule>,
+    },
+    /// A bus's sync counter restarted (recordings joined, a hub reset): the frames after it are
+    /// kept, numbered on by time.
+    CounterReset {
+        /// When, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The bus (interface name).
+        bus: String,
+        /// Counter before the restart.
+        from: u8,
+        /// Counter after it.
+        to: u8,
+        /// The cycle the frame after the restart was given.
+        cycle: u64,
+    },
+    /// A touch began on a link.
+    Appeared {
+        /// Frame time, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The link's name.
+        link: String,
+        /// Touch number, unique over the session.
+        touch: u64,
+        /// The first frame's footprint (its fields are written at the top level in JSON).
+        #[serde(flatten)]
+        footprint: Footprint,
+    },
+    /// A touch was classified, on the image of the touch at its fullest so far; `revised` when
+    /// the class changed since the touch's last decision.
+    Classified {
+        /// Frame time, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The link's name.
+        link: String,
+        /// Touch number.
+        touch: u64,
+        /// The class changed since the touch's last decision.
+        revised: bool,
+        /// The class's name (the model card's).
+        class: String,
+        /// Its probability, 0 to 1.
+        #[serde(serialize_with = "prob")]
+        probability: f32,
+        /// The hand parts pressing (a hand, with a segmenter), thumb to palm.
+        #[serde(skip_serializing_if = "Vec::is_empty", serialize_with = "part_list")]
+        parts: Vec<PartContact>,
+        /// The tactile image the decision was made on (model input size); not in JSON
+        /// ([`PngImages`](super::PngImages) writes it).
+        #[serde(skip)]
+        image: GreyImage,
+    },
+    /// A touch ended (or the session did, with the touch still open).
+    Released {
+        /// Time of its last frame of contact, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The link's name.
+        link: String,
+        /// Touch number.
+        touch: u64,
+        /// From its first to its last frame of contact, s.
+        #[serde(serialize_with = "ms")]
+        duration: f64,
+        /// Frames of contact.
+        frames: usize,
+        /// The footprint at its largest total pressure.
+        peak: Footprint,
+        /// The final class (none without a classifier).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        class: Option<String>,
+        /// Its probability, 0 to 1.
+        #[serde(skip_serializing_if = "Option::is_none", serialize_with = "prob_opt")]
+        probability: Option<f32>,
+    },
+    /// What the robot should do changed (with a `[gate]`): the action of the most severe touch in
+    /// progress, `resume` when none is.
+    Gate {
+        /// When, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The action.
+        #[serde(serialize_with = "action_name")]
+        action: GateAction,
+    },
+    /// A contact spans a joint (with stitched links); one event per such contact, when the first
+    /// one begins.
+    AcrossJoint {
+        /// Frame time, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The links it covers, in chain order.
+        links: Vec<String>,
+        /// Pressed taxels.
+        taxels: usize,
+        /// Pressure-weighted centroid, m, in the poses' common frame.
+        #[serde(serialize_with = "point")]
+        centroid: [f64; 3],
+    },
+    /// No contact spans a joint any more.
+    AcrossJointEnd {
+        /// Frame time, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+    },
+}
+
+impl Event {
+    /// The event's time, seconds from the session's first frame.
+    pub fn time(&self) -> f64 {
+        match self {
+            Event::Incomplete { time, .. }
+            | Event::CounterReset { time, .. }
+            | Event::Appeared { time, .. }
+            | Event::Classified { time, .. }
+            | Event::Released { time, .. }
+            | Event::Gate { time, .. }
+            | Event::AcrossJoint { time, .. }
+            | Event::AcrossJointEnd { time } => *time,
+        }
+    }
+}
+
+/// A module whose readings a frame lacks.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct MissingModule {
+    /// Its bus (interface name).
+    pub bus: String,
+    /// Its address on the bus.
+    pub address: u32,
+}
+
+/// A grey image, row-major, 0 = no pressure.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct GreyImage {
+    /// Rows.
+    pub rows: usize,
+    /// Columns.
+    pub cols: usize,
+    /// `rows * cols` pixels.
+    pub pixels: Vec<u8>,
+}
+
+/// Where a frame image belongs (with [`SessionOptions::frame_images`](super::SessionOptions)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameView<'a> {
+    /// One link's map.
+    Link(&'a str),
+    /// The stitched maps of all links.
+    Stitched,
+}
+
+fn round(x: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (x * k).round() / k
+}
+
+fn ms<S: Serializer>(t: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(round(*t, 3))
+}
+
+fn prob<S: Serializer>(p: &f32, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(round(f64::from(*p), 4))
+}
+
+fn prob_opt<S: Serializer>(p: &Option<f32>, s: S) -> Result<S::Ok, S::Error> {
+    match p {
+        Some(p) => prob(p, s),
+        None => s.serialize_none(),
+    }
+}
+
+fn action_name<S: Serializer>(a: &GateAction, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(a.name())
+}
+
+fn point<S: Serializer>(c: &[f64; 3], s: S) -> Result<S::Ok, S::Error> {
+    c.map(|x| round(x, 4)).serialize(s)
+}
+
+fn pressure(p: f32) -> f64 {
+    round(f64::from(p), 1)
+}
+
+impl Serialize for Footprint {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(5))?;
+        m.serialize_entry("area_cm2", &round(self.area_cm2, 2))?;
+        m.serialize_entry(
+            "centroid",
+            &[self.centroid.x, self.centroid.y, self.centroid.z].map(|x| round(x, 4)),
+        )?;
+        m.serialize_entry("contacts", &self.contacts)?;
+        m.serialize_entry("mean_pressure", &pressure(self.mean_pressure))?;
+        m.serialize_entry("taxels", &self.taxels)?;
+        m.end()
+    }
+}
+
+fn part_list<S: Serializer>(parts: &[PartContact], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::{SerializeMap, SerializeSeq};
+    struct One<'a>(&'a PartContact);
+    impl Serialize for One<'_> {
+        fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+            let p = self.0;
+            let mut m = s.serialize_map(None)?;
+            if let Some(c) = p.centroid {
+                m.serialize_entry("centroid", &[c.x, c.y, c.z].map(|x| round(x, 4)))?;
+            }
+            m.serialize_entry("mean_pressure", &pressure(p.mean_pressure))?;
+            m.serialize_entry("part", p.part.name())?;
+            m.serialize_entry("taxels", &p.taxels)?;
+            m.end()
+        }
+    }
+    let mut seq = s.serialize_seq(Some(parts.len()))?;
+    for p in parts {
+        seq.serialize_element(&One(p))?;
+    }
+    seq.end()
+}

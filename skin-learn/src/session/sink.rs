@@ -1,0 +1,146 @@
+//! Where a session's events go: the [`Sink`] trait, and its two writers, [`JsonLines`] (one JSON
+//! object a line: `events.jsonl`, or standard output live) and [`PngImages`] (the image of each
+//! decision and, on request, of every touched frame).
+
+use super::event::{Event, FrameView, GreyImage};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Takes a session's events as they happen. A robot stack implements it to act on decisions;
+/// `skin run` wires [`JsonLines`] and [`PngImages`].
+pub trait Sink {
+    /// One event.
+    fn event(&mut self, event: &Event) -> std::io::Result<()>;
+
+    /// The tactile image of one frame with contact (only with
+    /// [`SessionOptions::frame_images`](super::SessionOptions)); `cycle` numbers the frame.
+    /// Ignored unless implemented.
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        let _ = (view, cycle, image);
+        Ok(())
+    }
+}
+
+/// Events as JSON lines (see [`Event`] for the fields and their units).
+#[derive(Debug)]
+pub struct JsonLines<W: Write> {
+    out: W,
+    line: Vec<u8>,
+}
+
+impl<W: Write> JsonLines<W> {
+    /// Writes to `out` (buffer it: each event is one `write_all`).
+    pub fn new(out: W) -> JsonLines<W> {
+        JsonLines {
+            out,
+            line: Vec::with_capacity(256),
+        }
+    }
+
+    /// The writer, flushed.
+    pub fn into_inner(mut self) -> std::io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+impl<W: Write> Sink for JsonLines<W> {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        // Through a `Value`, whose maps sort their keys: every line lists its fields in the
+        // same (alphabetical) order, whatever the variant.
+        let value = serde_json::to_value(event).map_err(std::io::Error::other)?;
+        self.line.clear();
+        serde_json::to_writer(&mut self.line, &value).map_err(std::io::Error::other)?;
+        self.line.push(b'\n');
+        self.out.write_all(&self.line)
+    }
+}
+
+/// Images as PNG files in a folder: `touches/touch_NNN_CLASS.png` for each decision (the image
+/// it was made on), `frames/LINK/frame_NNNNN.png` and `frames/stitched/frame_NNNNN.png` for
+/// touched frames.
+#[derive(Debug)]
+pub struct PngImages {
+    dir: PathBuf,
+}
+
+impl PngImages {
+    /// Writes into `dir` (which must exist; `touches/` is made now, so that it exists even
+    /// when no touch is decided).
+    pub fn new(dir: &Path) -> std::io::Result<PngImages> {
+        std::fs::create_dir_all(dir.join("touches"))?;
+        Ok(PngImages { dir: dir.to_owned() })
+    }
+
+    fn write(&self, relative: &str, image: &GreyImage) -> std::io::Result<()> {
+        let path = self.dir.join(relative);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        skin_geom::write_png(&path, &image.pixels, image.rows, image.cols)
+            .map_err(|e| std::io::Error::other(format!("{relative}: {e}")))
+    }
+}
+
+impl Sink for PngImages {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        if let Event::Classified {
+            touch, class, image, ..
+        } = event
+        {
+            self.write(&format!("touches/touch_{touch:03}_{class}.png"), image)?;
+        }
+        Ok(())
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        let folder = match view {
+            FrameView::Link(name) => name,
+            FrameView::Stitched => "stitched",
+        };
+        self.write(&format!("frames/{folder}/frame_{cycle:05}.png"), image)
+    }
+}
+
+/// Both sinks get every event, `.0` first.
+impl<A: Sink, B: Sink> Sink for (A, B) {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        self.0.event(event)?;
+        self.1.event(event)
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        self.0.frame_image(view, cycle, image)?;
+        self.1.frame_image(view, cycle, image)
+    }
+}
+
+/// A sink that may be absent.
+impl<S: Sink> Sink for Option<S> {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.event(event))
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        self.as_mut()
+            .map_or(Ok(()), |s| s.frame_image(view, cycle, image))
+    }
+}
+
+/// Collecting the events in memory (tests, examples, a stack that polls).
+impl Sink for Vec<Event> {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        self.push(event.clone());
+        Ok(())
+    }
+}
+
+impl<S: Sink + ?Sized> Sink for &mut S {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        (**self).event(event)
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        (**self).frame_image(view, cycle, image)
+    }
+}

@@ -1,0 +1,205 @@
+//! A session's summary and its time per stage, as text (what `skin run` prints and writes to
+//! `summary.txt`).
+
+use super::Session;
+use crate::script::Found;
+use std::fmt::{self, Display, Formatter};
+use std::time::Duration;
+
+/// The run, the touches, and the score against the script ([`Session::summary`]).
+#[derive(Debug)]
+pub struct Summary<'a> {
+    pub(super) session: &'a Session,
+    pub(super) span: f64,
+}
+
+/// Time per frame, stage by stage ([`Session::timings`]).
+#[derive(Debug)]
+pub struct Timings<'a> {
+    pub(super) session: &'a Session,
+    pub(super) span: f64,
+}
+
+impl Summary<'_> {
+    /// The finished touches as the script scores them.
+    fn found(&self) -> Vec<Found<'_>> {
+        let s = self.session;
+        s.done
+            .iter()
+            .map(|d| Found {
+                start_s: d.start,
+                end_s: d.end,
+                class: d
+                    .decision
+                    .as_ref()
+                    .map(|dec| s.classes.get(dec.class).map_or("?", String::as_str)),
+            })
+            .collect()
+    }
+}
+
+impl Display for Summary<'_> {
+    fn fmt(&self, out: &mut Formatter<'_>) -> fmt::Result {
+        let s = self.session;
+        let class_name = |k: usize| s.classes.get(k).map_or("?", String::as_str);
+        let taxels: usize = s.links.iter().map(|l| l.taxels.len()).sum();
+        writeln!(
+            out,
+            "{} frames ({} incomplete) of {} taxels on {} link(s) over {:.2} s; baseline from the first {} frames",
+            s.frames,
+            s.incomplete,
+            taxels,
+            s.links.len(),
+            self.span,
+            s.options.baseline_frames
+        )?;
+        if s.resets > 0 {
+            writeln!(
+                out,
+                "sync counter restarted {} time(s) (recordings joined or a hub reset): the frames after it are kept, numbered on by time (\"counter_reset\" events)",
+                s.resets
+            )?;
+        }
+        for note in &s.notes {
+            writeln!(out, "{note}")?;
+        }
+        for (l, h) in s.health.iter().enumerate() {
+            if !h.dead.is_empty() || !h.stuck.is_empty() {
+                let ids = |v: &[usize]| {
+                    v.iter()
+                        .map(|&i| s.links[l].taxels[i].id.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                writeln!(
+                    out,
+                    "link {}: taxels that cannot be trusted: dead [{}], stuck [{}]",
+                    s.links[l].name,
+                    ids(&h.dead),
+                    ids(&h.stuck)
+                )?;
+            }
+        }
+        if s.stitching.is_some() {
+            writeln!(out, "contacts across joints (stitched maps): {}", s.across)?;
+        }
+        // Each scripted touch's detected touch: the one overlapping it the longest.
+        let found = self.found();
+        let score = s.script.as_ref().map(|script| script.score(&found));
+        write!(out, "{} touch(es):", s.done.len())?;
+        write!(
+            out,
+            "\n  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}parts",
+            if s.script.is_some() {
+                "script               "
+            } else {
+                ""
+            }
+        )?;
+        for (j, d) in s.done.iter().enumerate() {
+            let (class, prob, parts) = match &d.decision {
+                Some(dec) => (
+                    class_name(dec.class).to_string(),
+                    format!("{:.3}", dec.probability),
+                    dec.parts
+                        .iter()
+                        .map(|p| format!("{} {}", p.part.name(), p.taxels))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                ),
+                None => ("-".into(), "-".into(), String::new()),
+            };
+            let script = match (&s.script, &score) {
+                (Some(script), Some(score)) => {
+                    let name = score.scripted_of(j).map_or("(not scripted)".to_string(), |k| {
+                        let t = &script.touches[k];
+                        format!("{} {}", t.class, t.kind)
+                    });
+                    format!("{name:<21}")
+                }
+                _ => String::new(),
+            };
+            let row = format!(
+                "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {script}{parts}",
+                d.touch,
+                s.links[d.link].name,
+                d.start,
+                d.end,
+                class,
+                prob,
+                d.peak.taxels,
+                d.peak.area_cm2,
+                d.peak.mean_pressure,
+            );
+            write!(out, "\n{}", row.trim_end())?;
+        }
+        if let (Some(script), Some(score)) = (&s.script, &score) {
+            write!(
+                out,
+                "\nscript: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
+                score.found(),
+                script.touches.len(),
+                score.right(),
+                100.0 * score.right() as f64 / script.touches.len().max(1) as f64,
+                score.extra(&found)
+            )?;
+            for (k, (t, m)) in script.touches.iter().zip(&score.matches).enumerate() {
+                match m {
+                    Some(j) if !score.correct[k] => {
+                        let got = found[*j].class.unwrap_or("-");
+                        write!(
+                            out,
+                            "\n  scripted touch {k} ({} {}) taken for {got}",
+                            t.class, t.kind
+                        )?;
+                    }
+                    Some(_) => {}
+                    None => write!(out, "\n  scripted touch {k} ({} {}) not found", t.class, t.kind)?,
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Display for Timings<'_> {
+    fn fmt(&self, out: &mut Formatter<'_>) -> fmt::Result {
+        let s = self.session;
+        let t = s.pipeline.times();
+        let frames = t.frames.max(1) as f64;
+        let us = |d: Duration| d.as_secs_f64() * 1e6;
+        let wall = s.stage.assemble + s.stage.baseline + t.total + s.stage.output;
+        write!(out, "time per frame (mean over all frames), stage by stage:")?;
+        let rows = [
+            ("CAN decode + assembly", s.stage.assemble),
+            ("baseline", s.stage.baseline),
+            ("contacts", t.contacts),
+            ("tactile images", t.image),
+            ("classifier", t.classify),
+            ("segmenter + parts", t.segment),
+            ("events and images out", s.stage.output),
+        ];
+        for (name, d) in rows {
+            write!(out, "\n  {name:<24} {:>9.1} us", us(d) / frames)?;
+        }
+        write!(
+            out,
+            "\n  {:<24} {:>9.1} us  (slowest frame of the pipeline: {:.2} ms; {} classifier and {} segmenter runs)",
+            "all",
+            us(wall) / frames,
+            t.worst_frame.as_secs_f64() * 1e3,
+            t.runs.0,
+            t.runs.1
+        )?;
+        if self.span > 0.0 && wall > Duration::ZERO {
+            write!(
+                out,
+                "\n  {:.0}x real time ({:.2} s of input in {:.3} s)",
+                self.span / wall.as_secs_f64(),
+                self.span,
+                wall.as_secs_f64()
+            )?;
+        }
+        Ok(())
+    }
+}
