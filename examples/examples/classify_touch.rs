@@ -1,110 +1,80 @@
-//! Classify touches: CAN log -> pressures -> touches -> hand or not, and which parts of the hand.
+//! Classify touches: CAN log -> pressures -> touches -> hand or not, which parts of the hand,
+//! and what the robot should do.
 //!
 //! ```text
 //! cargo run --release -p skin-examples --example classify_touch
 //! ```
-//! Uses the fixture session (20 scripted touches of the forearm, hands and other contacts) and the
-//! shipped models: HandsNet for hand / non-hand and the hand-part segmenter. This is the library
-//! side of `skin run`: [`LayoutFrames`] puts each assembled frame in layout order,
-//! [`BaselineLearner`] learns the baseline from the first complete frames, and a
-//! [`TouchPipeline`] finds the contacts of every frame, follows each touch, and classifies it on
-//! its fullest image after three frames of contact.
+//! Uses the fixture session (20 scripted touches of the forearm, hands and other contacts) and
+//! its configuration, `fixtures/session/run.toml`: the shipped models (HandsNet for hand /
+//! non-hand, the hand-part segmenter) and the gate (comply with a hand, stop for anything
+//! else). This is the library side of `skin run`: a [`Session`] built from the configuration
+//! takes every frame of the log and hands its events to a [`Sink`], here one that prints the
+//! decisions and the gate as a robot stack would act on them.
 
 use skin_can::candump::CandumpLog;
-use skin_can::{Assembler, BusMap, DEFAULT_WINDOW_US, LayoutFrames, Missing};
-use skin_control::hri::TouchClass;
-use skin_core::{Baseline, BaselineLearner, BaselineOptions};
-use skin_geom::{FlattenOptions, TactileMap};
-use skin_learn::classify::{Classifier, InputScale};
-use skin_learn::segment::Segmenter;
-use skin_learn::touch::{TouchEvent, TouchOptions, TouchPipeline};
+use skin_control::hri::{GateAction, TouchClass};
+use skin_learn::session::{Event, Session, SessionConfig, Sink};
 use std::path::PathBuf;
 
-fn main() -> anyhow::Result<()> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
-    let link = skin_core::format::load_link(&root.join("forearm/layout.json"))?;
-    let map = TactileMap::flatten(&link, &FlattenOptions::default())?;
-    let bus = BusMap::read(&root.join("forearm/busmap.toml"))?;
-    let log = CandumpLog::read(&root.join("session/session.candump.log"))?;
+/// Prints each decision and each change of the gate's action.
+struct Robot {
+    decisions: usize,
+}
 
-    // The shipped models take pixels scaled to 0..1 (their cards say so).
-    let (net, seg) = (
-        root.join("models/handsnet.onnx"),
-        root.join("models/handseg.onnx"),
-    );
-    let classifier = Classifier::load(&net, InputScale::Unit)?;
-    let segmenter = Segmenter::load(&seg, InputScale::Unit)?;
-    let options = TouchOptions {
-        threshold: 5.0,
-        ..TouchOptions::default()
-    };
-    let classes = options.classes.clone();
-    let mut pipeline = TouchPipeline::new(
-        vec![map],
-        Some((classifier, net)),
-        Some((segmenter, seg)),
-        options,
-    )?;
-
-    // Every assembled frame of the log, flagged when a module was missing.
-    let mut assembled = Vec::new();
-    let mut assembler = Assembler::for_map(&bus, &log.interfaces, DEFAULT_WINDOW_US);
-    for can_frame in &log.frames {
-        assembler.push(can_frame, &mut |f| assembled.push(f.clone()));
-    }
-    assembler.finish(&mut |f| assembled.push(f.clone()));
-
-    // Bus-map order to layout order, once; a lost module holds its last readings.
-    let layout = LayoutFrames::new(&bus, &[link.ids()], Missing::HoldLast)?;
-    let mut raw = layout.buffers();
-    // The session's first second is untouched: its first 20 complete frames teach the baseline.
-    let mut learner = BaselineLearner::new(layout.sizes(), 20, BaselineOptions::default())?;
-    let mut baselines: Vec<Baseline> = Vec::new();
-    let mut pressures = layout.buffers();
-    let mut events = Vec::new();
-    let t0 = assembled.first().map_or(0, |f| f.time_us);
-    for frame in &assembled {
-        let complete = layout.place(frame, &mut raw)?;
-        if baselines.is_empty() {
-            if complete {
-                learner.push(&raw)?;
-            }
-            if learner.is_done() {
-                let source = root.join("session/session.candump.log");
-                baselines = learner.finish(&source)?.into_iter().map(|(b, _)| b).collect();
-            }
-            continue;
-        }
-        for ((b, r), p) in baselines.iter_mut().zip(&raw).zip(&mut pressures) {
-            b.apply(r, p)?;
-        }
-        events.clear();
-        let time = (frame.time_us - t0) as f64 * 1e-6;
-        pipeline.process(time, &pressures, &mut events)?;
-        for e in &events {
-            if let TouchEvent::Classified {
-                touch,
+impl Sink for Robot {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        match event {
+            Event::Classified {
                 time,
-                decision,
+                touch,
+                class,
+                probability,
+                parts,
+                image,
                 ..
-            } = e
-            {
-                let class = match TouchClass::from_name(&classes[decision.class]) {
+            } => {
+                self.decisions += 1;
+                let what = match TouchClass::from_name(class) {
                     TouchClass::Hand => "hand",
                     TouchClass::NonHand => "not a hand",
                 };
-                let parts: Vec<String> = decision
-                    .parts
+                let parts: Vec<String> = parts
                     .iter()
                     .map(|p| format!("{} ({} taxels)", p.part.name(), p.taxels))
                     .collect();
                 println!(
-                    "{time:6.2} s  touch {touch:2}: {class} (p = {:.2}) {}",
-                    decision.probability,
+                    "{time:6.2} s  touch {touch:2}: {what} (p = {probability:.2}, {} x {} image) {}",
+                    image.rows,
+                    image.cols,
                     parts.join(", ")
                 );
             }
+            Event::Gate { time, action } => {
+                let say = match action {
+                    GateAction::Stop => "stop the arm",
+                    GateAction::Comply => "comply: follow the hand",
+                    GateAction::Slow => "slow down",
+                    GateAction::Resume => "resume",
+                };
+                println!("{time:6.2} s  gate: {say}");
+            }
+            _ => {}
         }
+        Ok(())
     }
+}
+
+fn main() -> anyhow::Result<()> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/session");
+    let config = SessionConfig::read(&root.join("run.toml"))?;
+    // Reads the layout, bus map, models and script; the maps come from the cache after the
+    // first run.
+    let mut session = Session::from_config(&config)?;
+    let log_path = root.join("session.candump.log");
+    let log = CandumpLog::read(&log_path)?;
+    let mut robot = Robot { decisions: 0 };
+    let span = session.run_log(&log, &log_path, &mut robot, &mut |_, _| {})?;
+    println!("\n{}", session.summary(span));
+    anyhow::ensure!(robot.decisions >= 20, "{} decisions", robot.decisions);
     Ok(())
 }

@@ -2,21 +2,13 @@
 //! thesis Ch. 5 (Test A: blind spots; Test B: removed taxels).
 
 use anyhow::{Context as _, Result, bail};
-use skin_core::TaxelId;
-use skin_core::format::recording;
-use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 use skin_learn::classify::{Classifier, ModelError};
 use skin_learn::dataset::Dataset;
-use skin_learn::metrics::ConfusionMatrix;
+use skin_learn::evaluation::{CASES, Model, Robustness, Scores, robustness, score, taxel_truth, test_images};
 use skin_learn::parts::Part;
-use skin_learn::parts::taxel_labels;
 use skin_learn::segment::Segmenter;
-use skin_learn::segmentation_diagnostics::{
-    Naming, SEAM_BINS, mirror_hand, name_regions, off_borders, seam_distance,
-};
-use std::collections::{BTreeMap, HashMap};
+use skin_learn::segmentation_diagnostics::SEAM_BINS;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
 
 /// Score an ONNX classifier (HandsNet) or hand-part segmenter on a dataset from `skin synth`
 /// (or your own in the same layout).
@@ -77,48 +69,6 @@ pub struct Args {
     mirrors: bool,
 }
 
-/// A degraded map of one cell of Test A / Test B, by pattern seed.
-type Degrade = Box<dyn Fn(u64) -> skin_geom::Result<TactileMap>>;
-
-enum Model {
-    Classifier(Classifier),
-    Segmenter(Segmenter),
-}
-
-impl Model {
-    fn input_size(&self) -> (usize, usize) {
-        match self {
-            Model::Classifier(c) => c.input_size(),
-            Model::Segmenter(s) => s.input_size(),
-        }
-    }
-}
-
-/// Scores of one pass over the test set.
-struct Scores {
-    cm: ConfusionMatrix,
-    by_kind: BTreeMap<String, (usize, usize)>,
-    hard: [(usize, usize); 2],
-    /// A segmenter's confusion per case of [`CASES`], with the number of images in each.
-    cases: Vec<(ConfusionMatrix, usize)>,
-    /// A segmenter's confusion with each image scored against its mask or the mirror hand's,
-    /// whichever fits better, and the number of images the mirror hand's fit better.
-    side_known: (ConfusionMatrix, usize),
-    /// A segmenter's hand-part pixels by [`SEAM_BINS`]: (predicted right, all).
-    by_seam_distance: [(u64, u64); SEAM_BINS.len()],
-    /// A segmenter's part regions summed over the images (see [`Naming`]).
-    naming: Naming,
-    /// A segmenter's confusion with the name of each region named wrong corrected.
-    named_right: ConfusionMatrix,
-    /// Over the pressed taxels with a true part, each taking the part of its pixel (when the
-    /// dataset has per-taxel truth): the segmenter's confusion, and the true masks' own.
-    by_taxel: Option<[ConfusionMatrix; 2]>,
-    /// Time spent in the model alone; the scoring around it (seam distances, per-taxel
-    /// reading, region naming) is not inference and would inflate the per-image figure.
-    seconds: f64,
-    images: usize,
-}
-
 pub fn run(args: Args) -> Result<()> {
     let scale = crate::shared::input_scale(&args.model, args.input_scale);
     let model = match Classifier::load(&args.model, scale) {
@@ -157,21 +107,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     let mut model = model;
     if !(args.test_a || args.test_b) {
-        let mut images = Vec::with_capacity(test.len());
-        let mut truths = Vec::with_capacity(test.len());
-        for &i in &test {
-            let (img, r, c) = data.image(i)?;
-            if (r, c) != model.input_size() {
-                bail!(
-                    "{}: image {} is {r} x {c}, the model takes {:?}",
-                    args.dataset.display(),
-                    data.entries[i].file,
-                    model.input_size()
-                );
-            }
-            images.push(img);
-            truths.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
-        }
+        let (images, truths) = test_images(&model, &data, &test)?;
         let taxels = if segmenting {
             taxel_truth(&data, &test)?
         } else {
@@ -183,55 +119,6 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     // Robustness (Ch. 5): regenerate the test images through degraded maps.
-    let map = TactileMap::read(&data.dir.join("map.json"))?;
-    let frames = recording::read(&data.dir.join("frames.txt"))?;
-    let parts = recording::read(&data.dir.join("taxel_parts.txt"))?;
-    if frames.frames.len() != data.entries.len() || parts.frames.len() != data.entries.len() {
-        bail!(
-            "{}: frames.txt has {} frames and taxel_parts.txt {}, labels.csv {} rows",
-            args.dataset.display(),
-            frames.frames.len(),
-            parts.frames.len(),
-            data.entries.len()
-        );
-    }
-    let column: HashMap<_, _> = frames
-        .taxel_ids
-        .iter()
-        .enumerate()
-        .map(|(k, id)| (*id, k))
-        .collect();
-    let size = model.input_size();
-    let mut truths_full = Vec::new();
-    for &i in &test {
-        truths_full.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
-    }
-    let cells: Vec<(String, Degrade)> = if args.test_a {
-        (1..=4)
-            .flat_map(|spots| (1..=4).map(move |r| (spots, 10.0 * r as f64)))
-            .map(|(spots, radius_mm)| {
-                let m = map.clone();
-                let f: Degrade = Box::new(move |seed| {
-                    BlindSpots {
-                        spots,
-                        radius_mm,
-                        seed,
-                    }
-                    .apply(&m)
-                });
-                (format!("{spots:>3} {radius_mm:>5.0}"), f)
-            })
-            .collect()
-    } else {
-        (1..=7)
-            .map(|k| {
-                let m = map.clone();
-                let fraction = k as f64 / 10.0;
-                let f: Degrade = Box::new(move |seed| Decimation { fraction, seed }.apply(&m));
-                (format!("{:>4.0}%", 100.0 * fraction), f)
-            })
-            .collect()
-    };
     crate::say!(
         "{} ({} maps per row; mean over them){}",
         if args.test_a {
@@ -255,293 +142,24 @@ pub fn run(args: Args) -> Result<()> {
             (false, true) => "    p      Acc     mAcc     mIoU    fwIoU      p_d",
         }
     );
-    for (name, make) in &cells {
-        let mut sums = [0.0f64; 5];
-        for seed in 0..args.patterns as u64 {
-            let degraded = make(seed)?;
-            let mut imager = TactileImager::new(
-                Rasterizer::new(&degraded, Grid::StepMm(1.0))?,
-                Normalisation::ContactMax,
-                true,
-                Some(size),
-            )?;
-            let cols = columns_of(&degraded.ids, &column, "frames.txt", "a degraded map")?;
-            let mut pressures = vec![0.0f32; cols.len()];
-            let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
-            let (mut kept, mut before) = (0usize, 0usize);
-            for (k, &i) in test.iter().enumerate() {
-                let values = &frames.frames[i].values;
-                for (p, &c) in pressures.iter_mut().zip(&cols) {
-                    *p = values[c];
-                }
-                let img = imager.process(&pressures)?.to_vec();
-                if segmenting {
-                    let (img, truth) = skin_geom::masked_ground_truth(&img, &truths_full[k], 0)?;
-                    before += truths_full[k].iter().filter(|&&l| l > 0).count();
-                    kept += truth.iter().filter(|&&l| l > 0).count();
-                    images.push(img);
-                    truths.push(truth);
-                } else {
-                    images.push(img);
-                    truths.push(Vec::new());
-                }
-            }
-            let s = score(&mut model, &data, &test, &images, &truths, None)?;
-            if segmenting {
-                let g = s.cm.segmentation_scores(1);
-                for (sum, v) in sums.iter_mut().zip([
-                    g.pixel_accuracy,
-                    g.mean_accuracy,
-                    g.mean_iou,
-                    g.frequency_weighted_iou,
-                    1.0 - kept as f64 / before.max(1) as f64,
-                ]) {
-                    *sum += v;
-                }
-            } else {
-                sums[0] += s.cm.accuracy();
-            }
-        }
-        let n = args.patterns.max(1) as f64;
-        let pct = |v: f64| format!("{:>7.2}%", 100.0 * v / n);
+    let which = if args.test_a {
+        Robustness::BlindSpots
+    } else {
+        Robustness::RemovedTaxels
+    };
+    let pct = |v: f64| format!("{:>7.2}%", 100.0 * v);
+    robustness(&mut model, &data, &test, which, args.patterns, &mut |cell| {
         if segmenting {
-            let cols = if args.test_a { 4 } else { 5 };
-            let row: Vec<String> = sums[..cols].iter().map(|&v| pct(v)).collect();
-            crate::say!("{name} {}", row.join("  "));
+            let mut row: Vec<String> = cell.segmentation.iter().map(|&v| pct(v)).collect();
+            if !args.test_a {
+                row.push(pct(cell.discarded));
+            }
+            crate::say!("{} {}", cell.name, row.join("  "));
         } else {
-            crate::say!("{name}  {}", pct(sums[0]));
+            crate::say!("{}  {}", cell.name, pct(cell.accuracy));
         }
-    }
+    })?;
     Ok(())
-}
-
-/// The cases a segmenter is also scored on, to show where its errors lie. The first three come
-/// from labels.csv; the others from the true mask: without the thumb or the palm in view, a row
-/// of fingers reads the same for a left hand as for a mirrored right one; with all six parts in
-/// view, nothing is hidden.
-const CASES: [&str; 7] = [
-    "whole hand on the skin",
-    "partly off the skin",
-    "fingertips only",
-    "thumb or palm in view",
-    "fingers only in view",
-    "all six parts in view",
-    BORDERS_AWAY,
-];
-
-/// The case scored on every image but only on pixels whose 8 neighbours share their true label:
-/// how much of the error sits on the one-pixel seams between parts (PASCAL VOC likewise leaves a
-/// band along object borders unscored).
-const BORDERS_AWAY: &str = "pixels off part borders";
-
-/// Which of [`CASES`] a hand image with `truth` as its part mask belongs to.
-fn cases_of(e: &skin_learn::dataset::Entry, truth: &[u8]) -> [bool; 7] {
-    let anchored = truth
-        .iter()
-        .any(|&l| l == Part::Thumb as u8 || l == Part::Palm as u8);
-    // Nothing hidden: the thumb gives the hand's side and no finger is missing from the row.
-    let whole = Part::ALL[1..].iter().all(|&p| truth.contains(&(p as u8)));
-    [
-        !e.partial && !e.fingertips,
-        e.partial,
-        e.fingertips,
-        anchored,
-        !anchored,
-        whole,
-        true,
-    ]
-}
-
-/// The column of a recording (`file`) that holds each of `ids` (the taxels of `whose` map), by
-/// `column`: taxel id -> column.
-fn columns_of(
-    ids: &[TaxelId],
-    column: &HashMap<TaxelId, usize>,
-    file: &str,
-    whose: &str,
-) -> Result<Vec<usize>> {
-    ids.iter()
-        .map(|id| {
-            column
-                .get(id)
-                .copied()
-                .with_context(|| format!("{file}: no column for taxel {id} of {whose}"))
-        })
-        .collect()
-}
-
-/// The per-taxel truth of a dataset's test images: the map, the raster its images were made on
-/// (1 mm grid, as `skin synth` draws them), and per test image its readings and each taxel's
-/// true part, in map order.
-struct TaxelTruth {
-    map: TactileMap,
-    raster: Rasterizer,
-    pressures: Vec<Vec<f32>>,
-    parts: Vec<Vec<u8>>,
-}
-
-/// Reads [`TaxelTruth`] for `test`, or `None` if the dataset lacks any of map.json, frames.txt
-/// and taxel_parts.txt (a dataset of images and masks only).
-fn taxel_truth(data: &Dataset, test: &[usize]) -> Result<Option<TaxelTruth>> {
-    let [map, frames, parts] = ["map.json", "frames.txt", "taxel_parts.txt"].map(|f| data.dir.join(f));
-    if !(map.exists() && frames.exists() && parts.exists()) {
-        return Ok(None);
-    }
-    let map = TactileMap::read(&map)?;
-    let raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
-    let in_map_order = |path: &std::path::Path| -> Result<Vec<Vec<f32>>> {
-        let rec = recording::read(path)?;
-        if rec.frames.len() != data.entries.len() {
-            bail!(
-                "{}: {} frames for {} rows of labels.csv",
-                path.display(),
-                rec.frames.len(),
-                data.entries.len()
-            );
-        }
-        let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(k, id)| (*id, k)).collect();
-        let cols = columns_of(&map.ids, &column, &path.display().to_string(), "map.json")?;
-        Ok(test
-            .iter()
-            .map(|&i| cols.iter().map(|&c| rec.frames[i].values[c]).collect())
-            .collect())
-    };
-    let pressures = in_map_order(&frames)?;
-    let parts = in_map_order(&parts)?
-        .into_iter()
-        .map(|row| row.into_iter().map(|v| v.clamp(0.0, 255.0) as u8).collect())
-        .collect();
-    Ok(Some(TaxelTruth {
-        map,
-        raster,
-        pressures,
-        parts,
-    }))
-}
-
-fn score(
-    model: &mut Model,
-    data: &Dataset,
-    test: &[usize],
-    images: &[Vec<u8>],
-    truths: &[Vec<u8>],
-    taxels: Option<&TaxelTruth>,
-) -> Result<Scores> {
-    let mut s = Scores {
-        cm: ConfusionMatrix::new(match model {
-            Model::Classifier(c) => c.classes(),
-            Model::Segmenter(g) => g.classes(),
-        }),
-        by_kind: BTreeMap::new(),
-        hard: [(0, 0); 2],
-        cases: Vec::new(),
-        side_known: (ConfusionMatrix::new(0), 0),
-        by_seam_distance: [(0, 0); SEAM_BINS.len()],
-        naming: Naming::default(),
-        named_right: ConfusionMatrix::new(0),
-        by_taxel: None,
-        seconds: 0.0,
-        images: images.len(),
-    };
-    if let Model::Segmenter(g) = model {
-        s.cases = CASES
-            .iter()
-            .map(|_| (ConfusionMatrix::new(g.classes()), 0))
-            .collect();
-        s.side_known.0 = ConfusionMatrix::new(g.classes());
-        s.named_right = ConfusionMatrix::new(g.classes());
-        s.by_taxel = taxels.map(|_| [(); 2].map(|_| ConfusionMatrix::new(g.classes())));
-    }
-    let mut inference = Duration::ZERO;
-    for (n, (chunk, idx)) in images.chunks(32).zip(test.chunks(32)).enumerate() {
-        let refs: Vec<&[u8]> = chunk.iter().map(|v| v.as_slice()).collect();
-        match model {
-            Model::Classifier(c) => {
-                let start = Instant::now();
-                let probabilities = c.classify_batch(&refs)?;
-                inference += start.elapsed();
-                for (p, &i) in probabilities.iter().zip(idx) {
-                    let e = &data.entries[i];
-                    let truth = usize::from(!e.hand); // class 0 hand, 1 non-hand
-                    let best = p
-                        .iter()
-                        .enumerate()
-                        .max_by(|a, b| a.1.total_cmp(b.1))
-                        .map_or(0, |(k, _)| k);
-                    s.cm.add(truth, best);
-                    let right = usize::from(best == truth);
-                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
-                    *slot = (slot.0 + right, slot.1 + 1);
-                    for (h, flag) in s.hard.iter_mut().zip([e.partial, e.fingertips]) {
-                        if flag {
-                            *h = (h.0 + right, h.1 + 1);
-                        }
-                    }
-                }
-            }
-            Model::Segmenter(g) => {
-                let start = Instant::now();
-                let segmented = g.segment_batch(&refs)?;
-                inference += start.elapsed();
-                for (k, labels) in segmented.iter().enumerate() {
-                    let truth = &truths[n * 32 + k];
-                    let mut one = ConfusionMatrix::new(s.cm.classes());
-                    one.add_image(truth, labels);
-                    let e = &data.entries[idx[k]];
-                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
-                    // Per interaction: pixels right / hand pixels.
-                    let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
-                    let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
-                    *slot = (slot.0 + right as usize, slot.1 + parts as usize);
-                    let (rows, cols) = g.input_size();
-                    for ((case, yes), name) in s.cases.iter_mut().zip(cases_of(e, truth)).zip(CASES) {
-                        if !yes {
-                            continue;
-                        }
-                        if name == BORDERS_AWAY {
-                            case.0.add_image(&off_borders(truth, rows, cols), labels);
-                        } else {
-                            case.0.merge(&one);
-                        }
-                        case.1 += 1;
-                    }
-                    for ((&t, &p), d) in truth.iter().zip(labels).zip(seam_distance(truth, rows, cols)) {
-                        if t != 0 {
-                            let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
-                            let slot = &mut s.by_seam_distance[bin];
-                            *slot = (slot.0 + u64::from(p == t), slot.1 + 1);
-                        }
-                    }
-                    if let (Some(t), Some(cms)) = (taxels, s.by_taxel.as_mut()) {
-                        let (pressures, parts) = (&t.pressures[n * 32 + k], &t.parts[n * 32 + k]);
-                        for (cm, image) in cms.iter_mut().zip([labels.as_slice(), truth]) {
-                            for (i, label) in taxel_labels(&t.map, &t.raster, (rows, cols), image, pressures)
-                            {
-                                if parts[i] > 0 {
-                                    cm.add(usize::from(parts[i]), usize::from(label));
-                                }
-                            }
-                        }
-                    }
-                    let (naming, renamed) = name_regions(truth, labels, rows, cols);
-                    s.naming.add(&naming);
-                    s.named_right.add_image(truth, &renamed);
-                    let mut mirror = ConfusionMatrix::new(s.cm.classes());
-                    mirror.add_image(&mirror_hand(truth), labels);
-                    let mirror_right: u64 = (1..mirror.classes()).map(|c| mirror.get(c, c)).sum();
-                    if mirror_right > right {
-                        s.side_known.0.merge(&mirror);
-                        s.side_known.1 += 1;
-                    } else {
-                        s.side_known.0.merge(&one);
-                    }
-                    s.cm.merge(&one);
-                }
-            }
-        }
-    }
-    s.seconds = inference.as_secs_f64();
-    Ok(s)
 }
 
 fn report(s: &Scores, segmenting: bool) {

@@ -1,10 +1,11 @@
-//! The whole per-frame path of the thesis' full arm, as `skin run` drives it: 3,495 taxels on
-//! three links (half-cylinder covers, 8 mm pitch, 1,165 taxels each), 318 Cyskin modules on four
-//! skin16 buses, the links end to end and stitched at their joints (thesis Ch. 6). One cycle =
-//! its CAN frames decoded and assembled, the frame split into links, the baseline applied,
-//! contacts searched on every link and over the stitched chain (the links' meshes joined by the
-//! bridge triangles across the joints, as `skin run` with `[stitch]` does), and touches
-//! tracked; a frame that decides a touch also images it and runs the shipped HandsNet.
+//! The whole per-frame path of the thesis' full arm, through the `Session` that `skin run`
+//! drives: 3,495 taxels on three links (half-cylinder covers, 8 mm pitch, 1,165 taxels each), 318
+//! Cyskin modules on four skin16 buses, the links end to end and stitched at their joints
+//! (thesis Ch. 6). One cycle = its CAN frames decoded and assembled, then `Session::push_can`:
+//! the frame placed into links, the baseline applied, contacts searched on every link and over
+//! the stitched chain, touches tracked, events typed and handed to a sink (one that keeps
+//! nothing, as a robot stack acting on them would); a frame that decides a touch also images it
+//! and runs the shipped HandsNet.
 //!
 //! - `no contact`: a cycle of an untouched arm (what offline replay mostly costs);
 //! - `decision`: the cycle whose frame holds a hand on the middle link and decides it
@@ -16,10 +17,12 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Point3, Translation3, Unit, Vector3};
 use skin_can::candump::CanFrame;
 use skin_can::decode::skin16::{encode_module, encode_sync};
-use skin_can::{AssembledFrame, Assembler, BusMap, LayoutFrames, Missing, WireFormat};
-use skin_core::{Baseline, BaselineOptions, LinkSkin, Taxel, TaxelId};
-use skin_geom::{ChainContacts, FlattenOptions, StitchOptions, Stitcher, TactileMap};
+use skin_can::{Assembler, BusMap, WireFormat};
+use skin_core::format::poses::{Posture, Postures};
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
+use skin_learn::session::{Event, Session, SessionOptions, Sink, Stitching};
 use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
@@ -52,8 +55,6 @@ struct Arm {
     interfaces: Vec<String>,
     /// Bus-map slot -> (link, taxel), to write the test traffic.
     slots: Vec<(usize, usize)>,
-    /// The path's own placement of assembled frames into links (what `skin run` uses).
-    frames: LayoutFrames,
 }
 
 impl Arm {
@@ -87,30 +88,13 @@ impl Arm {
     }
 }
 
-/// What `skin run` does with each assembled frame.
-struct PerFrame {
-    raw: Vec<Vec<f32>>,
-    pressures: Vec<Vec<f32>>,
-    baselines: Vec<Baseline>,
-    pipeline: TouchPipeline,
-    events: Vec<skin_learn::touch::TouchEvent>,
-    /// Contact search over the stitched chain.
-    chain: ChainContacts,
-    spanning: usize,
-}
+/// Counts events and keeps nothing: the cost of the path, not of a writer.
+struct Count(usize);
 
-impl PerFrame {
-    fn frame(&mut self, frames: &LayoutFrames, a: &AssembledFrame) {
-        frames.place(a, &mut self.raw).unwrap();
-        for ((b, raw), p) in self.baselines.iter_mut().zip(&self.raw).zip(&mut self.pressures) {
-            b.apply(raw, p).unwrap();
-        }
-        self.events.clear();
-        let time = a.time_us as f64 * 1e-6;
-        self.pipeline
-            .process(time, &self.pressures, &mut self.events)
-            .unwrap();
-        self.spanning = self.chain.find(&self.pressures, 5.0, 2).unwrap().0.len();
+impl Sink for Count {
+    fn event(&mut self, _: &Event) -> std::io::Result<()> {
+        self.0 += 1;
+        Ok(())
     }
 }
 
@@ -127,14 +111,11 @@ fn bench(c: &mut Criterion) {
         .flat_map(|(l, link)| link.taxels.iter().enumerate().map(move |(i, t)| (t.id, (l, i))))
         .collect();
     let slots = map.taxel_ids().iter().map(|id| where_is[id]).collect();
-    let layout_ids: Vec<Vec<TaxelId>> = links.iter().map(LinkSkin::ids).collect();
-    let frames = LayoutFrames::new(&map, &layout_ids, Missing::HoldLast).unwrap();
     let arm = Arm {
         links,
         map,
         interfaces,
         slots,
-        frames,
     };
     let maps: Vec<TactileMap> = arm
         .links
@@ -150,7 +131,15 @@ fn bench(c: &mut Criterion) {
         .reset(&poses)
         .unwrap();
     assert!(stitched.bridges.len() > 20, "{} bridges", stitched.bridges.len());
-    let chain = ChainContacts::new(&maps, &poses, &stitched.bridges).unwrap();
+    let postures = Postures {
+        links: maps.iter().map(|m| m.name.clone()).collect(),
+        postures: vec![Posture {
+            name: "held".into(),
+            time_s: 0.0,
+            poses,
+        }],
+    };
+    let stitching = Stitching::new(&maps, postures, Path::new("poses")).unwrap();
     // A whole hand on the middle link, from the synthetic-data generator.
     let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
     let hand = (0..)
@@ -178,42 +167,29 @@ fn bench(c: &mut Criterion) {
         threshold: 5.0,
         ..TouchOptions::default()
     };
-    let idle: Vec<Vec<f32>> = quiet
-        .iter()
-        .map(|r| r.iter().map(|&v| f32::from(v)).collect())
-        .collect();
-    let baselines = idle
-        .iter()
-        .map(|r| {
-            Baseline::from_idle(
-                [r.as_slice(), r.as_slice()],
-                &BaselineOptions::default(),
-                Path::new("idle"),
-            )
-            .unwrap()
-            .0
-        })
-        .collect();
-    let mut path = PerFrame {
-        raw: idle.clone(),
-        pressures: idle.iter().map(|r| vec![0.0; r.len()]).collect(),
-        baselines,
-        pipeline: TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap(),
-        events: Vec::new(),
-        chain,
-        spanning: 0,
-    };
+    let pipeline = TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap();
+    let mut session = Session::new(arm.links.clone(), pipeline, SessionOptions::default())
+        .unwrap()
+        .with_can(&arm.map)
+        .unwrap()
+        .with_stitching(stitching);
+    let mut sink = Count(0);
     let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
     let mut n = 0u64;
-    let mut push = |frames: &[CanFrame], path: &mut PerFrame| {
+    let mut push = |frames: &[CanFrame], session: &mut Session| {
         for f in frames {
-            assembler.push(f, &mut |a| path.frame(&arm.frames, a));
+            assembler.push(f, &mut |a| session.push_can(a, &mut sink).unwrap());
         }
     };
     // The CAN frames of 256 cycles (the sync counter's period), touched and quiet.
     let quiet_cycles: Vec<Vec<CanFrame>> = (0..256).map(|k| arm.cycle(k, &quiet)).collect();
     let touched_cycles: Vec<Vec<CanFrame>> = (0..256).map(|k| arm.cycle(k, &touched)).collect();
     let can_frames = quiet_cycles[0].len();
+    // The session learns its baseline from the first untouched frames, as `skin run` does.
+    while session.pipeline().times().frames == 0 {
+        push(&quiet_cycles[(n % 256) as usize], &mut session);
+        n += 1;
+    }
 
     let mut group = c.benchmark_group(format!(
         "full arm ({} taxels, 3 links, 4 buses, {can_frames} CAN frames a cycle)",
@@ -223,7 +199,7 @@ fn bench(c: &mut Criterion) {
         b.iter_custom(|iters| {
             let start = Instant::now();
             for _ in 0..iters {
-                push(&quiet_cycles[(n % 256) as usize], &mut path);
+                push(&quiet_cycles[(n % 256) as usize], &mut session);
                 n += 1;
             }
             start.elapsed()
@@ -235,15 +211,15 @@ fn bench(c: &mut Criterion) {
             for _ in 0..iters {
                 // This cycle's frame is assembled when the next cycle's sync arrives: push the
                 // touched cycle, then time the next one, whose first frame delivers the touch.
-                push(&touched_cycles[(n % 256) as usize], &mut path);
+                push(&touched_cycles[(n % 256) as usize], &mut session);
                 n += 1;
-                let runs = path.pipeline.times().runs.0;
+                let runs = session.pipeline().times().runs.0;
                 let start = Instant::now();
-                push(&quiet_cycles[(n % 256) as usize], &mut path);
+                push(&quiet_cycles[(n % 256) as usize], &mut session);
                 spent += start.elapsed();
                 n += 1;
                 assert_eq!(
-                    path.pipeline.times().runs.0,
+                    session.pipeline().times().runs.0,
                     runs + 1,
                     "one decision per touched frame"
                 );

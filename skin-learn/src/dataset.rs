@@ -31,6 +31,14 @@ pub enum DatasetError {
         /// What went wrong.
         message: String,
     },
+    /// The dataset's files disagree (frame counts, taxels, image sizes).
+    #[error("{path}: {message}")]
+    Inconsistent {
+        /// The file at fault.
+        path: PathBuf,
+        /// How it disagrees.
+        message: String,
+    },
     /// A line of labels.csv is malformed.
     #[error("{path}:{line}: {message}")]
     Parse {

@@ -35,11 +35,18 @@ pub enum Error {
     #[cfg(feature = "onnx")]
     #[error(transparent)]
     Touch(#[from] crate::touch::TouchError),
-    /// A session: its configuration, its inputs, its frames.
+    /// A session: its configuration, its inputs, its frames (boxed: it is the largest).
     #[cfg(feature = "onnx")]
     #[error(transparent)]
-    Session(#[from] crate::session::SessionError),
+    Session(Box<crate::session::SessionError>),
 }
 
 /// `Result` with skin-learn's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(feature = "onnx")]
+impl From<crate::session::SessionError> for Error {
+    fn from(e: crate::session::SessionError) -> Self {
+        Error::Session(Box::new(e))
+    }
+}

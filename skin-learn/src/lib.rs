@@ -8,6 +8,52 @@
 //!   fullest image of a touch --HandsNet (tract)--> hand / non-hand --segmenter--> hand parts
 //! ```
 //! (`touch`, feature `onnx`), scored against a script of touches with [`script`].
+//!
+//! `session` (feature `onnx`) is that whole path as one value, built once from `skin run`'s
+//! configuration or from code. A robot stack's loop, frames in and events out (without models
+//! here: touches are tracked, not classified):
+//!
+//! ```
+//! # #[cfg(feature = "onnx")] {
+//! use skin_core::{LinkSkin, Taxel, TaxelId};
+//! use skin_geom::{FlattenOptions, TactileMap};
+//! use skin_learn::session::{Event, Session, SessionOptions};
+//! use skin_learn::touch::{TouchOptions, TouchPipeline};
+//! use nalgebra::{Point3, Unit, Vector3};
+//!
+//! // A 10 x 10 patch of taxels 5 mm apart, and its tactile map.
+//! let taxels = (0..100u32).map(|i| Taxel {
+//!     id: TaxelId(i),
+//!     position: Point3::new(f64::from(i % 10) * 0.005, f64::from(i / 10) * 0.005, 0.0),
+//!     normal: Unit::new_normalize(Vector3::z()),
+//! }).collect();
+//! let patch = LinkSkin::new("patch", taxels);
+//! let map = TactileMap::flatten(&patch, &FlattenOptions::default())?;
+//! let options = TouchOptions { threshold: 5.0, ..TouchOptions::default() };
+//! let pipeline = TouchPipeline::new(vec![map], None, None, options)?;
+//! let mut session = Session::new(vec![patch], pipeline, SessionOptions::default())?;
+//!
+//! // 50 Hz frames: 20 untouched ones teach the baseline, then a press on four taxels.
+//! let mut events: Vec<Event> = Vec::new();
+//! for k in 0..40u64 {
+//!     let mut readings = vec![100.0f32; 100];
+//!     if (25..30).contains(&k) {
+//!         for i in [44, 45, 54, 55] { readings[i] = 180.0; }
+//!     }
+//!     session.push(k * 20_000, k, &[readings], &mut events)?;
+//! }
+//! session.finish(&mut events)?;
+//! let appeared = events.iter().filter(|e| matches!(e, Event::Appeared { .. })).count();
+//! let released: Vec<_> = events.iter().filter_map(|e| match e {
+//!     Event::Released { duration, peak, .. } => Some(((duration * 1e3).round(), peak.taxels)),
+//!     _ => None,
+//! }).collect();
+//! // Pressed in 5 frames: 80 ms from the first to the last, 4 taxels at the peak.
+//! assert_eq!((appeared, released), (1, vec![(80.0, 4)]));
+//! # }
+//! # Ok::<(), skin_learn::Error>(())
+//! ```
+//!
 //! Calibration fits each taxel from a probe's presses. A simulated probe on a flat patch gives
 //! every taxel back within a millimetre (0.2 mm on average; the thesis' bound on a real patch is
 //! 1.9 mm):
@@ -46,9 +92,13 @@
 //! - [`script`]: scoring a run against a script of touches (found, right class, extra).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
 //!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
+//! - `session` (feature `onnx`): the whole per-frame runtime (CAN frames or readings in, typed
+//!   events out, sinks that write them), what `skin run` drives.
 //! - `touch` (feature `onnx`): the per-frame path of a whole skin, from pressures to contacts,
 //!   touches and their hand / non-hand decisions and hand parts (what `skin run` drives; a
 //!   complete example: `examples/examples/classify_touch.rs`).
+//! - `evaluation` (feature `onnx`): a model's scores on a dataset (Tables 4.3-4.9) and the
+//!   robustness study of Ch. 5 (Test A: blind spots; Test B: removed taxels).
 //! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.
 //! - [`Error`]: every error of the crate in one type, for `?` in a robot stack's code.
 
@@ -58,6 +108,8 @@ pub mod card;
 pub mod classify;
 pub mod dataset;
 mod error;
+#[cfg(feature = "onnx")]
+pub mod evaluation;
 #[cfg(feature = "onnx")]
 mod image_model;
 #[cfg(feature = "onnx")]

@@ -17,45 +17,7 @@
 //! outputs, a `Vec<Event>` collects them, and a robot stack implements [`Sink`] to act on them.
 //! [`Session::summary`] gives the run's summary (and its score against a [`Script`]).
 //!
-//! A robot stack's loop, without models (touches are tracked, not classified):
-//!
-//! ```
-//! use skin_core::{LinkSkin, Taxel, TaxelId};
-//! use skin_geom::{FlattenOptions, TactileMap};
-//! use skin_learn::session::{Event, Session, SessionOptions};
-//! use skin_learn::touch::{TouchOptions, TouchPipeline};
-//! use nalgebra::{Point3, Unit, Vector3};
-//!
-//! // A 10 x 10 patch of taxels 5 mm apart, and its tactile map.
-//! let taxels = (0..100u32).map(|i| Taxel {
-//!     id: TaxelId(i),
-//!     position: Point3::new(f64::from(i % 10) * 0.005, f64::from(i / 10) * 0.005, 0.0),
-//!     normal: Unit::new_normalize(Vector3::z()),
-//! }).collect();
-//! let patch = LinkSkin::new("patch", taxels);
-//! let map = TactileMap::flatten(&patch, &FlattenOptions::default())?;
-//! let options = TouchOptions { threshold: 5.0, ..TouchOptions::default() };
-//! let pipeline = TouchPipeline::new(vec![map], None, None, options)?;
-//! let mut session = Session::new(vec![patch], pipeline, SessionOptions::default())?;
-//!
-//! // 50 Hz frames: 20 untouched ones teach the baseline, then a press on four taxels.
-//! let mut events: Vec<Event> = Vec::new();
-//! for k in 0..40u64 {
-//!     let mut readings = vec![100.0f32; 100];
-//!     if (25..30).contains(&k) {
-//!         for i in [44, 45, 54, 55] { readings[i] = 180.0; }
-//!     }
-//!     session.push(k * 20_000, k, &[readings], &mut events)?;
-//! }
-//! session.finish(&mut events)?;
-//! let appeared = events.iter().filter(|e| matches!(e, Event::Appeared { .. })).count();
-//! let released: Vec<_> = events.iter().filter_map(|e| match e {
-//!     Event::Released { duration, peak, .. } => Some((*duration, peak.taxels)),
-//!     _ => None,
-//! }).collect();
-//! assert_eq!((appeared, released), (1, vec![(0.08, 4)]));
-//! # Ok::<(), skin_learn::Error>(())
-//! ```
+//! A robot stack's loop (frames in, events out) is the example on the [crate's first page](crate).
 //!
 //! The fixture session end to end (CAN log, HandsNet, segmenter): `examples/examples/classify_touch.rs`.
 
