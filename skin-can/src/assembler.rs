@@ -55,7 +55,33 @@ impl AssembledFrame {
     pub fn is_complete(&self) -> bool {
         self.missing.is_empty()
     }
+
+    /// Appends the frame as a row of the frames table (`skin replay -o`, `skin live -o`):
+    /// `t_us,cycle,complete` (1 or 0), then one value per slot of the bus map, empty when its
+    /// module was missing. The header is [`FRAMES_CSV_HEADER`] followed by the slots' taxel ids.
+    pub fn csv_row(&self, csv: &mut String) {
+        use std::fmt::Write as _;
+        let _ = write!(
+            csv,
+            "{},{},{}",
+            self.time_us,
+            self.cycle,
+            u8::from(self.is_complete())
+        );
+        for v in &self.values {
+            match v {
+                Some(v) => {
+                    let _ = write!(csv, ",{v}");
+                }
+                None => csv.push(','),
+            }
+        }
+        csv.push('\n');
+    }
 }
+
+/// How the frames table ([`AssembledFrame::csv_row`]) starts; a taxel id per column follows.
+pub const FRAMES_CSV_HEADER: &str = "t_us,cycle,complete";
 
 /// Counts over everything pushed so far.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

@@ -37,8 +37,12 @@ pub mod decode;
 mod error;
 mod layout_frames;
 pub mod live;
+mod tally;
 
-pub use assembler::{AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, ModuleRef};
+pub use assembler::{
+    AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, FRAMES_CSV_HEADER, ModuleRef,
+};
 pub use busmap::{BusMap, SplitError, WireFormat};
 pub use error::{Error, Result};
 pub use layout_frames::{LayoutFrames, Missing};
+pub use tally::{ModuleTally, TallyReport};

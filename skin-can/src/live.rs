@@ -434,6 +434,29 @@ pub mod socketcan {
                 socket: None,
             }
         }
+
+        /// Ports for `names`, each opened once to check it: a first open that fails is a typo
+        /// or a missing driver, not an outage to wait out, and the error says which (with what
+        /// to try). The ports are closed again; the acquisition opens them.
+        pub fn open_all(names: &[String]) -> Result<Vec<SocketCanPort>, Error> {
+            let mut ports = Vec::new();
+            for name in names {
+                let mut port = SocketCanPort::new(name);
+                if let Err(e) = port.open() {
+                    let hint = match e.raw_os_error() {
+                        Some(97) => "this kernel has no SocketCAN: load the can and can_raw modules",
+                        Some(19) => {
+                            "no such interface: `ip link` lists them; a CAN adapter needs its driver loaded"
+                        }
+                        _ => "is the interface up? `ip link set NAME up type can bitrate 1000000`",
+                    };
+                    return Err(Error::new(e.kind(), format!("{name}: cannot open: {e} ({hint})")));
+                }
+                port.close();
+                ports.push(port);
+            }
+            Ok(ports)
+        }
     }
 
     fn not_open() -> Error {

@@ -80,7 +80,7 @@ struct Sinks {
 struct Summary {
     can_frames: u64,
     outages: Vec<String>,
-    tally: crate::shared::Tally,
+    tally: skin_can::ModuleTally,
 }
 
 pub fn live(args: LiveArgs) -> Result<()> {
@@ -98,7 +98,7 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
     crate::output::replaceable(
         &inputs,
         csv,
-        crate::output::Kind::Table(crate::shared::CSV_HEADER),
+        crate::output::Kind::Table(skin_can::FRAMES_CSV_HEADER),
     )?;
     let map = BusMap::read(&common.busmap)?;
     if !(common.period_ms.is_finite() && common.period_ms >= 0.1) {
@@ -145,24 +145,7 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
 
 #[cfg(all(target_os = "linux", feature = "socketcan"))]
 fn open_ports(names: &[String]) -> Result<Vec<skin_can::live::socketcan::SocketCanPort>> {
-    let mut ports = Vec::new();
-    for name in names {
-        let mut port = skin_can::live::socketcan::SocketCanPort::new(name);
-        // A first open that fails is a typo or a missing driver, not an outage to wait out.
-        if let Err(e) = port.open() {
-            let hint = match e.raw_os_error() {
-                Some(97) => " (this kernel has no SocketCAN: load the can and can_raw modules)",
-                Some(19) => {
-                    " (no such interface: `ip link` lists them; a CAN adapter needs its driver loaded)"
-                }
-                _ => " (is the interface up? `ip link set NAME up type can bitrate 1000000`)",
-            };
-            bail!("{name}: cannot open: {e}{hint}");
-        }
-        port.close();
-        ports.push(port);
-    }
-    Ok(ports)
+    Ok(skin_can::live::socketcan::SocketCanPort::open_all(names)?)
 }
 
 #[cfg(not(all(target_os = "linux", feature = "socketcan")))]
@@ -234,7 +217,7 @@ fn run<P: CanPort>(
         s.frames - s.complete,
         summary.outages.len()
     );
-    summary.tally.report(map, &s);
+    crate::shared::say_report(&summary.tally, map, &s);
     Ok(summary)
 }
 
@@ -280,7 +263,7 @@ impl Sinks {
             None => None,
         };
         let csv = csv.map(|p| {
-            let mut s = String::from(crate::shared::CSV_HEADER);
+            let mut s = String::from(skin_can::FRAMES_CSV_HEADER);
             for id in map.taxel_ids() {
                 let _ = write!(s, ",{id}");
             }
@@ -307,7 +290,7 @@ impl Sinks {
 
     fn assembled(&mut self, f: &AssembledFrame) {
         if let Some((_, csv)) = &mut self.csv {
-            crate::shared::csv_row(csv, f);
+            f.csv_row(csv);
         }
     }
 

@@ -1,7 +1,8 @@
 //! `skin replay`: a candump log -> assembled skin frames (summary, CSV).
 
-use crate::shared::{CSV_HEADER, Tally, csv_row};
 use anyhow::{Result, bail};
+use skin_can::FRAMES_CSV_HEADER as CSV_HEADER;
+use skin_can::ModuleTally;
 use skin_can::candump::CandumpLog;
 use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
 use std::fmt::Write as _;
@@ -129,13 +130,13 @@ pub fn run(args: Args) -> Result<()> {
         }
         csv.push('\n');
     }
-    let mut tally = Tally::default();
+    let mut tally = ModuleTally::default();
     let window_us = (args.window_ms * 1000.0).round() as u64;
     let mut assembler = Assembler::for_map(&map, &log.interfaces, window_us);
     let mut emit = |f: &AssembledFrame| {
         tally.add(f);
         if args.output.is_some() {
-            csv_row(&mut csv, f);
+            f.csv_row(&mut csv);
         }
     };
     for frame in &log.frames {
@@ -165,7 +166,7 @@ pub fn run(args: Args) -> Result<()> {
     for name in &unknown {
         crate::say!("bus \"{name}\" of the map is not in the log: its modules are missing in every frame");
     }
-    tally.report(&map, s);
+    crate::shared::say_report(&tally, &map, s);
     if log.error_frames > 0 {
         crate::say!("CAN error frames in the log, skipped: {}", log.error_frames);
     }

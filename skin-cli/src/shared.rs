@@ -3,13 +3,12 @@
 //! `replay` and `live`. A command imports from here, never from another command.
 
 use anyhow::{Context, Result, bail};
-use skin_can::{AssembledFrame, AssemblyStats, BusMap};
+use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
 use skin_core::format::{icub, recording};
 use skin_core::{LinkSkin, Recording};
 use skin_geom::{TactileImager, TactileMap, load_mesh_file};
-use std::collections::{BTreeMap, HashMap};
-use std::fmt::Write as _;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 #[cfg(feature = "onnx")]
@@ -257,87 +256,13 @@ pub(crate) fn read_postures(
     Ok(postures)
 }
 
-/// Per-run counts of a replay, for the summary.
-#[derive(Default)]
-pub(crate) struct Tally {
-    missing: BTreeMap<(u16, u32), u64>,
-    duplicated: BTreeMap<(u16, u32), u64>,
-}
-
-impl Tally {
-    pub(crate) fn add(&mut self, f: &AssembledFrame) {
-        for m in &f.missing {
-            *self.missing.entry((m.bus, m.address)).or_default() += 1;
-        }
-        for m in &f.duplicated {
-            *self.duplicated.entry((m.bus, m.address)).or_default() += 1;
-        }
-    }
-
-    /// The summary lines after the first.
-    pub(crate) fn report(&self, map: &BusMap, s: &AssemblyStats) {
-        for (what, counts) in [("missing", &self.missing), ("duplicated", &self.duplicated)] {
-            let mut worst: Vec<_> = counts.iter().collect();
-            worst.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
-            if !worst.is_empty() {
-                crate::say!("modules {what}: {} (most often first)", worst.len());
-            }
-            for ((bus, address), n) in worst.iter().take(10) {
-                crate::say!(
-                    "  module {address} on {} {what} in {n} frame(s)",
-                    map.buses[usize::from(*bus)].interface
-                );
-            }
-        }
-        let unusable = [
-            ("data from modules not in the bus map", s.unknown_module),
-            ("data before the first sync of its bus", s.before_first_sync),
-            ("data for a cycle already delivered (late)", s.late),
-        ];
-        for (what, n) in unusable.iter().filter(|(_, n)| *n > 0) {
-            crate::say!("unused CAN frames: {n} {what}");
-        }
-        for (what, n) in &s.malformed {
-            crate::say!("malformed CAN frames: {n} {what}");
-        }
-        let counts = [
-            (
-                s.ignored,
-                "other CAN frames (other protocols or interfaces, not skin data)",
-            ),
-            (s.skipped, "cycles in which nothing arrived"),
-            (
-                s.counter_resets,
-                "sync counter restarts (recordings joined or a hub reset; the cycles after each are kept, numbered on by time)",
-            ),
-            (s.remote, "remote requests (no data), skipped"),
-            (
-                s.time_backwards,
-                "CAN frames stamped earlier than the frame before them on their interface (kept in log order)",
-            ),
-        ];
-        for (n, what) in counts.iter().filter(|(n, _)| *n > 0) {
-            crate::say!("{what}: {n}");
-        }
+/// Prints what a run lost (nothing when nothing was).
+pub(crate) fn say_report(tally: &skin_can::ModuleTally, map: &BusMap, stats: &AssemblyStats) {
+    let report = tally.report(map, stats).to_string();
+    if !report.is_empty() {
+        crate::say!("{report}");
     }
 }
-
-/// Appends one frame as a CSV row: `t_us,cycle,complete,` then the values (empty when missing).
-pub(crate) fn csv_row(csv: &mut String, f: &AssembledFrame) {
-    let _ = write!(csv, "{},{},{}", f.time_us, f.cycle, u8::from(f.is_complete()));
-    for v in &f.values {
-        match v {
-            Some(v) => {
-                let _ = write!(csv, ",{v}");
-            }
-            None => csv.push(','),
-        }
-    }
-    csv.push('\n');
-}
-
-/// How the frames table of `replay -o` and `live -o` starts; a taxel id per column follows.
-pub(crate) const CSV_HEADER: &str = "t_us,cycle,complete";
 
 /// The model commands' inputs (feature `onnx`).
 #[cfg(feature = "onnx")]
