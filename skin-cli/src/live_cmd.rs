@@ -436,7 +436,7 @@ mod tests {
         assert!(live_csv.lines().count() > 2, "{live_csv}");
         // The recording replays, offline, to the same frames.
         let replayed = dir.path().join("replayed.csv");
-        crate::replay::run(crate::replay::Args {
+        crate::replay_cmd::run(crate::replay_cmd::Args {
             log: log.clone(),
             busmap: dir.path().join("m.toml"),
             layout: None,
@@ -445,7 +445,7 @@ mod tests {
         })
         .expect_err("the bus map file does not exist yet");
         std::fs::write(dir.path().join("m.toml"), map.to_toml()).unwrap();
-        crate::replay::run(crate::replay::Args {
+        crate::replay_cmd::run(crate::replay_cmd::Args {
             log,
             busmap: dir.path().join("m.toml"),
             layout: None,

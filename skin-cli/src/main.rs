@@ -19,7 +19,7 @@ mod classify_cmd;
 mod degrade_cmd;
 #[cfg(feature = "onnx")]
 mod eval_cmd;
-mod flatten;
+mod flatten_cmd;
 mod image_cmd;
 mod live_cmd;
 #[cfg(test)]
@@ -29,7 +29,7 @@ mod numbers;
 mod output;
 mod phri_cmd;
 mod reach_cmd;
-mod replay;
+mod replay_cmd;
 #[cfg(feature = "onnx")]
 mod run_cmd;
 #[cfg(feature = "onnx")]
@@ -59,9 +59,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    Flatten(flatten::Args),
+    Flatten(flatten_cmd::Args),
     Image(image_cmd::Args),
-    Replay(replay::Args),
+    Replay(replay_cmd::Args),
     Live(live_cmd::LiveArgs),
     Record(live_cmd::RecordArgs),
     Busmap(busmap_cmd::Args),
@@ -86,9 +86,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     output::install_interrupt_handler();
     let result = match cli.command {
-        Command::Flatten(args) => flatten::run(args),
+        Command::Flatten(args) => flatten_cmd::run(args),
         Command::Image(args) => image_cmd::run(args),
-        Command::Replay(args) => replay::run(args),
+        Command::Replay(args) => replay_cmd::run(args),
         Command::Live(args) => live_cmd::live(args),
         Command::Record(args) => live_cmd::record(args),
         Command::Busmap(args) => busmap_cmd::run(args),
