@@ -18,11 +18,7 @@ pub(crate) use models::{ModelInputs, Scale, input_scale, read_model_image};
 pub(crate) fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     if text.contains("skin-layout/") {
-        let layout = skin_core::format::native::read_layout(path)?;
-        if layout.links.is_empty() {
-            bail!("{}: the layout has no link", path.display());
-        }
-        return Ok(layout.links);
+        return Ok(skin_core::format::load_links(path)?);
     }
     Ok(vec![crate::shared::load_input(path)?])
 }
@@ -268,7 +264,6 @@ pub(crate) fn say_report(tally: &skin_can::ModuleTally, map: &BusMap, stats: &As
 #[cfg(feature = "onnx")]
 mod models {
     use anyhow::{Context, Result, bail};
-    use skin_learn::card::ModelCard;
     use skin_learn::classify::InputScale;
     use std::path::PathBuf;
 
@@ -331,10 +326,7 @@ mod models {
         match given {
             Some(Scale::Unit) => InputScale::Unit,
             Some(Scale::Bytes) => InputScale::Bytes,
-            None => match ModelCard::for_model(model).and_then(|c| c.unit_scale) {
-                Some(true) => InputScale::Unit,
-                _ => InputScale::Bytes,
-            },
+            None => InputScale::for_model(model),
         }
     }
 }

@@ -270,3 +270,18 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn load_links_gives_every_link_of_a_layout_and_refuses_an_empty_one() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
+    let arm = skin_core::format::load_links(&root.join("arm/layout.json")).unwrap();
+    let names: Vec<&str> = arm.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["forearm", "wrist"]);
+    let one = skin_core::format::load_links(&root.join("forearm/layout.json")).unwrap();
+    assert_eq!(one.len(), 1);
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.json");
+    std::fs::write(&empty, "{\"format\": \"skin-layout/1\", \"links\": []}").unwrap();
+    let e = skin_core::format::load_links(&empty).unwrap_err().to_string();
+    assert!(e.contains("empty.json") && e.contains("no link"), "{e}");
+}

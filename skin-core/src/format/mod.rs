@@ -21,6 +21,20 @@ use nalgebra::{Point3, Unit, Vector3};
 use std::collections::HashMap;
 use std::path::Path;
 
+/// Every link of a layout file: all links of a skin-layout/1 file (an error if it has none),
+/// or the one link of a Cyskin calibration or an iCub taxel file ([`load_link`]).
+pub fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
+    let text = read_text(path)?;
+    if text.contains("skin-layout/") {
+        let layout = native::read_layout(path)?;
+        if layout.links.is_empty() {
+            return Err(Error::invalid(path, "field \"links\"", "the layout has no link"));
+        }
+        return Ok(layout.links);
+    }
+    Ok(vec![load_link(path)?])
+}
+
 /// Reads one link's skin from a project JSON layout (its first link), a Cyskin calibration JSON or
 /// an iCub taxel file (duplicated positions merged, see [`icub::Duplicates`]).
 pub fn load_link(path: &Path) -> Result<LinkSkin> {

@@ -196,6 +196,9 @@ pub enum SessionError {
         /// Not skin traffic.
         ignored: u64,
     },
+    /// CAN frames given to a session built without a bus map.
+    #[error("CAN frames, but the session has no bus map (build it with Session::with_can)")]
+    NoBusMap,
     /// The input ended before the baseline was learned.
     #[error(
         "the input ended after {frames} frame(s), before the {needed} complete untouched frames the baseline needs"
@@ -425,7 +428,7 @@ impl Session {
         let poses_path = at("[stitch] poses", &config.stitch.as_ref().map(|s| s.poses.clone()))?;
         let size = config.image_size()?;
 
-        let links = read_links(layout_path)?;
+        let links = skin_core::format::load_links(layout_path)?;
         let busmap = BusMap::read(busmap_path)?;
         let layout_bytes = std::fs::read(layout_path).map_err(|source| skin_core::Error::Io {
             path: layout_path.clone(),
@@ -558,11 +561,7 @@ impl Session {
     pub fn push_can(&mut self, frame: &AssembledFrame, sink: &mut dyn Sink) -> Result<(), SessionError> {
         let time = self.time(frame.time_us);
         let Some(can) = &self.can else {
-            return Err(SessionError::Can(skin_can::Error::Length {
-                what: "bus maps given to the session (Session::with_can)",
-                got: 0,
-                expected: 1,
-            }));
+            return Err(SessionError::NoBusMap);
         };
         can.layout.place(frame, &mut self.raw)?;
         if !frame.is_complete() {
@@ -663,11 +662,7 @@ impl Session {
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<f64, SessionError> {
         let Some(can) = &self.can else {
-            return Err(SessionError::Can(skin_can::Error::Length {
-                what: "bus maps given to the session (Session::with_can)",
-                got: 0,
-                expected: 1,
-            }));
+            return Err(SessionError::NoBusMap);
         };
         let busmap = can.busmap.clone();
         if !can.interfaces.iter().any(|i| log.interfaces.contains(i)) {
@@ -970,18 +965,4 @@ fn fill(image: &mut GreyImage, grey: &[u8], rows: usize, cols: usize) {
     image.cols = cols;
     image.pixels.clear();
     image.pixels.extend_from_slice(grey);
-}
-
-/// The links of a layout file: all links of a skin-layout/1 file, else the one link of a Cyskin
-/// or iCub file.
-fn read_links(path: &Path) -> Result<Vec<LinkSkin>, SessionError> {
-    let text = skin_core::format::read_text(path)?;
-    if text.contains("skin-layout/") {
-        let layout = skin_core::format::native::read_layout(path)?;
-        if layout.links.is_empty() {
-            return Err(skin_core::Error::invalid(path, "field \"links\"", "the layout has no link").into());
-        }
-        return Ok(layout.links);
-    }
-    Ok(vec![skin_core::format::load_link(path)?])
 }
