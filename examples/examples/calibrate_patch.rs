@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 fn main() -> anyhow::Result<()> {
     let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch");
-    let truth = load_link(&fixtures.join("layout.json"))?;
+    let truth = load_link(&fixtures.join("layout.json"))?.value;
 
     let probes = ProbeSimulator::default().run(&truth, 350, 42);
     let report = calibrate(&probes, &CalibrationOptions::default());

@@ -15,7 +15,7 @@ fn main() -> anyhow::Result<()> {
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json"));
     // Any layout the project reads: its own JSON, Cyskin calibration JSON, or an iCub taxel file.
-    let link = format::load_link(&path)?;
+    let link = format::load_link(&path)?.value;
     let map = TactileMap::flatten(&link, &FlattenOptions::default())?;
 
     let (w, h) = map.extent();

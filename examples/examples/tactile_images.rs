@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 fn main() -> anyhow::Result<()> {
     let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm");
-    let link = load_link(&fixtures.join("layout.json"))?;
+    let link = load_link(&fixtures.join("layout.json"))?.value;
     let rec = recording::read(&fixtures.join("touches.txt"))?;
 
     // Once per link: the map, the 1 mm grid on it, the image pipeline (grey levels scaled to the

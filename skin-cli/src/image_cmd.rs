@@ -115,10 +115,7 @@ pub fn run(args: Args) -> Result<()> {
         |(imager, pressures), &(i, f)| -> Result<()> {
             let input = &inputs[i];
             let values = &input.rec.frames[f].values;
-            for (p, &c) in pressures.iter_mut().zip(&input.columns) {
-                let v = values[c];
-                *p = if v > threshold { v } else { 0.0 };
-            }
+            input.columns.gather(values, threshold, pressures);
             let grey = imager.process(pressures)?;
             let path = input.dir.join(&input.names[f]);
             let png = skin_geom::encode_png(grey, out_rows, out_cols)

@@ -114,6 +114,9 @@ pub fn run(args: Args) -> Result<()> {
         inputs.add(&p);
     }
     let mut session = Session::from_config(&config)?;
+    for note in session.layout_notes() {
+        crate::say!("{note}");
+    }
     session.set_frame_images(args.frames);
     let mut out = match &args.output {
         Some(d) => Some(crate::output::open_dir(d, "skin run", args.force, &inputs)?),

@@ -2,66 +2,42 @@
 //! take them, the images a model reads, the names images get, and the CAN traffic tallies of
 //! `replay` and `live`. A command imports from here, never from another command.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
-use skin_core::format::{icub, recording};
-use skin_core::{LinkSkin, Recording};
-use skin_geom::{TactileImager, TactileMap, load_mesh_file};
+use skin_core::format::{Noted, recording};
+use skin_core::{Columns, LinkSkin, Recording, TaxelId};
+use skin_geom::{TactileImager, TactileMap};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 #[cfg(feature = "onnx")]
 pub(crate) use models::{ModelInputs, Scale, input_scale, read_model_image};
 
-/// All links of a skin-layout/1 file, or the one link of any other layout file.
-pub(crate) fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if text.contains("skin-layout/") {
-        return Ok(skin_core::format::load_links(path)?);
+/// `noted`'s value, after saying what was done to read it.
+pub(crate) fn said<T>(noted: Noted<T>) -> T {
+    for note in &noted.notes {
+        crate::say!("{note}");
     }
-    Ok(vec![crate::shared::load_input(path)?])
+    noted.value
 }
 
+/// Every link of a layout file ([`skin_geom::read_layout`]).
+pub(crate) fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
+    Ok(said(skin_geom::read_layout(path)?))
+}
+
+/// The link of a layout file ([`skin_geom::read_link`]).
 pub(crate) fn load_input(path: &Path) -> Result<LinkSkin> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    match ext.as_str() {
-        "obj" | "gltf" | "glb" => {
-            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
-            Ok(load_mesh_file(path)?.into_link(name)?)
-        }
-        "txt" => {
-            let read = icub::read(path, icub::Duplicates::Merge)?;
-            crate::say!(
-                "{}: {} taxel rows, {} unused (all-zero) rows dropped",
-                path.display(),
-                read.skin.taxels.len()
-                    + read.zero_slots.len()
-                    + read.duplicates.iter().map(|g| g.slots.len() - 1).sum::<usize>(),
-                read.zero_slots.len()
-            );
-            if !read.duplicates.is_empty() {
-                let merged: usize = read.duplicates.iter().map(|g| g.slots.len() - 1).sum();
-                crate::say!(
-                    "duplicated positions: {} groups, {merged} taxels merged into the first of their group:",
-                    read.duplicates.len()
-                );
-                for g in &read.duplicates {
-                    crate::say!("  lines {:?} (taxels {:?})", g.lines, g.slots);
-                }
-            }
-            Ok(read.skin)
-        }
-        "json" => Ok(skin_core::format::load_link(path)?),
-        _ => bail!(
-            "{}: unknown layout format (expected .json, .txt, .obj, .gltf or .glb)",
-            path.display()
-        ),
-    }
+    Ok(said(skin_geom::read_link(path)?))
+}
+
+/// A tactile map, or a layout flattened ([`skin_geom::read_map`]).
+pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
+    Ok(said(skin_geom::read_map(
+        path,
+        &skin_geom::FlattenOptions::default(),
+    )?))
 }
 
 /// One recording, with its readings reordered to map order.
@@ -70,50 +46,9 @@ pub(crate) struct Input {
     pub(crate) path: PathBuf,
     pub(crate) dir: PathBuf,
     pub(crate) rec: Recording,
-    pub(crate) columns: Vec<usize>,
-    /// Each frame's image file name: `frame_<number>.png`, and `frame_<number>_dup<k>.png` for
-    /// the k-th repeat of a frame number (a recording joined from two, a counter reset).
+    pub(crate) columns: Columns,
+    /// Each frame's image file name ([`Recording::frame_stems`], `.png`).
     pub(crate) names: Vec<String>,
-}
-
-/// Image names for `frame_numbers`: repeats get a suffix instead of overwriting an image.
-pub(crate) fn frame_names(frame_numbers: &[u64]) -> (Vec<String>, usize) {
-    let mut seen: HashMap<u64, usize> = HashMap::new();
-    let mut repeats = 0;
-    let names = frame_numbers
-        .iter()
-        .map(|&n| {
-            let k = seen.entry(n).or_default();
-            *k += 1;
-            if *k == 1 {
-                format!("frame_{n:05}.png")
-            } else {
-                repeats += 1;
-                format!("frame_{n:05}_dup{}.png", *k - 1)
-            }
-        })
-        .collect();
-    (names, repeats)
-}
-
-/// Reads a tactile map, or flattens a layout given instead of one.
-pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if text.contains(skin_geom::MAP_FORMAT) || text.contains("\"tactile_maps\"") {
-        return Ok(TactileMap::read(path)?);
-    }
-    let link = crate::shared::load_input(path)?;
-    let map = TactileMap::flatten(&link, &skin_geom::FlattenOptions::default())
-        .with_context(|| format!("{}", path.display()))?;
-    let (w, h) = map.extent();
-    crate::say!(
-        "{}: a layout, flattened to a {:.0} x {:.0} mm tactile map (mean angle error {:.3} deg); save it with `skin flatten` to skip this step",
-        path.display(),
-        w * 1e3,
-        h * 1e3,
-        map.report.distortion.angle_error_mean_deg
-    );
-    Ok(map)
 }
 
 /// Runs `each(input, frame, pressures, grey)` on every frame of `inputs` with a reading above
@@ -129,13 +64,7 @@ pub(crate) fn each_touched_frame(
     let mut quiet = 0usize;
     for input in inputs {
         for (f, frame) in input.rec.frames.iter().enumerate() {
-            let mut any = false;
-            for (p, &c) in pressures.iter_mut().zip(&input.columns) {
-                let v = frame.values[c];
-                *p = if v > threshold { v } else { 0.0 };
-                any |= *p > 0.0;
-            }
-            if !any {
+            if !input.columns.gather(&frame.values, threshold, &mut pressures) {
                 quiet += 1;
                 continue;
             }
@@ -188,49 +117,50 @@ pub(crate) fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
 pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
     let names = output_names(paths)?;
     let mut inputs = Vec::with_capacity(paths.len());
-    for p in paths {
+    for (p, name) in paths.iter().zip(names) {
         let rec = recording::read(p)?;
-        let index: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
-        let mut columns = Vec::with_capacity(map.ids.len());
-        let mut missing = Vec::new();
-        for id in &map.ids {
-            match index.get(id) {
-                Some(&c) => columns.push(c),
-                None => missing.push(id.0),
-            }
-        }
-        if !missing.is_empty() {
-            bail!(
-                "{}: {} taxel(s) of the map are not in the recording (first: {:?}); is it a recording of this link?",
-                p.display(),
-                missing.len(),
-                &missing[..missing.len().min(5)]
-            );
-        }
-        let extra = rec.taxel_ids.len() - map.ids.len().min(rec.taxel_ids.len());
-        if extra > 0 {
-            crate::say!(
-                "{}: {extra} reading column(s) are not taxels of the map and are ignored",
-                p.display()
-            );
-        }
-        let name = names[inputs.len()].clone();
-        let (files, repeats) = frame_names(&rec.frame_numbers);
-        if repeats > 0 {
-            crate::say!(
-                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
-                p.display()
-            );
-        }
+        let (columns, names) = columns_and_names(p, &rec, &map.ids)?;
         inputs.push(Input {
             path: p.clone(),
             dir: out.join(name),
             rec,
             columns,
-            names: files,
+            names: names.into_iter().map(|s| s + ".png").collect(),
         });
     }
     Ok(inputs)
+}
+
+/// The recording at `path`'s columns for the taxels `ids` (an error if one is not recorded) and
+/// its frames' file stems, with what was ignored or renamed said.
+pub(crate) fn columns_and_names(
+    path: &Path,
+    rec: &Recording,
+    ids: &[TaxelId],
+) -> Result<(Columns, Vec<String>)> {
+    let columns = rec.columns(ids);
+    if let Some(first) = columns.missing.first() {
+        bail!(
+            "{}: {} taxel(s) of the map are not in the recording (first: {first}); is it a recording of this link?",
+            path.display(),
+            columns.missing.len(),
+        );
+    }
+    if columns.ignored > 0 {
+        crate::say!(
+            "{}: {} reading column(s) are not taxels of the map and are ignored",
+            path.display(),
+            columns.ignored
+        );
+    }
+    let (stems, repeats) = rec.frame_stems();
+    if repeats > 0 {
+        crate::say!(
+            "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
+            path.display()
+        );
+    }
+    Ok((columns, stems))
 }
 
 /// Reads the postures of `poses`, which must name the links of `layout` (`names`), in order.

@@ -2,16 +2,14 @@
 //! all of them.
 
 use crate::shared::read_postures;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use skin_core::format::native;
 use skin_core::format::recording;
 use skin_geom::raster::to_grey;
 use skin_geom::{
-    FlattenOptions, Normalisation, Placement, StitchOptions, StitchReport, StitchedRasterizer, Stitcher,
-    TactileMap, dilate_disk, erode_disk, write_png,
+    FlattenOptions, Normalisation, StitchOptions, StitchReport, StitchedRasterizer, Stitcher, TactileMap,
+    dilate_disk, erode_disk, write_png,
 };
-use std::collections::HashMap;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// Stitch the tactile maps of a chain of links into one image, posture by posture (thesis Ch. 6).
@@ -102,7 +100,7 @@ pub fn run(args: Args) -> Result<()> {
             .reset(&p.poses)
             .with_context(|| format!("posture \"{}\"", p.name))?;
         for (j, s) in report.joints.iter().enumerate() {
-            let (worst, n) = edge_fidelity(&stitcher, j, &p.poses, &report.placements, options.max_edge);
+            let (worst, n) = stitcher.edge_fidelity(j, &p.poses, &report.placements, options.max_edge);
             crate::say!(
                 "posture \"{}\", joint {j}: {} edges, cost {:.3} mm^2 in {} iterations{}; stitched edges keep their 3D length within {:.1}% ({n} pairs)",
                 p.name,
@@ -123,7 +121,7 @@ pub fn run(args: Args) -> Result<()> {
             let name = format!("stitched_{}.svg", file_name(&p.name));
             std::fs::write(
                 out.path().join(&name),
-                stitched_svg(stitcher.maps(), &report.placements).as_bytes(),
+                skin_geom::stitch::stitched_svg(stitcher.maps(), &report.placements).as_bytes(),
             )
             .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
         }
@@ -134,28 +132,22 @@ pub fn run(args: Args) -> Result<()> {
     for (rec_path, stem) in args.frames.iter().zip(&stems) {
         let rec = recording::read(rec_path)?;
         // Each link's taxels among the recording's columns.
-        let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(i, id)| (*id, i)).collect();
         let mut columns = Vec::new();
         for (link, map) in layout.links.iter().zip(maps) {
-            let cols: Vec<usize> = map
-                .ids
-                .iter()
-                .map(|id| {
-                    column.get(id).copied().with_context(|| {
-                        format!(
-                            "{}: taxel {id} of link \"{}\" is not recorded",
-                            rec_path.display(),
-                            link.name
-                        )
-                    })
-                })
-                .collect::<Result<_>>()?;
-            columns.push(cols);
+            let c = rec.columns(&map.ids);
+            if let Some(id) = c.missing.first() {
+                bail!(
+                    "{}: taxel {id} of link \"{}\" is not recorded",
+                    rec_path.display(),
+                    link.name
+                );
+            }
+            columns.push(c);
         }
         let dir = out.path().join(stem);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot write into {}", args.output.display()))?;
-        let (files, repeats) = crate::shared::frame_names(&rec.frame_numbers);
+        let (files, repeats) = rec.frame_stems();
         if repeats > 0 {
             crate::say!(
                 "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
@@ -163,7 +155,7 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
         let mut placed: Option<usize> = None;
-        let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.len()]).collect();
+        let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.of_taxel.len()]).collect();
         let (mut image, mut grey) = (Vec::new(), Vec::new());
         for (file, frame) in files.iter().zip(&rec.frames) {
             let k = postures.at(frame.time);
@@ -171,11 +163,8 @@ pub fn run(args: Args) -> Result<()> {
                 raster.place(&solved[k].placements, &solved[k].bridges)?;
                 placed = Some(k);
             }
-            for (p, cols) in pressures.iter_mut().zip(&columns) {
-                for (v, &c) in p.iter_mut().zip(cols) {
-                    let r = frame.values[c];
-                    *v = if r > threshold { r } else { 0.0 };
-                }
+            for (p, c) in pressures.iter_mut().zip(&columns) {
+                c.gather(&frame.values, threshold, p);
             }
             let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
             raster.render(&views, &mut image)?;
@@ -184,11 +173,11 @@ pub fn run(args: Args) -> Result<()> {
             to_grey(&image, Normalisation::ContactMax, &mut grey);
             if args.morph {
                 let morphed = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
-                write_png(&dir.join(file), &morphed, rows, cols)
+                write_png(&dir.join(format!("{file}.png")), &morphed, rows, cols)
             } else {
-                write_png(&dir.join(file), &grey, rows, cols)
+                write_png(&dir.join(format!("{file}.png")), &grey, rows, cols)
             }
-            .with_context(|| format!("cannot write {stem}/{file} in {}", args.output.display()))?;
+            .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
         }
         crate::say!(
             "{}: {} stitched frames -> {}",
@@ -204,35 +193,6 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The worst relative difference between the 3D length and the stitched 2D length over
-/// cross-boundary pairs of joint `j` closer than `max_edge` in 3D, and how many pairs.
-pub(crate) fn edge_fidelity(
-    st: &Stitcher,
-    j: usize,
-    poses: &[nalgebra::Isometry3<f64>],
-    placements: &[Placement],
-    max_edge: f64,
-) -> (f64, usize) {
-    let Some((a, b)) = st.boundary(j) else {
-        return (0.0, 0);
-    };
-    let (ma, mb) = (&st.maps()[j], &st.maps()[j + 1]);
-    let mut worst: f64 = 0.0;
-    let mut n = 0;
-    for &i in a {
-        for &k in b {
-            let d3 = (poses[j] * ma.positions[i] - poses[j + 1] * mb.positions[k]).norm();
-            if d3 > max_edge {
-                continue;
-            }
-            let d2 = (placements[j].apply(&ma.points[i]) - placements[j + 1].apply(&mb.points[k])).norm();
-            worst = worst.max((d2 - d3).abs() / d3);
-            n += 1;
-        }
-    }
-    (worst, n)
-}
-
 fn file_name(name: &str) -> String {
     name.chars()
         .map(|c| {
@@ -243,53 +203,4 @@ fn file_name(name: &str) -> String {
             }
         })
         .collect()
-}
-
-/// The placed maps' triangles, one colour per link, millimetres.
-fn stitched_svg(maps: &[TactileMap], placements: &[Placement]) -> String {
-    let colours = [
-        "#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b", "#8c6d31",
-    ];
-    let placed: Vec<Vec<nalgebra::Point2<f64>>> = maps
-        .iter()
-        .zip(placements)
-        .map(|(m, p)| m.points.iter().map(|q| p.apply(q) * 1e3).collect())
-        .collect();
-    let (mut lo, mut hi) = (
-        nalgebra::Point2::new(f64::INFINITY, f64::INFINITY),
-        nalgebra::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
-    );
-    for p in placed.iter().flatten() {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    let m = 5.0;
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"{:.1} {:.1} {:.1} {:.1}\" width=\"{:.0}mm\" height=\"{:.0}mm\">\n",
-        lo.x - m,
-        lo.y - m,
-        hi.x - lo.x + 2.0 * m,
-        hi.y - lo.y + 2.0 * m,
-        hi.x - lo.x + 2.0 * m,
-        hi.y - lo.y + 2.0 * m
-    );
-    for (k, (map, pts)) in maps.iter().zip(&placed).enumerate() {
-        let colour = colours[k % colours.len()];
-        let _ = writeln!(
-            s,
-            "<g fill=\"{colour}\" fill-opacity=\"0.25\" stroke=\"{colour}\" stroke-width=\"0.2\"><title>{}</title>",
-            map.name
-        );
-        for f in &map.faces {
-            let [a, b, c] = f.map(|i| pts[i]);
-            let _ = writeln!(
-                s,
-                "<polygon points=\"{:.2},{:.2} {:.2},{:.2} {:.2},{:.2}\"/>",
-                a.x, a.y, b.x, b.y, c.x, c.y
-            );
-        }
-        s.push_str("</g>\n");
-    }
-    s.push_str("</svg>\n");
-    s
 }

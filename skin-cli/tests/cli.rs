@@ -477,7 +477,7 @@ fn calibrate_recovers_the_hex_patch_and_prints_the_thesis_table() {
         .filter_map(|w| w.parse().ok())
         .collect();
     assert!(row[0] <= 1.9 && row[2] <= 0.06 && row[4] <= 4.0, "{row:?}");
-    let layout = skin_core::format::load_link(&out).unwrap();
+    let layout = skin_core::format::load_link(&out).unwrap().value;
     assert_eq!(layout.taxels.len(), 61);
     assert!(
         std::fs::read_to_string(&plot)

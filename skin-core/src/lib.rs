@@ -51,7 +51,7 @@ mod taxel;
 pub use baseline::{Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth};
 pub use contact::{Contact, ContactFinder};
 pub use error::{Error, Result};
-pub use frame::{Frame, Recording};
+pub use frame::{Columns, Frame, Recording};
 pub use layout::{LinkSkin, SkinLayout};
 pub use taxel::{Taxel, TaxelId};
 

@@ -203,6 +203,75 @@ fn icub_zero_rows_are_dropped_and_duplicates_merged_or_rejected() {
 }
 
 #[test]
+fn reading_an_icub_file_notes_the_rows_it_dropped_and_the_taxels_it_merged() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("hand.txt");
+    std::fs::write(
+        &p,
+        "name demo\n[calibration]\n0.01 0.02 0.03 0 0 1\n0 0 0 0 0 0\n0.01 0.02 0.03 0 0 1\n0.02 0.02 0.03 0 0 1\n",
+    )
+    .unwrap();
+    let read = skin_core::format::load_link(&p).unwrap();
+    assert_eq!(read.value.ids(), vec![TaxelId(0), TaxelId(3)]);
+    let notes: Vec<String> = read.notes.iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(
+        notes[0].ends_with("hand.txt: 4 taxel rows, 1 unused (all-zero) rows dropped"),
+        "{notes:?}"
+    );
+    assert!(
+        notes[1].contains("hand.txt: duplicated positions: 1 groups, 1 taxels merged")
+            && notes[1].contains("lines [3, 5] (taxels [0, 2])"),
+        "{notes:?}"
+    );
+    // A clean JSON layout reads with no note.
+    let json = dir.path().join("l.json");
+    native::write_layout(
+        &json,
+        &skin_core::SkinLayout {
+            links: vec![small_link()],
+        },
+    )
+    .unwrap();
+    assert!(skin_core::format::load_link(&json).unwrap().notes.is_empty());
+}
+
+#[test]
+fn a_recording_is_matched_to_a_layout_by_taxel_id() {
+    // Columns 17, 5, 99 (99 is no taxel of the layout); the layout's taxels 5, 17, 42 (42 is
+    // not recorded).
+    let rec = recording::parse(
+        "17 5 99\n0 0.0 1 2 3\n1 0.1 40 0 3\n1 0.2 0 0 0\n",
+        Path::new("r.txt"),
+    )
+    .unwrap();
+    let ids = [TaxelId(5), TaxelId(17), TaxelId(42)];
+    let c = rec.columns(&ids);
+    assert_eq!(c.of_taxel, vec![Some(1), Some(0), None]);
+    assert_eq!(c.missing, vec![TaxelId(42)]);
+    assert_eq!(c.ignored, 1);
+    let mut out = [9.0f32; 3];
+    assert!(c.gather(&rec.frames[0].values, 0.0, &mut out));
+    assert_eq!(out, [2.0, 1.0, 0.0], "layout order; the missing taxel reads 0");
+    assert!(c.gather(&rec.frames[1].values, 10.0, &mut out));
+    assert_eq!(out, [0.0, 40.0, 0.0], "at or below the threshold reads 0");
+    assert!(!c.gather(&rec.frames[2].values, 0.0, &mut out), "nothing pressed");
+    assert!(!c.gather(&[], 0.0, &mut out), "a short frame reads 0, no panic");
+    // Frame 1 repeats: its second image gets a suffix instead of overwriting the first.
+    assert_eq!(
+        rec.frame_stems(),
+        (
+            vec![
+                "frame_00000".to_string(),
+                "frame_00001".into(),
+                "frame_00001_dup1".into()
+            ],
+            1
+        )
+    );
+}
+
+#[test]
 fn the_icub_forearm_reports_its_duplicates() {
     let Some(p) = shared("icub/left_forearm_V2.txt") else {
         return;
@@ -274,10 +343,14 @@ proptest! {
 #[test]
 fn load_links_gives_every_link_of_a_layout_and_refuses_an_empty_one() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
-    let arm = skin_core::format::load_links(&root.join("arm/layout.json")).unwrap();
+    let arm = skin_core::format::load_links(&root.join("arm/layout.json"))
+        .unwrap()
+        .value;
     let names: Vec<&str> = arm.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["forearm", "wrist"]);
-    let one = skin_core::format::load_links(&root.join("forearm/layout.json")).unwrap();
+    let one = skin_core::format::load_links(&root.join("forearm/layout.json"))
+        .unwrap()
+        .value;
     assert_eq!(one.len(), 1);
     let dir = tempfile::tempdir().unwrap();
     let empty = dir.path().join("empty.json");

@@ -28,6 +28,14 @@ pub enum Error {
     /// The sparse linear solve failed.
     #[error("LSCM solve failed: {0}")]
     Solve(String),
+    /// A layout read from a file could not be flattened ([`crate::read_map`]).
+    #[error("{}: {source}", path.display())]
+    Layout {
+        /// The layout file.
+        path: std::path::PathBuf,
+        /// Why it could not be flattened.
+        source: Box<Error>,
+    },
     /// A user mesh file (OBJ, glTF) could not be used.
     #[error("{path}: {message}")]
     MeshFile {

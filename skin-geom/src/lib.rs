@@ -20,6 +20,9 @@
 //!   [`StitchedRasterizer`]: one tactile image over all of them. Example:
 //!   `examples/examples/stitch_links.rs`. [`ChainContacts`]: contacts over the stitched chain,
 //!   so a touch across a joint is one contact.
+//! - [`read_layout`], [`read_link`], [`read_map`]: any layout file a user has (project JSON,
+//!   Cyskin, iCub, OBJ / glTF mesh) or a map, with [`Note`](skin_core::format::Note)s saying
+//!   what was done to read a real file.
 //! - [`MapCache`]: maps flattened once and kept in a folder, keyed by the layout file's content.
 //! - [`faults`] (Ch. 5): blind spots and removed taxels, deterministic per seed, for robustness
 //!   studies.
@@ -58,6 +61,7 @@ mod distortion;
 mod error;
 pub mod faults;
 pub mod flatten;
+mod layout_file;
 mod map_cache;
 pub mod mesh;
 mod mesh_file;
@@ -74,6 +78,7 @@ pub use chart::Chart;
 pub use distortion::DistortionReport;
 pub use error::{ChainError, Error, Result};
 pub use faults::{BlindSpots, Decimation, masked_ground_truth};
+pub use layout_file::{read_layout, read_link, read_map};
 pub use map_cache::MapCache;
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
 pub use mesh_file::{MeshFileLink, load_mesh_file};

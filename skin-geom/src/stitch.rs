@@ -462,6 +462,43 @@ impl Stitcher {
             .map(|b| (b.parent.as_slice(), b.child.as_slice()))
     }
 
+    /// How well placements keep the skin's lengths across joint `j`: the worst relative
+    /// difference between a cross-boundary pair's 3D distance at `poses` and its distance on the
+    /// placed maps, over pairs closer than `max_edge` (metres) in 3D, and how many pairs that is.
+    /// (0, 0) for a joint with no boundary.
+    pub fn edge_fidelity(
+        &self,
+        j: usize,
+        poses: &[Isometry3<f64>],
+        placements: &[Placement],
+        max_edge: f64,
+    ) -> (f64, usize) {
+        let (Some((a, b)), Some(pose), Some(child_pose), Some(pa), Some(pb)) = (
+            self.boundary(j),
+            poses.get(j),
+            poses.get(j + 1),
+            placements.get(j),
+            placements.get(j + 1),
+        ) else {
+            return (0.0, 0);
+        };
+        let (ma, mb) = (&self.maps[j], &self.maps[j + 1]);
+        let mut worst: f64 = 0.0;
+        let mut n = 0;
+        for &i in a {
+            for &k in b {
+                let d3 = (pose * ma.positions[i] - child_pose * mb.positions[k]).norm();
+                if d3 > max_edge || d3 == 0.0 {
+                    continue;
+                }
+                let d2 = (pa.apply(&ma.points[i]) - pb.apply(&mb.points[k])).norm();
+                worst = worst.max((d2 - d3).abs() / d3);
+                n += 1;
+            }
+        }
+        (worst, n)
+    }
+
     /// Solves joint `j` in `mode` from now on.
     pub fn set_mode(&mut self, j: usize, mode: JointMode) {
         if let Some(joint) = self.joints.get_mut(j) {
@@ -954,6 +991,57 @@ impl Gradient for Eq66 {
         }
         Ok(g)
     }
+}
+
+/// An SVG drawing of `maps` placed by `placements` (one colour per link, millimetres): what
+/// `skin stitch --svg` writes per posture.
+pub fn stitched_svg(maps: &[TactileMap], placements: &[Placement]) -> String {
+    use std::fmt::Write as _;
+    let colours = [
+        "#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b", "#8c6d31",
+    ];
+    let placed: Vec<Vec<nalgebra::Point2<f64>>> = maps
+        .iter()
+        .zip(placements)
+        .map(|(m, p)| m.points.iter().map(|q| p.apply(q) * 1e3).collect())
+        .collect();
+    let (mut lo, mut hi) = (
+        nalgebra::Point2::new(f64::INFINITY, f64::INFINITY),
+        nalgebra::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+    );
+    for p in placed.iter().flatten() {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let m = 5.0;
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"{:.1} {:.1} {:.1} {:.1}\" width=\"{:.0}mm\" height=\"{:.0}mm\">\n",
+        lo.x - m,
+        lo.y - m,
+        hi.x - lo.x + 2.0 * m,
+        hi.y - lo.y + 2.0 * m,
+        hi.x - lo.x + 2.0 * m,
+        hi.y - lo.y + 2.0 * m
+    );
+    for (k, (map, pts)) in maps.iter().zip(&placed).enumerate() {
+        let colour = colours[k % colours.len()];
+        let _ = writeln!(
+            s,
+            "<g fill=\"{colour}\" fill-opacity=\"0.25\" stroke=\"{colour}\" stroke-width=\"0.2\"><title>{}</title>",
+            map.name
+        );
+        for f in &map.faces {
+            let [a, b, c] = f.map(|i| pts[i]);
+            let _ = writeln!(
+                s,
+                "<polygon points=\"{:.2},{:.2} {:.2},{:.2} {:.2},{:.2}\"/>",
+                a.x, a.y, b.x, b.y, c.x, c.y
+            );
+        }
+        s.push_str("</g>\n");
+    }
+    s.push_str("</svg>\n");
+    s
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ fn forearm() -> &'static TactileMap {
     static MAP: OnceLock<TactileMap> = OnceLock::new();
     MAP.get_or_init(|| {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json");
-        let link = skin_core::format::load_link(&path).unwrap();
+        let link = skin_core::format::load_link(&path).unwrap().value;
         TactileMap::flatten(&link, &FlattenOptions::default()).unwrap()
     })
 }

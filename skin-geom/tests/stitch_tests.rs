@@ -94,6 +94,18 @@ fn stitched_boundary_edges_keep_their_3d_length_at_every_posture() {
             pairs > 20 && worst < 0.05,
             "roll {angle}: worst edge error {worst} over {pairs} pairs"
         );
+        // The library's figure is this test's own.
+        assert_eq!(st.edge_fidelity(0, &p, &report.placements, 0.02), (worst, pairs));
+        assert_eq!(
+            st.edge_fidelity(1, &p, &report.placements, 0.02),
+            (0.0, 0),
+            "no joint 1"
+        );
+        // The drawing has every triangle of both maps.
+        let svg = skin_geom::stitch::stitched_svg(st.maps(), &report.placements);
+        let faces: usize = st.maps().iter().map(|m| m.faces.len()).sum();
+        assert_eq!(svg.matches("<polygon").count(), faces);
+        assert!(!svg.contains("NaN") && !svg.contains("inf"), "{svg:.300}");
     }
 }
 

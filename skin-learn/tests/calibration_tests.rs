@@ -15,7 +15,7 @@ use std::path::Path;
 /// The fixture's known-pose patch: 61 taxels on a hexagonal lattice of 8 mm, tilted and moved.
 fn hex_patch() -> LinkSkin {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch/layout.json");
-    let patch = skin_core::format::load_link(&path).unwrap();
+    let patch = skin_core::format::load_link(&path).unwrap().value;
     assert_eq!(patch.taxels.len(), 61);
     patch
 }

@@ -228,7 +228,7 @@ fn a_closed_loop_calibrates_a_patch_on_its_own() {
     };
 
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/hex_patch/layout.json");
-    let truth = skin_core::format::load_link(&path).unwrap();
+    let truth = skin_core::format::load_link(&path).unwrap().value;
     let normal = truth.taxels[0].normal;
     let n = normal.into_inner();
     // The CAD layout: every taxel up to 3 mm off in the patch plane.

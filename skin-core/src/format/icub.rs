@@ -42,6 +42,29 @@ pub struct IcubPositions {
     pub duplicates: Vec<DuplicateGroup>,
 }
 
+impl IcubPositions {
+    /// What reading `path` did: the rows it dropped, the taxels it merged.
+    pub fn notes(&self, path: &Path) -> Vec<super::Note> {
+        let merged: usize = self
+            .duplicates
+            .iter()
+            .map(|g| g.slots.len().saturating_sub(1))
+            .sum();
+        let mut notes = vec![super::Note::IcubRows {
+            path: path.to_owned(),
+            rows: self.skin.taxels.len() + self.zero_slots.len() + merged,
+            unused: self.zero_slots.clone(),
+        }];
+        if !self.duplicates.is_empty() {
+            notes.push(super::Note::MergedDuplicates {
+                path: path.to_owned(),
+                groups: self.duplicates.clone(),
+            });
+        }
+        notes
+    }
+}
+
 /// Reads an iCub taxel file.
 pub fn read(path: &Path, duplicates: Duplicates) -> Result<IcubPositions> {
     parse(&read_text(path)?, path, duplicates)

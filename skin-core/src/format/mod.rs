@@ -19,41 +19,146 @@ pub mod recording;
 use crate::{Error, LinkSkin, Result, Taxel, TaxelId};
 use nalgebra::{Point3, Unit, Vector3};
 use std::collections::HashMap;
-use std::path::Path;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Something a reader did so that a real file could be used: a warning to pass on to the user,
+/// naming the file and what was done. Reading never changes data in silence.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Note {
+    /// An iCub taxel file: how many slot rows it has, and the all-zero ones (unused slots),
+    /// dropped.
+    IcubRows {
+        /// The file.
+        path: PathBuf,
+        /// Slot rows in the file.
+        rows: usize,
+        /// Slots whose row is all zeros, dropped.
+        unused: Vec<usize>,
+    },
+    /// Taxels sharing one position, each group merged into its first taxel.
+    MergedDuplicates {
+        /// The file.
+        path: PathBuf,
+        /// The groups.
+        groups: Vec<icub::DuplicateGroup>,
+    },
+    /// A layout given where a tactile map was expected, flattened with the default options.
+    Flattened {
+        /// The layout file.
+        path: PathBuf,
+        /// The map's extent, metres (width, height).
+        extent_m: (f64, f64),
+        /// Mean angle error of the flattening, degrees.
+        angle_error_deg: f64,
+    },
+}
+
+impl fmt::Display for Note {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Note::IcubRows { path, rows, unused } => write!(
+                f,
+                "{}: {rows} taxel rows, {} unused (all-zero) rows dropped",
+                path.display(),
+                unused.len()
+            ),
+            Note::MergedDuplicates { path, groups } => {
+                let merged: usize = groups.iter().map(|g| g.slots.len().saturating_sub(1)).sum();
+                write!(
+                    f,
+                    "{}: duplicated positions: {} groups, {merged} taxels merged into the first of their group:",
+                    path.display(),
+                    groups.len()
+                )?;
+                for g in groups {
+                    write!(f, "\n  lines {:?} (taxels {:?})", g.lines, g.slots)?;
+                }
+                Ok(())
+            }
+            Note::Flattened {
+                path,
+                extent_m: (w, h),
+                angle_error_deg,
+            } => write!(
+                f,
+                "{}: a layout, flattened to a {:.0} x {:.0} mm tactile map (mean angle error {angle_error_deg:.3} deg); save it with `skin flatten` to skip this step",
+                path.display(),
+                w * 1e3,
+                h * 1e3
+            ),
+        }
+    }
+}
+
+/// What a reader read, with the [`Note`]s of what it did to read it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Noted<T> {
+    /// What was read.
+    pub value: T,
+    /// What was done to read it, in the order it was done; empty for a clean file.
+    pub notes: Vec<Note>,
+}
+
+impl<T> Noted<T> {
+    /// `value`, with no note.
+    pub fn clean(value: T) -> Noted<T> {
+        Noted {
+            value,
+            notes: Vec::new(),
+        }
+    }
+
+    /// The value changed by `f`, the notes kept.
+    pub fn map<U>(self, f: impl FnOnce(T) -> U) -> Noted<U> {
+        Noted {
+            value: f(self.value),
+            notes: self.notes,
+        }
+    }
+}
 
 /// Every link of a layout file: all links of a skin-layout/1 file (an error if it has none),
 /// or the one link of a Cyskin calibration or an iCub taxel file ([`load_link`]).
-pub fn load_links(path: &Path) -> Result<Vec<LinkSkin>> {
+pub fn load_links(path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
     let text = read_text(path)?;
     if text.contains("skin-layout/") {
         let layout = native::read_layout(path)?;
         if layout.links.is_empty() {
             return Err(Error::invalid(path, "field \"links\"", "the layout has no link"));
         }
-        return Ok(layout.links);
+        return Ok(Noted::clean(layout.links));
     }
-    Ok(vec![load_link(path)?])
+    Ok(load_link(path)?.map(|link| vec![link]))
 }
 
 /// Reads one link's skin from a project JSON layout (its first link), a Cyskin calibration JSON or
-/// an iCub taxel file (duplicated positions merged, see [`icub::Duplicates`]).
-pub fn load_link(path: &Path) -> Result<LinkSkin> {
+/// an iCub taxel file (duplicated positions merged, see [`icub::Duplicates`]), with the notes of
+/// what was done to read it.
+pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
     let text = read_text(path)?;
     let is_txt = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("txt") || e.eq_ignore_ascii_case("ini"));
     if is_txt {
-        return Ok(icub::parse(&text, path, icub::Duplicates::Merge)?.skin);
+        let read = icub::parse(&text, path, icub::Duplicates::Merge)?;
+        let notes = read.notes(path);
+        return Ok(Noted {
+            value: read.skin,
+            notes,
+        });
     }
     let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::json(path, &e))?;
     if value.get("skin").is_some() {
-        cyskin::from_value(value, path)
+        cyskin::from_value(value, path).map(Noted::clean)
     } else if value.get("links").is_some() {
         let layout = native::from_value(value, path)?;
         layout
             .links
             .into_iter()
             .next()
+            .map(Noted::clean)
             .ok_or_else(|| Error::invalid(path, "field \"links\"", "the layout has no link"))
     } else {
         Err(Error::invalid(

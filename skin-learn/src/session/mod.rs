@@ -317,6 +317,8 @@ pub struct Session {
     across: u64,
     /// Lines for the summary about the traffic itself (skipped or odd CAN frames).
     notes: Vec<String>,
+    /// What reading the layout file did ([`Session::from_config`]).
+    layout_notes: Vec<skin_core::format::Note>,
     stage: Stages,
     image: GreyImage,
 }
@@ -378,6 +380,7 @@ impl Session {
             gate: None,
             across: 0,
             notes: Vec::new(),
+            layout_notes: Vec::new(),
             stage: Stages::default(),
             image: GreyImage::default(),
         })
@@ -428,7 +431,10 @@ impl Session {
         let poses_path = at("[stitch] poses", &config.stitch.as_ref().map(|s| s.poses.clone()))?;
         let size = config.image_size()?;
 
-        let links = skin_core::format::load_links(layout_path)?;
+        let skin_core::format::Noted {
+            value: links,
+            notes: layout_notes,
+        } = skin_geom::read_layout(layout_path)?;
         let busmap = BusMap::read(busmap_path)?;
         let layout_bytes = std::fs::read(layout_path).map_err(|source| skin_core::Error::Io {
             path: layout_path.clone(),
@@ -513,6 +519,7 @@ impl Session {
                 },
                 e => e.into(),
             })?;
+        session.layout_notes = layout_notes;
         if let Some(s) = stitching {
             session = session.with_stitching(s);
         }
@@ -525,6 +532,12 @@ impl Session {
     /// Makes (or stops making) the tactile image of every frame with contact.
     pub fn set_frame_images(&mut self, on: bool) {
         self.options.frame_images = on;
+    }
+
+    /// What reading the configuration's layout file did to make it usable (dropped rows, merged
+    /// taxels, ...): warnings to pass on. Empty for a session built from code.
+    pub fn layout_notes(&self) -> &[skin_core::format::Note] {
+        &self.layout_notes
     }
 
     /// The links, in layout order.

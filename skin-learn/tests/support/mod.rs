@@ -15,6 +15,6 @@ pub fn model(name: &str) -> PathBuf {
 /// The bundled forearm's layout, flattened as `skin synth` does.
 pub fn forearm() -> TactileMap {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json");
-    let link = skin_core::format::load_link(&path).unwrap();
+    let link = skin_core::format::load_link(&path).unwrap().value;
     TactileMap::flatten(&link, &FlattenOptions::default()).unwrap()
 }
