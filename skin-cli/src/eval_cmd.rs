@@ -4,10 +4,8 @@
 use anyhow::{Context as _, Result, bail};
 use skin_learn::classify::{Classifier, ModelError};
 use skin_learn::dataset::Dataset;
-use skin_learn::evaluation::{CASES, Model, Robustness, Scores, robustness, score, taxel_truth, test_images};
-use skin_learn::parts::Part;
+use skin_learn::evaluation::{Model, Robustness, robustness, score, taxel_truth, test_images};
 use skin_learn::segment::Segmenter;
-use skin_learn::segmentation_diagnostics::SEAM_BINS;
 use std::path::PathBuf;
 
 /// Score an ONNX classifier (HandsNet) or hand-part segmenter on a dataset from `skin synth`
@@ -114,7 +112,7 @@ pub fn run(args: Args) -> Result<()> {
             None
         };
         let s = score(&mut model, &data, &test, &images, &truths, taxels.as_ref())?;
-        report(&s, segmenting);
+        crate::say!("{}", s.to_string().trim_end());
         return Ok(());
     }
 
@@ -160,150 +158,4 @@ pub fn run(args: Args) -> Result<()> {
         }
     })?;
     Ok(())
-}
-
-fn report(s: &Scores, segmenting: bool) {
-    let ms = 1e3 * s.seconds / s.images.max(1) as f64;
-    if !segmenting {
-        crate::say!(
-            "accuracy {:.2}%  ({ms:.2} ms per image, batches of 32)",
-            100.0 * s.cm.accuracy()
-        );
-        crate::say!("confusion (rows: true class, columns: predicted; % of the row)");
-        crate::say!("{:>10} {:>9} {:>9}", "", "hand", "non_hand");
-        for (t, name) in ["hand", "non_hand"].iter().enumerate() {
-            let n = s.cm.truth_total(t).max(1) as f64;
-            crate::say!(
-                "{name:>10} {:>8.2}% {:>8.2}%",
-                100.0 * s.cm.get(t, 0) as f64 / n,
-                100.0 * s.cm.get(t, 1) as f64 / n
-            );
-        }
-        crate::say!("by interaction / contact:");
-        for (kind, (right, n)) in &s.by_kind {
-            crate::say!(
-                "  {kind:<11} {:>7.2}%  of {n}",
-                100.0 * *right as f64 / (*n).max(1) as f64
-            );
-        }
-        for ((right, n), name) in s.hard.iter().zip(["partly off the skin", "fingertips only"]) {
-            crate::say!(
-                "  {name}: {:.2}% of {n}",
-                100.0 * *right as f64 / (*n).max(1) as f64
-            );
-        }
-        return;
-    }
-    let g = s.cm.segmentation_scores(1);
-    crate::say!("      Acc     mAcc     mIoU    fwIoU  Time (ms)");
-    crate::say!(
-        "{:>8.2}% {:>7.2}% {:>7.2}% {:>7.2}% {:>9.2}",
-        100.0 * g.pixel_accuracy,
-        100.0 * g.mean_accuracy,
-        100.0 * g.mean_iou,
-        100.0 * g.frequency_weighted_iou,
-        ms
-    );
-    crate::say!("confusion over hand-part pixels (rows: true part, columns: predicted; % of the row)");
-    let names: Vec<&str> = Part::ALL.iter().map(|p| p.name()).collect();
-    crate::say!(
-        "{:>8} {}",
-        "",
-        names.iter().map(|n| format!("{:>10}", n)).collect::<String>()
-    );
-    for (t, name) in names.iter().enumerate().take(s.cm.classes()).skip(1) {
-        let n = s.cm.truth_total(t).max(1) as f64;
-        let row: String = (0..s.cm.classes().min(7))
-            .map(|p| format!("{:>9.2}%", 100.0 * s.cm.get(t, p) as f64 / n))
-            .collect();
-        crate::say!("{name:>8} {row}");
-    }
-    crate::say!("IoU per part: {}", {
-        let v: Vec<String> = g
-            .iou
-            .iter()
-            .zip(&names[1..])
-            .map(|(u, n)| u.map_or(format!("{n} -"), |u| format!("{n} {:.2}%", 100.0 * u)))
-            .collect();
-        v.join(", ")
-    });
-    crate::say!("pixel accuracy by interaction:");
-    for (kind, (right, n)) in &s.by_kind {
-        crate::say!(
-            "  {kind:<11} {:>7.2}%  of {n} px",
-            100.0 * *right as f64 / (*n).max(1) as f64
-        );
-    }
-    crate::say!("by case (an image can be in several):");
-    crate::say!("  {:<24} {:>6}      Acc     mIoU", "", "images");
-    for ((cm, n), name) in s.cases.iter().zip(CASES) {
-        let g = cm.segmentation_scores(1);
-        crate::say!(
-            "  {name:<24} {n:>6} {:>7.2}% {:>7.2}%",
-            100.0 * g.pixel_accuracy,
-            100.0 * g.mean_iou
-        );
-    }
-    let wrong: Vec<u64> = s.by_seam_distance.iter().map(|(right, n)| n - right).collect();
-    let all_wrong = wrong.iter().sum::<u64>().max(1) as f64;
-    let cells = |cell: &dyn Fn(usize) -> String| (0..SEAM_BINS.len()).map(cell).collect::<String>();
-    let share = |a: u64, b: f64| format!("{:>8.2}%", 100.0 * a as f64 / b.max(1.0));
-    crate::say!("hand-part pixels by distance to the nearest pixel of another part (px):");
-    for (name, row) in [
-        ("distance", cells(&|b| format!("{:>9}", SEAM_BINS[b].0))),
-        ("pixels", cells(&|b| format!("{:>9}", s.by_seam_distance[b].1))),
-        (
-            "predicted right",
-            cells(&|b| share(s.by_seam_distance[b].0, s.by_seam_distance[b].1 as f64)),
-        ),
-        ("share of the errors", cells(&|b| share(wrong[b], all_wrong))),
-    ] {
-        crate::say!("  {name:<22}{row}");
-    }
-    match &s.by_taxel {
-        Some([model, masks]) => {
-            // The masks follow the image, whose dilation spreads a brighter part over its
-            // neighbour's taxels: read the same way, they are the most a segmenter that learned
-            // them perfectly could score here.
-            let (g, m) = (model.segmentation_scores(1), masks.segmentation_scores(1));
-            crate::say!(
-                "per taxel ({} pressed taxels with a true part from taxel_parts.txt, each taking its \
-                 pixel's part as skin segment's per-part table does): Acc {:.2}%, mIoU {:.2}%; \
-                 the true masks read the same way: Acc {:.2}%, mIoU {:.2}%",
-                (1..model.classes()).map(|c| model.truth_total(c)).sum::<u64>(),
-                100.0 * g.pixel_accuracy,
-                100.0 * g.mean_iou,
-                100.0 * m.pixel_accuracy,
-                100.0 * m.mean_iou
-            );
-        }
-        None => {
-            crate::say!("per taxel: not scored (the dataset has no map.json, frames.txt and taxel_parts.txt)")
-        }
-    }
-    let n = &s.naming;
-    let named_right = s.named_right.segmentation_scores(1);
-    crate::say!(
-        "part regions (connected pixels of one true part): {} of {} named as another part by most of \
-         their pixels; they hold {} of the wrong pixels, the regions named right the other {}; \
-         with every region named right: Acc {:.2}%, mIoU {:.2}%",
-        n.misnamed,
-        n.regions,
-        share(n.wrong_in_misnamed, n.wrong as f64).trim(),
-        share(n.wrong - n.wrong_in_misnamed, n.wrong as f64).trim(),
-        100.0 * named_right.pixel_accuracy,
-        100.0 * named_right.mean_iou
-    );
-    // Taking a hand for the other side swaps its fingers' names; what this recovers is the
-    // price of that mistake, the rest is where the parts meet.
-    let g = s.side_known.0.segmentation_scores(1);
-    crate::say!(
-        "as if each hand's side were known (scored against the mirror hand's labels where those \
-         fit better, {} of {} images): Acc {:.2}%, mIoU {:.2}%",
-        s.side_known.1,
-        // The last case, the pixels off the seams, takes every hand image.
-        s.cases.last().map_or(0, |c| c.1),
-        100.0 * g.pixel_accuracy,
-        100.0 * g.mean_iou
-    );
 }

@@ -181,32 +181,31 @@ fn run<P: CanPort>(
     map: &BusMap,
     period: Duration,
     sinks: &mut Sinks,
-    mut done: impl FnMut() -> bool,
+    done: impl FnMut() -> bool,
 ) -> Result<Summary> {
-    let mut frames = LiveFrames::start(ports, options, map, period);
-    let interfaces = frames.interfaces().to_vec();
     let mut summary = Summary::default();
     let started = Instant::now();
     let mut next_status = Duration::from_secs(1);
     let mut result = Ok(());
-    while result.is_ok() && !done() {
-        frames.poll(Duration::from_millis(50), &mut |item| {
-            on_item(item, &mut summary, sinks, &interfaces, &mut result);
-        });
-        if sinks.status && started.elapsed() >= next_status {
-            next_status += Duration::from_secs(1);
-            let s = frames.stats();
-            crate::say!(
-                "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
-                started.elapsed().as_secs_f64(),
-                summary.can_frames,
-                s.frames,
-                s.complete,
-                s.frames - s.complete
-            );
+    let status = sinks.status;
+    let s = acquire(ports, options, map, period, done, &mut |step, interfaces| {
+        match step {
+            LiveStep::Item(item) => on_item(item, &mut summary, sinks, interfaces, &mut result),
+            LiveStep::Polled(s) if status && started.elapsed() >= next_status => {
+                next_status += Duration::from_secs(1);
+                crate::say!(
+                    "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
+                    started.elapsed().as_secs_f64(),
+                    summary.can_frames,
+                    s.frames,
+                    s.complete,
+                    s.frames - s.complete
+                );
+            }
+            LiveStep::Polled(_) => {}
         }
-    }
-    let s = frames.finish(&mut |item| on_item(item, &mut summary, sinks, &interfaces, &mut result));
+        result.is_ok()
+    });
     result?;
     crate::say!(
         "{} CAN frames -> {} skin frames of {} taxels: {} complete, {} partial; {} interface outage(s)",
@@ -340,19 +339,36 @@ pub(crate) fn each_live(
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
-    let mut frames = LiveFrames::start(ports, options, map, period);
-    let mut go = true;
-    while go && !(stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d)) {
-        frames.poll(Duration::from_millis(50), &mut |i| {
-            go = go && each(LiveStep::Item(i))
-        });
-        go = go && each(LiveStep::Polled(frames.stats()));
-    }
-    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i)));
-    if go {
-        each(LiveStep::Polled(&s));
-    }
+    let done = || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d);
+    acquire(ports, options, map, period, done, &mut |step, _| each(step));
     Ok(())
+}
+
+/// The one acquisition loop of `live`, `record` and `run --can`: every item, and the
+/// assembler's counts after each poll, to `each` (with the interfaces' names), until `done` or
+/// `each` returns false. Returns the assembler's counts at the end.
+fn acquire<P: CanPort>(
+    ports: Vec<P>,
+    options: LiveOptions,
+    map: &BusMap,
+    period: Duration,
+    mut done: impl FnMut() -> bool,
+    each: &mut dyn FnMut(LiveStep<'_>, &[String]) -> bool,
+) -> AssemblyStats {
+    let mut frames = LiveFrames::start(ports, options, map, period);
+    let interfaces = frames.interfaces().to_vec();
+    let mut go = true;
+    while go && !done() {
+        frames.poll(Duration::from_millis(50), &mut |i| {
+            go = go && each(LiveStep::Item(i), &interfaces)
+        });
+        go = go && each(LiveStep::Polled(frames.stats()), &interfaces);
+    }
+    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i), &interfaces));
+    if go {
+        each(LiveStep::Polled(&s), &interfaces);
+    }
+    s
 }
 
 #[cfg(test)]

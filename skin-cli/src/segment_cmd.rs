@@ -2,8 +2,7 @@
 
 use anyhow::{Context, Result};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
-use skin_learn::parts::Part;
-use skin_learn::parts::part_contacts;
+use skin_learn::parts::{Shares, part_contacts};
 use skin_learn::segment::Segmenter;
 use std::path::{Path, PathBuf};
 
@@ -41,17 +40,6 @@ pub struct Args {
     mirrors: bool,
 }
 
-/// Part colours, in label order (background black).
-const COLOURS: [[u8; 3]; 7] = [
-    [0, 0, 0],
-    [230, 25, 75],
-    [60, 180, 75],
-    [255, 225, 25],
-    [0, 130, 200],
-    [245, 130, 48],
-    [145, 30, 180],
-];
-
 pub fn run(args: Args) -> Result<()> {
     let scale = crate::shared::input_scale(&args.run.model, args.run.input_scale);
     let mut net = Segmenter::load(&args.run.model, scale)?.with_mirror_averaging(args.mirrors);
@@ -79,7 +67,7 @@ pub fn run(args: Args) -> Result<()> {
                 crate::say!(
                     "{}: {}  -> {}",
                     path.display(),
-                    shares(&labels),
+                    Shares::of(&labels),
                     args.output.join(&file).display()
                 );
             }
@@ -109,7 +97,7 @@ pub fn run(args: Args) -> Result<()> {
                         "{} frame {number} ({:.2} s): {}",
                         input.path.display(),
                         input.rec.frames[f].time,
-                        shares(&labels)
+                        Shares::of(&labels)
                     );
                     crate::say!("  part     taxels  mean reading   centroid x, y, z (mm)");
                     for pc in part_contacts(&map, &raster, (h, w), &labels, pressures) {
@@ -134,34 +122,8 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Each part's share of the pressed pixels, e.g. "palm 52%, index 20%".
-fn shares(labels: &[u8]) -> String {
-    let mut counts = [0usize; 256];
-    for &l in labels {
-        counts[usize::from(l)] += 1;
-    }
-    let pressed: usize = counts[1..].iter().sum();
-    if pressed == 0 {
-        return "no hand part".into();
-    }
-    let v: Vec<String> = counts[1..]
-        .iter()
-        .enumerate()
-        .filter(|(_, n)| **n > 0)
-        .map(|(k, n)| {
-            let name = Part::from_label(k as u8 + 1)
-                .map_or_else(|| format!("class{}", k + 1), |p| p.name().to_string());
-            format!("{name} {:.0}%", 100.0 * *n as f64 / pressed as f64)
-        })
-        .collect();
-    v.join(", ")
-}
-
 fn write_colour(path: &Path, labels: &[u8], h: usize, w: usize) -> Result<()> {
-    let rgb: Vec<u8> = labels
-        .iter()
-        .flat_map(|&l| COLOURS.get(usize::from(l)).copied().unwrap_or([255, 255, 255]))
-        .collect();
+    let rgb = skin_learn::parts::colour_mask(labels);
     image::save_buffer(path, &rgb, w as u32, h as u32, image::ExtendedColorType::Rgb8).with_context(|| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         format!("cannot write {name}")

@@ -59,6 +59,66 @@ impl Part {
     }
 }
 
+/// Colours of the parts, in label order (background black): [`colour_mask`].
+const COLOURS: [[u8; 3]; 7] = [
+    [0, 0, 0],
+    [230, 25, 75],
+    [60, 180, 75],
+    [255, 225, 25],
+    [0, 130, 200],
+    [245, 130, 48],
+    [145, 30, 180],
+];
+
+/// A part mask as RGB pixels (3 bytes per label), one colour per part, white for a label that
+/// is not a part: what `skin segment` writes as `*_parts.png`.
+pub fn colour_mask(labels: &[u8]) -> Vec<u8> {
+    labels
+        .iter()
+        .flat_map(|&l| COLOURS.get(usize::from(l)).copied().unwrap_or([255, 255, 255]))
+        .collect()
+}
+
+/// Each label's share of a part mask's pressed (non-background) pixels, by label.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shares(pub Vec<(u8, f64)>);
+
+impl Shares {
+    /// The shares of `labels`: each label above 0 that occurs, with the fraction (0..1) of the
+    /// pressed pixels it has, in label order.
+    pub fn of(labels: &[u8]) -> Shares {
+        let mut counts = [0usize; 256];
+        for &l in labels {
+            counts[usize::from(l)] += 1;
+        }
+        let pressed: usize = counts[1..].iter().sum();
+        Shares(
+            (1..=255u8)
+                .zip(&counts[1..])
+                .filter(|(_, n)| **n > 0)
+                .map(|(l, n)| (l, *n as f64 / pressed as f64))
+                .collect(),
+        )
+    }
+}
+
+/// E.g. "palm 52%, index 20%" (a label that is not a part is "class<label>"), or "no hand part".
+impl std::fmt::Display for Shares {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_empty() {
+            return f.write_str("no hand part");
+        }
+        for (k, (label, share)) in self.0.iter().enumerate() {
+            let sep = if k == 0 { "" } else { ", " };
+            match Part::from_label(*label) {
+                Some(p) => write!(f, "{sep}{} {:.0}%", p.name(), 100.0 * share)?,
+                None => write!(f, "{sep}class{label} {:.0}%", 100.0 * share)?,
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A part is written by its name (`"thumb"`, ...), as events and tables give it.
 impl serde::Serialize for Part {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
@@ -148,6 +208,19 @@ mod tests {
     use nalgebra::{Unit, Vector3};
     use skin_core::{LinkSkin, Taxel, TaxelId};
     use skin_geom::{FlattenOptions, Grid};
+
+    #[test]
+    fn shares_and_colours_of_a_mask() {
+        // 6 pressed pixels: 3 palm, 2 index, 1 of a label that is no part; 4 background.
+        let labels = [0, 6, 6, 0, 2, 6, 0, 2, 9, 0];
+        let s = Shares::of(&labels);
+        assert_eq!(s.0, vec![(2, 2.0 / 6.0), (6, 0.5), (9, 1.0 / 6.0)]);
+        assert_eq!(s.to_string(), "index 33%, palm 50%, class9 17%");
+        assert_eq!(Shares::of(&[0, 0]).to_string(), "no hand part");
+        assert_eq!(Shares::of(&[]).to_string(), "no hand part");
+        let rgb = colour_mask(&[0, 1, 9]);
+        assert_eq!(rgb, [0, 0, 0, 230, 25, 75, 255, 255, 255]);
+    }
 
     #[test]
     fn two_parts_get_their_taxels_and_centroids() {
