@@ -228,6 +228,18 @@ fn bench(c: &mut Criterion) {
         })
     });
     group.finish();
+    // Where a decision's time goes, over every frame the session saw (quiet frames included in
+    // the contact search): the model against the rest, measured in the same run.
+    let t = session.pipeline().times();
+    let runs = t.runs.0.max(1) as f64;
+    eprintln!(
+        "per decision: tactile image {:.0} us, classifier {:.2} ms; contact search {:.1} us a frame ({} frames, {} decisions)",
+        t.image.as_secs_f64() * 1e6 / runs,
+        t.classify.as_secs_f64() * 1e3 / runs,
+        t.contacts.as_secs_f64() * 1e6 / t.frames.max(1) as f64,
+        t.frames,
+        t.runs.0
+    );
 }
 
 criterion_group! {
