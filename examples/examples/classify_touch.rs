@@ -27,14 +27,14 @@ impl Sink for Robot {
             Event::Classified {
                 time,
                 touch,
-                class,
+                kind,
                 probability,
                 parts,
                 image,
                 ..
             } => {
                 self.decisions += 1;
-                let what = match TouchClass::from_name(class) {
+                let what = match kind {
                     TouchClass::Hand => "hand",
                     TouchClass::NonHand => "not a hand",
                 };

@@ -2,8 +2,8 @@
 
 use anyhow::{Context, Result, bail};
 use skin_can::candump::{CanFrame, write_line};
-use skin_can::live::{CanPort, Live, LiveFrames, LiveOptions};
-use skin_can::{AssembledFrame, AssemblyStats, BusMap};
+use skin_can::live::{CanPort, Live, LiveOptions};
+use skin_can::{AssembledFrame, BusMap};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -120,7 +120,7 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
         ..LiveOptions::default()
     };
     let mut sinks = Sinks::new(record, csv, &map, status, &inputs)?;
-    let ports = open_ports(&names)?;
+    let ports = crate::shared::open_ports(&names)?;
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     let deadline = common
@@ -143,37 +143,6 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
     Ok(())
 }
 
-#[cfg(all(target_os = "linux", feature = "socketcan"))]
-fn open_ports(names: &[String]) -> Result<Vec<skin_can::live::socketcan::SocketCanPort>> {
-    Ok(skin_can::live::socketcan::SocketCanPort::open_all(names)?)
-}
-
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-fn open_ports(_names: &[String]) -> Result<Vec<NoPort>> {
-    bail!("live CAN input needs Linux SocketCAN; this build has none (build skin-cli on Linux)")
-}
-
-/// Stands in for a port type on builds without SocketCAN.
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-struct NoPort;
-
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-impl CanPort for NoPort {
-    fn name(&self) -> &str {
-        ""
-    }
-    fn open(&mut self) -> std::io::Result<()> {
-        Err(std::io::Error::other("no SocketCAN"))
-    }
-    fn close(&mut self) {}
-    fn recv(&mut self, _: Duration) -> std::io::Result<Option<CanFrame>> {
-        Ok(None)
-    }
-    fn send(&mut self, _: &CanFrame) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
 /// The session loop: CAN frames to the sinks, assembled frames to the tally, until `done`.
 fn run<P: CanPort>(
     ports: Vec<P>,
@@ -188,10 +157,12 @@ fn run<P: CanPort>(
     let mut next_status = Duration::from_secs(1);
     let mut result = Ok(());
     let status = sinks.status;
-    let s = acquire(ports, options, map, period, done, &mut |step, interfaces| {
+    let s = crate::shared::acquire(ports, options, map, period, done, &mut |step, interfaces| {
         match step {
-            LiveStep::Item(item) => on_item(item, &mut summary, sinks, interfaces, &mut result),
-            LiveStep::Polled(s) if status && started.elapsed() >= next_status => {
+            crate::shared::LiveStep::Item(item) => {
+                on_item(item, &mut summary, sinks, interfaces, &mut result)
+            }
+            crate::shared::LiveStep::Polled(s) if status && started.elapsed() >= next_status => {
                 next_status += Duration::from_secs(1);
                 crate::say!(
                     "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
@@ -202,7 +173,7 @@ fn run<P: CanPort>(
                     s.frames - s.complete
                 );
             }
-            LiveStep::Polled(_) => {}
+            crate::shared::LiveStep::Polled(_) => {}
         }
         result.is_ok()
     });
@@ -309,68 +280,6 @@ impl Sinks {
     }
 }
 
-/// One step of [`each_live`]: an item of the acquisition, or the assembler's counts after a poll.
-pub(crate) enum LiveStep<'a> {
-    Item(Live<'a>),
-    Polled(&'a AssemblyStats),
-}
-
-/// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
-/// item of the acquisition, and the assembler's counts after each poll, to `each`, until Ctrl-C,
-/// `duration` seconds, or `each` returns false.
-pub(crate) fn each_live(
-    map: &BusMap,
-    names: &[String],
-    master: bool,
-    duration: Option<f64>,
-    each: &mut dyn FnMut(LiveStep<'_>) -> bool,
-) -> Result<()> {
-    let names: Vec<String> = if names.is_empty() {
-        map.buses.iter().map(|b| b.interface.clone()).collect()
-    } else {
-        names.to_vec()
-    };
-    let period = Duration::from_millis(50);
-    let options = LiveOptions {
-        sync_period: master.then_some(period),
-        ..LiveOptions::default()
-    };
-    let ports = open_ports(&names)?;
-    crate::output::stop_gracefully();
-    let stop = crate::output::stop_flag();
-    let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
-    let done = || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d);
-    acquire(ports, options, map, period, done, &mut |step, _| each(step));
-    Ok(())
-}
-
-/// The one acquisition loop of `live`, `record` and `run --can`: every item, and the
-/// assembler's counts after each poll, to `each` (with the interfaces' names), until `done` or
-/// `each` returns false. Returns the assembler's counts at the end.
-fn acquire<P: CanPort>(
-    ports: Vec<P>,
-    options: LiveOptions,
-    map: &BusMap,
-    period: Duration,
-    mut done: impl FnMut() -> bool,
-    each: &mut dyn FnMut(LiveStep<'_>, &[String]) -> bool,
-) -> AssemblyStats {
-    let mut frames = LiveFrames::start(ports, options, map, period);
-    let interfaces = frames.interfaces().to_vec();
-    let mut go = true;
-    while go && !done() {
-        frames.poll(Duration::from_millis(50), &mut |i| {
-            go = go && each(LiveStep::Item(i), &interfaces)
-        });
-        go = go && each(LiveStep::Polled(frames.stats()), &interfaces);
-    }
-    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i), &interfaces));
-    if go {
-        each(LiveStep::Polled(&s), &interfaces);
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
@@ -451,24 +360,13 @@ mod tests {
         let live_csv = std::fs::read_to_string(&csv).unwrap();
         assert!(live_csv.lines().count() > 2, "{live_csv}");
         // The recording replays, offline, to the same frames.
-        let replayed = dir.path().join("replayed.csv");
-        crate::replay_cmd::run(crate::replay_cmd::Args {
-            log: log.clone(),
-            busmap: dir.path().join("m.toml"),
-            layout: None,
-            window_ms: 50.0,
-            output: Some(replayed.clone()),
-        })
-        .expect_err("the bus map file does not exist yet");
-        std::fs::write(dir.path().join("m.toml"), map.to_toml()).unwrap();
-        crate::replay_cmd::run(crate::replay_cmd::Args {
-            log,
-            busmap: dir.path().join("m.toml"),
-            layout: None,
-            window_ms: 50.0,
-            output: Some(replayed.clone()),
-        })
-        .unwrap();
-        assert_eq!(std::fs::read_to_string(replayed).unwrap(), live_csv);
+        let recorded = skin_can::candump::CandumpLog::read(&log).unwrap();
+        let mut assembler = skin_can::Assembler::for_map(&map, &recorded.interfaces, 50_000);
+        let mut replayed = live_csv.lines().next().unwrap().to_string() + "\n";
+        for f in &recorded.frames {
+            assembler.push(f, &mut |a| a.csv_row(&mut replayed));
+        }
+        assembler.finish(&mut |a| a.csv_row(&mut replayed));
+        assert_eq!(replayed, live_csv);
     }
 }

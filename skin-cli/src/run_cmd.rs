@@ -1,8 +1,8 @@
 //! `skin run`: the whole pipeline, from CAN traffic to touch decisions, offline or live. The
 //! pipeline is skin-learn's `Session`; this wires its input and its sinks.
 
-use crate::live_cmd::LiveStep;
 use crate::output::{Inputs, OutputDir};
+use crate::shared::LiveStep;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpLog;
@@ -186,7 +186,7 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
     let started = Instant::now();
     let mut error = None;
     let busmap = session.busmap().cloned().context("the session has no bus map")?;
-    crate::live_cmd::each_live(&busmap, &args.can, args.master, args.duration, &mut |step| {
+    crate::shared::each_live(&busmap, &args.can, args.master, args.duration, &mut |step| {
         // Interface outages go to standard error: standard output carries the events.
         match step {
             LiveStep::Item(Live::Frame(a)) => error = session.push_can(a, sinks).err(),

@@ -3,6 +3,7 @@
 //! `replay` and `live`. A command imports from here, never from another command.
 
 use anyhow::{Result, bail};
+use skin_can::live::{CanPort, Live, LiveFrames, LiveOptions};
 use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
 use skin_core::format::{Noted, recording};
@@ -10,6 +11,8 @@ use skin_core::{Columns, LinkSkin, Recording, TaxelId};
 use skin_geom::{TactileImager, TactileMap};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
 
 #[cfg(feature = "onnx")]
 pub(crate) use models::{ModelInputs, Scale, input_scale, read_model_image};
@@ -258,5 +261,100 @@ mod models {
             Some(Scale::Bytes) => InputScale::Bytes,
             None => InputScale::for_model(model),
         }
+    }
+}
+
+// The live acquisition of `live`, `record` and `run --can`.
+
+/// One step of [`each_live`]: an item of the acquisition, or the assembler's counts after a poll.
+pub(crate) enum LiveStep<'a> {
+    Item(Live<'a>),
+    Polled(&'a AssemblyStats),
+}
+
+/// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
+/// item of the acquisition, and the assembler's counts after each poll, to `each`, until Ctrl-C,
+/// `duration` seconds, or `each` returns false.
+pub(crate) fn each_live(
+    map: &BusMap,
+    names: &[String],
+    master: bool,
+    duration: Option<f64>,
+    each: &mut dyn FnMut(LiveStep<'_>) -> bool,
+) -> Result<()> {
+    let names: Vec<String> = if names.is_empty() {
+        map.buses.iter().map(|b| b.interface.clone()).collect()
+    } else {
+        names.to_vec()
+    };
+    let period = Duration::from_millis(50);
+    let options = LiveOptions {
+        sync_period: master.then_some(period),
+        ..LiveOptions::default()
+    };
+    let ports = open_ports(&names)?;
+    crate::output::stop_gracefully();
+    let stop = crate::output::stop_flag();
+    let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
+    let done = || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d);
+    acquire(ports, options, map, period, done, &mut |step, _| each(step));
+    Ok(())
+}
+
+/// The one acquisition loop of `live`, `record` and `run --can`: every item, and the
+/// assembler's counts after each poll, to `each` (with the interfaces' names), until `done` or
+/// `each` returns false. Returns the assembler's counts at the end.
+pub(crate) fn acquire<P: CanPort>(
+    ports: Vec<P>,
+    options: LiveOptions,
+    map: &BusMap,
+    period: Duration,
+    mut done: impl FnMut() -> bool,
+    each: &mut dyn FnMut(LiveStep<'_>, &[String]) -> bool,
+) -> AssemblyStats {
+    let mut frames = LiveFrames::start(ports, options, map, period);
+    let interfaces = frames.interfaces().to_vec();
+    let mut go = true;
+    while go && !done() {
+        frames.poll(Duration::from_millis(50), &mut |i| {
+            go = go && each(LiveStep::Item(i), &interfaces)
+        });
+        go = go && each(LiveStep::Polled(frames.stats()), &interfaces);
+    }
+    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i), &interfaces));
+    if go {
+        each(LiveStep::Polled(&s), &interfaces);
+    }
+    s
+}
+
+#[cfg(all(target_os = "linux", feature = "socketcan"))]
+pub(crate) fn open_ports(names: &[String]) -> Result<Vec<skin_can::live::socketcan::SocketCanPort>> {
+    Ok(skin_can::live::socketcan::SocketCanPort::open_all(names)?)
+}
+
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+pub(crate) fn open_ports(_names: &[String]) -> Result<Vec<NoPort>> {
+    bail!("live CAN input needs Linux SocketCAN; this build has none (build skin-cli on Linux)")
+}
+
+/// Stands in for a port type on builds without SocketCAN.
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+struct NoPort;
+
+#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
+impl CanPort for NoPort {
+    fn name(&self) -> &str {
+        ""
+    }
+    fn open(&mut self) -> std::io::Result<()> {
+        Err(std::io::Error::other("no SocketCAN"))
+    }
+    fn close(&mut self) {}
+    fn recv(&mut self, _: Duration) -> std::io::Result<Option<skin_can::candump::CanFrame>> {
+        Ok(None)
+    }
+    fn send(&mut self, _: &skin_can::candump::CanFrame) -> std::io::Result<()> {
+        Ok(())
     }
 }

@@ -12,7 +12,7 @@
 use crate::parts::PartContact;
 use crate::touch::Footprint;
 use serde::{Serialize, Serializer};
-use skin_control::hri::GateAction;
+use skin_control::hri::{GateAction, TouchClass};
 
 /// Something that happened in a session, as it happened.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -69,6 +69,10 @@ pub enum Event {
         revised: bool,
         /// The class's name (the model card's).
         class: String,
+        /// The class as the gate sees it (a hand or not), so a consumer matches a type, not
+        /// a name; not in JSON (`class` says it).
+        #[serde(skip)]
+        kind: TouchClass,
         /// Its probability, 0 to 1.
         #[serde(serialize_with = "prob")]
         probability: f32,
@@ -99,6 +103,9 @@ pub enum Event {
         /// The final class (none without a classifier).
         #[serde(skip_serializing_if = "Option::is_none")]
         class: Option<String>,
+        /// The final class as the gate sees it; not in JSON (`class` says it).
+        #[serde(skip)]
+        kind: Option<TouchClass>,
         /// Its probability, 0 to 1.
         #[serde(skip_serializing_if = "Option::is_none", serialize_with = "prob_opt")]
         probability: Option<f32>,

@@ -850,6 +850,11 @@ impl Session {
         self.classes.get(class).map_or("?", String::as_str).to_owned()
     }
 
+    /// The gate's class of the model's class `class` (computed once, at build).
+    fn kind(&self, class: usize) -> TouchClass {
+        self.kinds.get(class).copied().unwrap_or(TouchClass::NonHand)
+    }
+
     fn emit_one(&mut self, e: &TouchEvent, sink: &mut dyn Sink) -> Result<(), SessionError> {
         let link = |l: usize| self.links[l].name.clone();
         let event = match e {
@@ -881,6 +886,7 @@ impl Session {
                     touch: *touch,
                     revised: *revised,
                     class: self.class_name(decision.class),
+                    kind: self.kind(decision.class),
                     probability: decision.probability,
                     parts: decision.parts.clone(),
                     image: GreyImage {
@@ -916,6 +922,7 @@ impl Session {
                     frames: *frames,
                     peak: *peak,
                     class: decision.as_ref().map(|d| self.class_name(d.class)),
+                    kind: decision.as_ref().map(|d| self.kind(d.class)),
                     probability: decision.as_ref().map(|d| d.probability),
                 }
             }
