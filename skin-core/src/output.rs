@@ -5,7 +5,7 @@
 //!
 //! - An output that is one of the inputs is refused: the same canonical path, or the same device
 //!   and inode (a hard link or a symbolic link to it). See [`Inputs`].
-//! - A file ([`OutputFile`], [`write_file`]) is built aside as `.NAME.partial-PID` in its folder
+//! - A file ([`OutputFile`], [`write_file`]) is built aside as `.NAME.partial-PID-N` in its folder
 //!   and renamed into place only when complete. A device, a FIFO or a socket is written through,
 //!   never replaced; a symbolic link is followed and its target written (the link stays, and a
 //!   dangling one gets its target created). A folder given as a file is refused. An existing
@@ -409,7 +409,11 @@ impl OutputFile {
             })?
             .to_string_lossy();
         std::fs::create_dir_all(dir).map_err(io("create the folder of", path))?;
-        let tmp = dir.join(format!(".{name}.partial-{}", std::process::id()));
+        // The process id and a count of this process's outputs: two threads writing one path
+        // at once (two sessions filling one map cache) each build their own file.
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = dir.join(format!(".{name}.partial-{}-{n}", std::process::id()));
         unfinished().push(Unfinished::Temporary(tmp.clone()));
         let open = || OpenOptions::new().write(true).create_new(true).open(&tmp);
         let file = open().or_else(|_| {
@@ -872,6 +876,28 @@ mod tests {
         let fresh = d.path().join("fresh");
         drop(OutputDir::create(&fresh, "skin image", false, &Inputs::default()).unwrap());
         assert!(!fresh.exists());
+    }
+
+    #[test]
+    fn threads_writing_one_file_at_once_each_finish_whole() {
+        // Two sessions of one process filling one map cache: each file is built aside on its
+        // own, so the last one moved into place is whole and neither writer fails.
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("cache").join("map.json");
+        let texts: Vec<String> = (0..8).map(|k| format!("{k}").repeat(100_000)).collect();
+        std::thread::scope(|s| {
+            for t in &texts {
+                let path = &path;
+                s.spawn(move || write_file(path, t.as_bytes(), &Inputs::default()).unwrap());
+            }
+        });
+        let got = std::fs::read_to_string(&path).unwrap();
+        assert!(texts.contains(&got), "a whole file, not a mix");
+        let left: Vec<_> = std::fs::read_dir(d.path().join("cache"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, ["map.json"], "no temporary file left");
     }
 
     #[test]
