@@ -127,6 +127,12 @@ fn print_report(input: &Path, link: &LinkSkin, map: &TactileMap) {
             r.pinch_faces
         );
     }
+    if !r.mesh.normals_off_plane.is_empty() {
+        crate::say!(
+            "{} taxel normal(s) lie more than 60 deg off the flat skin's plane: the mesh takes the plane's normal there",
+            r.mesh.normals_off_plane.len()
+        );
+    }
     if !r.mesh.isolated.is_empty() {
         crate::say!(
             "taxels in no triangle (map point extrapolated from the nearest triangle): {:?}",

@@ -521,7 +521,7 @@ fn probe_sim_then_calibrate_writes_a_cyskin_layout_and_flags_what_it_cannot_fit(
         .and_then(|s| s.split_whitespace().next())
         .and_then(|n| n.parse().ok())
         .unwrap();
-    let link = skin_core::format::cyskin::read_skin(&out).unwrap();
+    let link = skin_core::format::cyskin::read_skin(&out).unwrap().value;
     assert!(flagged > 0 && link.taxels.len() + flagged <= 61, "{stdout}");
 }
 

@@ -45,6 +45,7 @@ mod error;
 pub mod format;
 mod frame;
 mod layout;
+pub mod normals;
 pub mod output;
 mod taxel;
 

@@ -25,6 +25,23 @@ impl TaxelId {
     pub fn cyskin(module: u32, channel: u32) -> Self {
         TaxelId(module << 4 | (channel & 0xF))
     }
+
+    /// Ids from here up are placeholders: taxels without a known sensor.
+    const PLACEHOLDER_BASE: u32 = 0xFFFF_0000;
+
+    /// The `k`-th placeholder id (`k` below 65,536): an id of its own for a taxel whose file
+    /// gives none that tells it apart (Cyskin files repeat 0 or 1 on mesh vertices without a
+    /// known sensor). No recording column or bus slot carries it, so the taxel is dead. Ids
+    /// count down from `u32::MAX`, far above any id the electronics report (Cyskin module
+    /// numbers reach 2^16 at most).
+    pub fn placeholder(k: u16) -> Self {
+        TaxelId(u32::MAX - u32::from(k))
+    }
+
+    /// Whether this is a [`placeholder`](Self::placeholder) id.
+    pub fn is_placeholder(self) -> bool {
+        self.0 >= Self::PLACEHOLDER_BASE
+    }
 }
 
 impl fmt::Display for TaxelId {

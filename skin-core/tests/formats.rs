@@ -35,7 +35,7 @@ fn the_cyskin_patch_reads_with_its_taxels_faces_and_frame() {
     let Some(p) = shared("cyskin/ur10e_link1_patch1.json") else {
         return;
     };
-    let link = cyskin::read_skin(&p).unwrap();
+    let link = cyskin::read_skin(&p).unwrap().value;
     assert_eq!(link.taxels.len(), 642);
     assert_eq!(link.faces.as_ref().unwrap().len(), 1232);
     assert_eq!(link.taxels[0].id, TaxelId(83931));
@@ -48,7 +48,9 @@ fn the_cyskin_patch_reads_with_its_taxels_faces_and_frame() {
 #[test]
 fn cyskin_and_native_files_round_trip() {
     let link = small_link();
-    let back = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("mem")).unwrap();
+    let back = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("mem"))
+        .unwrap()
+        .value;
     for (a, b) in back.taxels.iter().zip(&link.taxels) {
         assert_eq!((a.id, a.position), (b.id, b.position));
         // Normals are normalised again on reading: equal to the last bit or so.
@@ -142,10 +144,36 @@ fn a_face_index_out_of_range_names_the_face() {
 }
 
 #[test]
-fn a_repeated_taxel_id_is_rejected() {
+fn a_repeated_taxel_id_is_a_placeholder_in_cyskin_files_and_an_error_in_ours() {
     let mut link = small_link();
     link.taxels[2].id = TaxelId(16);
-    let e = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("d.json")).unwrap_err();
+    // Cyskin: every taxel with the repeated id stays, under a placeholder id of its own.
+    let read = cyskin::parse_skin(&cyskin::skin_to_string(&link), Path::new("d.json")).unwrap();
+    let ids = read.value.ids();
+    assert_eq!(ids.len(), link.taxels.len());
+    assert_eq!(
+        (ids[0], ids[2]),
+        (TaxelId::placeholder(0), TaxelId::placeholder(1))
+    );
+    assert!(ids[0].is_placeholder() && ids[2].is_placeholder() && !ids[1].is_placeholder());
+    assert_eq!(read.value.taxels[2].position, link.taxels[2].position);
+    assert_eq!(read.value.faces, link.faces, "the mesh keeps its vertices");
+    let note = read
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        note.contains("d.json: 2 taxels carry the placeholder id 16"),
+        "{note}"
+    );
+    // The project's own layout: an error naming the taxel.
+    let e = native::parse_layout(
+        &native::to_string(&skin_core::SkinLayout { links: vec![link] }),
+        Path::new("d.json"),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("taxel 16 (index 2)"), "{e}");
 }
 
@@ -272,6 +300,91 @@ fn a_recording_is_matched_to_a_layout_by_taxel_id() {
 }
 
 #[test]
+fn icub_slots_that_taxel2repr_calls_no_taxel_are_dropped_and_noted() {
+    // Slot 1 is a thermal pad (-2) with a position, slot 3 unused (-1) and all zeros.
+    let text = "name t\ntaxel2Repr ( 0 -2 0\n -1 0 )\n[calibration]\n\
+        0 0 0.01 0 0 1\n0.005 0 0.01 0 0 1\n0.01 0 0.01 0 0 1\n0 0 0 0 0 0\n0 0.01 0.01 0 0 1\n";
+    let read = icub::parse(text, Path::new("t.txt"), icub::Duplicates::Merge).unwrap();
+    assert_eq!(read.skin.ids(), vec![TaxelId(0), TaxelId(2), TaxelId(4)]);
+    assert_eq!(
+        (read.not_taxels.clone(), read.zero_slots.clone()),
+        (vec![1], vec![3])
+    );
+    let notes: Vec<String> = read
+        .notes(Path::new("t.txt"))
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    assert!(notes[0].contains("5 taxel rows, 1 unused"), "{notes:?}");
+    assert!(
+        notes[1].contains("1 slot(s) with a position are no taxel") && notes[1].contains("[1]"),
+        "{notes:?}"
+    );
+}
+
+#[test]
+fn icub_taxels_without_normals_get_them_from_their_neighbours() {
+    // A half cylinder (radius 40 mm about x) given by positions only, as *_nomesh.txt files are.
+    let mut text = String::from("name nomesh\n[calibration]\n");
+    let mut truth = Vec::new();
+    for i in 0..12 {
+        for k in 0..12 {
+            let a = std::f64::consts::PI * k as f64 / 11.0;
+            text += &format!(
+                "{} {} {} 0 0 0\n",
+                i as f64 * 0.008,
+                0.04 * a.cos(),
+                0.04 * a.sin()
+            );
+            truth.push(nalgebra::Vector3::new(0.0, a.cos(), a.sin()));
+        }
+    }
+    let read = icub::parse(&text, Path::new("n.txt"), icub::Duplicates::Merge).unwrap();
+    assert_eq!(read.estimated_normals.len(), 144);
+    let angles: Vec<f64> = read
+        .skin
+        .taxels
+        .iter()
+        .zip(&truth)
+        .map(|(t, n)| t.normal.dot(n).clamp(-1.0, 1.0).acos().to_degrees())
+        .collect();
+    let worst = angles.iter().fold(0.0f64, |m, &a| m.max(a));
+    let mean = angles.iter().sum::<f64>() / angles.len() as f64;
+    // All outward; a border taxel's neighbours are on one side only, which tilts its normal.
+    assert!(
+        worst < 20.0 && mean < 5.0,
+        "from the outward normal: worst {worst:.1} deg, mean {mean:.2} deg"
+    );
+    let notes: Vec<String> = read
+        .notes(Path::new("n.txt"))
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("144 taxel(s) have an all-zero normal")),
+        "{notes:?}"
+    );
+}
+
+#[test]
+fn the_icub_torso_drops_its_thermal_pads() {
+    let Some(p) = shared("icub/torso.txt") else {
+        return;
+    };
+    let read = icub::read(&p, icub::Duplicates::Merge).unwrap();
+    // Slots 6 and 10 of each triangle are thermal pads (-2) with positions in this file.
+    assert!(!read.not_taxels.is_empty() && read.not_taxels.iter().all(|s| s % 12 == 6 || s % 12 == 10));
+    assert!(
+        read.skin
+            .taxels
+            .iter()
+            .all(|t| t.id.0 % 12 != 6 && t.id.0 % 12 != 10)
+    );
+}
+
+#[test]
 fn the_icub_forearm_reports_its_duplicates() {
     let Some(p) = shared("icub/left_forearm_V2.txt") else {
         return;
@@ -283,6 +396,7 @@ fn the_icub_forearm_reports_its_duplicates() {
     assert!(read.duplicates[0].slots.starts_with(&[3, 4, 5]));
     let rows = read.skin.taxels.len()
         + read.zero_slots.len()
+        + read.not_taxels.len()
         + read.duplicates.iter().map(|g| g.slots.len() - 1).sum::<usize>();
     assert_eq!(rows, 384);
     assert!(icub::read(&p, icub::Duplicates::Reject).is_err());

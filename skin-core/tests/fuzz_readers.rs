@@ -126,7 +126,7 @@ fn check_layout(text: &str) -> Result<(), TestCaseError> {
 }
 
 fn check_cyskin(text: &str) -> Result<(), TestCaseError> {
-    if let Ok(l) = cyskin::parse_skin(text, Path::new("patch.json")) {
+    if let Ok(l) = cyskin::parse_skin(text, Path::new("patch.json")).map(|n| n.value) {
         check_sane(&l)?;
     }
     if let Ok(m) = cyskin::parse_tactile_map(text, Path::new("map.json")) {

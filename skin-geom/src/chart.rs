@@ -2,9 +2,10 @@
 //!
 //! Delaunay triangulation needs the points in a plane. A skin patch on a link is close either to a
 //! plane or to a piece of a cylinder (forearm, upper arm). [`choose_chart`] picks the best-fit plane
-//! when every taxel normal is within 60 degrees of the plane normal (then projecting cannot fold the
-//! surface onto itself), and otherwise unrolls the best-fit cylinder: angle around the axis times
-//! the radius, and position along the axis.
+//! when the cloud is flat (thinner than 2% of its width, whatever its normals say) or every taxel
+//! normal is within 60 degrees of the plane normal (then projecting cannot fold the surface onto
+//! itself), and otherwise unrolls the best-fit cylinder: angle around the axis times the radius,
+//! and position along the axis.
 
 use crate::{Error, Result};
 use nalgebra::{Matrix3, Point2, Point3, SymmetricEigen, Unit, Vector3};
@@ -71,6 +72,18 @@ fn sorted_eigen(m: Matrix3<f64>, centroid: Point3<f64>) -> (Point3<f64>, [f64; 3
     (centroid, vals, vecs)
 }
 
+/// A cloud thinner than this share of its second principal extent (RMS) is taken as a plane.
+const FLAT_THICKNESS: f64 = 0.02;
+
+/// Whether the cloud is thinner than [`FLAT_THICKNESS`] of its second extent: a plane.
+pub(crate) fn is_flat(points: &[Point3<f64>]) -> bool {
+    is_flat_axes(&principal_axes(points).1)
+}
+
+fn is_flat_axes(vals: &[f64; 3]) -> bool {
+    vals[0] <= FLAT_THICKNESS * FLAT_THICKNESS * vals[1]
+}
+
 /// Checks that the cloud spans a surface, then returns the chart and each point's 2D coordinates.
 pub fn choose_chart(
     points: &[Point3<f64>],
@@ -95,7 +108,12 @@ pub fn choose_chart(
         plane_normal = -plane_normal;
     }
     let cos60 = 0.5;
-    let flat_enough = normals.iter().all(|n| n.dot(&plane_normal) >= cos60);
+    // The cloud's own geometry first: a cloud whose thickness (RMS distance to its best-fit
+    // plane) is under 2% of its second extent is a plane, whatever its normals say (real files
+    // give a flat foot sole normals that are not the plane's). Otherwise the plane serves when
+    // every normal is within 60 degrees of it (projecting cannot fold the surface then).
+    let flat = is_flat_axes(&vals);
+    let flat_enough = flat || normals.iter().all(|n| n.dot(&plane_normal) >= cos60);
     if flat_enough {
         return Ok((
             Chart::Plane {

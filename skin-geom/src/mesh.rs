@@ -61,6 +61,10 @@ pub struct MeshReport {
     pub bridging_faces: usize,
     /// Taxels that are in no triangle: their map point is extrapolated from the nearest triangle.
     pub isolated: Vec<TaxelId>,
+    /// Taxels of a flat cloud whose given normal is more than 60 degrees off the cloud's plane
+    /// (a flat foot sole with normals that are not the plane's): the mesh takes the plane's
+    /// normal at them instead.
+    pub normals_off_plane: Vec<TaxelId>,
 }
 
 /// Options for [`SkinMesh::build`].
@@ -127,7 +131,8 @@ impl SkinMesh {
         }
         let (taxel_vertex, vertex_taxel, welded) = weld(&positions, &ids);
         let vertices: Vec<Point3<f64>> = vertex_taxel.iter().map(|&t| positions[t]).collect();
-        let normals: Vec<Unit<Vector3<f64>>> = vertex_taxel.iter().map(|&t| link.taxels[t].normal).collect();
+        let mut normals: Vec<Unit<Vector3<f64>>> =
+            vertex_taxel.iter().map(|&t| link.taxels[t].normal).collect();
         if vertices.len() < 3 {
             return Err(Error::TooFewTaxels(format!(
                 "{} distinct taxel position(s) ({} taxels): a surface needs at least 3",
@@ -155,6 +160,19 @@ impl SkinMesh {
             }
             _ => {
                 let (chart, uv) = choose_chart(&vertices, &normals)?;
+                // A flat cloud is its plane, whatever its normals say: a normal far off the
+                // plane would make every triangle look as if it cut across the surface.
+                if let Chart::Plane { normal } = chart
+                    && crate::chart::is_flat(&vertices)
+                {
+                    let plane = Unit::new_normalize(Vector3::from(normal));
+                    for (v, n) in normals.iter_mut().enumerate() {
+                        if n.dot(&plane) < 0.5 {
+                            *n = plane;
+                            report.normals_off_plane.push(ids[vertex_taxel[v]]);
+                        }
+                    }
+                }
                 let faces = crate::triangulate::delaunay(&uv)?;
                 (faces, MeshSource::Triangulated { chart })
             }

@@ -265,11 +265,89 @@ fn sparse_lscm_matches_a_dense_least_squares_solve() {
 }
 
 #[test]
+fn a_flat_sole_is_a_plane_whatever_its_normals_say() {
+    // A flat patch whose file gives every taxel the normal +x, along the plane (the iCub foot
+    // soles' quirk): the chart comes from the points, so it is the plane, and nothing folds.
+    let mut sole = flat_grid(12, 8, 0.008);
+    for t in &mut sole.taxels {
+        t.normal = Unit::new_normalize(Vector3::x());
+    }
+    let map = flatten(&sole);
+    assert_eq!(
+        map.report.distortion.flipped_faces, 0,
+        "{}",
+        map.report.distortion
+    );
+    assert!(
+        matches!(
+            map.report.source,
+            Some(skin_geom::MeshSource::Triangulated {
+                chart: skin_geom::Chart::Plane { .. }
+            })
+        ),
+        "{:?}",
+        map.report.source
+    );
+    // Which side is outside, normals along the plane cannot say: the map is the patch, or its
+    // mirror image.
+    let xy = plane_xy(&sole);
+    let mirrored: Vec<Point2<f64>> = xy.iter().map(|p| Point2::new(-p.x, p.y)).collect();
+    let residual = rigid_residual(&xy, &map.points).min(rigid_residual(&mirrored, &map.points));
+    assert!(residual < 1e-9, "{residual}");
+    assert_eq!(
+        map.report.mesh.normals_off_plane.len(),
+        96,
+        "every normal was off the plane"
+    );
+}
+
+#[test]
+fn every_real_layout_in_the_shared_data_flattens_without_a_flip() {
+    let Some(root) = shared("") else {
+        return;
+    };
+    let mut files: Vec<_> = ["cyskin", "icub"]
+        .iter()
+        .flat_map(|d| {
+            std::fs::read_dir(root.join(d))
+                .unwrap()
+                .map(|e| e.unwrap().path())
+        })
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            (name.ends_with(".json") && !name.contains("isomap")) || name.ends_with(".txt")
+        })
+        .collect();
+    files.sort();
+    assert!(files.len() >= 6, "{files:?}");
+    for p in &files {
+        let link = skin_geom::read_link(p).unwrap_or_else(|e| panic!("{e}")).value;
+        let map = flatten(&link);
+        let d = map.report.distortion;
+        assert_eq!(d.flipped_faces, 0, "{}: {d}", p.display());
+        assert_eq!(map.ids.len(), link.taxels.len());
+    }
+    // The recorded patch: its 8 taxels with the placeholder id stay as dead mesh vertices.
+    let patch = skin_geom::read_link(&root.join("cyskin/curved_gesture_patch.json")).unwrap();
+    assert_eq!(patch.value.taxels.len(), 642);
+    assert_eq!(
+        patch
+            .value
+            .taxels
+            .iter()
+            .filter(|t| t.id.is_placeholder())
+            .count(),
+        8
+    );
+    assert_eq!(patch.notes.len(), 1, "{:?}", patch.notes);
+}
+
+#[test]
 fn the_cyskin_patch_flattens_far_better_than_its_isomap() {
     let Some(p) = shared("cyskin/ur10e_link1_patch1.json") else {
         return;
     };
-    let link = skin_core::format::cyskin::read_skin(&p).unwrap();
+    let link = skin_core::format::cyskin::read_skin(&p).unwrap().value;
     let map = flatten(&link);
     let d = map.report.distortion;
     assert_eq!(d.flipped_faces, 0, "{d}");

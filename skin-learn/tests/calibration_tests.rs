@@ -64,7 +64,7 @@ fn cyskin_patch(name: &str, seed: u64) {
     let Some(path) = shared_data::shared(name) else {
         return;
     };
-    let patch = skin_core::format::cyskin::read_skin(&path).unwrap();
+    let patch = skin_core::format::cyskin::read_skin(&path).unwrap().value;
     assert_eq!(patch.taxels.len(), 642);
     // 350 contacts per 61 taxels, as on the hexagonal patch.
     let contacts = 350 * 642 / 61;

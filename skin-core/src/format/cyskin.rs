@@ -13,6 +13,7 @@ use super::{check_link, make_taxel, read_text, write_text};
 use crate::{Error, LinkSkin, Result, TaxelId};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use std::collections::HashMap;
 use std::path::Path;
 
 #[derive(Deserialize)]
@@ -59,18 +60,20 @@ fn pressure() -> String {
     "pressure".into()
 }
 
-/// Reads the `skin` section of a Cyskin calibration file.
-pub fn read_skin(path: &Path) -> Result<LinkSkin> {
+/// Reads the `skin` section of a Cyskin calibration file, with the notes of what was done to
+/// read it (placeholder ids).
+pub fn read_skin(path: &Path) -> Result<super::Noted<LinkSkin>> {
     parse_skin(&read_text(path)?, path)
 }
 
-/// Parses the `skin` section of Cyskin calibration JSON; `path` is used in error messages.
-pub fn parse_skin(text: &str, path: &Path) -> Result<LinkSkin> {
+/// Parses the `skin` section of Cyskin calibration JSON; `path` is used in error messages and
+/// notes.
+pub fn parse_skin(text: &str, path: &Path) -> Result<super::Noted<LinkSkin>> {
     let value: serde_json::Value = serde_json::from_str(text).map_err(|e| Error::json(path, &e))?;
     from_value(value, path)
 }
 
-pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<LinkSkin> {
+pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super::Noted<LinkSkin>> {
     let file: File = match serde_json::from_value(value.clone()) {
         Ok(f) => f,
         Err(e) => {
@@ -101,8 +104,31 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<LinkSk
             format!("says {n} faces but the list has {}", faces.len()),
         ));
     }
+    // An id the file repeats tells no sensor apart: real Cyskin files give it (0, or 1) to
+    // mesh vertices without a known sensor. Each such taxel gets a placeholder id of its own.
+    let mut count: HashMap<u32, usize> = HashMap::new();
+    for t in &skin.taxels {
+        *count.entry(t.id).or_default() += 1;
+    }
+    let mut repeated: Vec<(u32, usize)> = count.into_iter().filter(|&(_, n)| n > 1).collect();
+    repeated.sort_unstable();
+    let placeholders: usize = repeated.iter().map(|&(_, n)| n).sum();
+    if placeholders > usize::from(u16::MAX) {
+        return Err(Error::invalid(
+            path,
+            "field \"skin.taxels\"",
+            format!("{placeholders} taxels share ids with others: too many for placeholder ids"),
+        ));
+    }
+    let mut next_placeholder = 0u16;
     let mut taxels = Vec::with_capacity(skin.taxels.len());
     for (i, t) in skin.taxels.iter().enumerate() {
+        let id = if repeated.iter().any(|&(id, _)| id == t.id) {
+            next_placeholder += 1;
+            TaxelId::placeholder(next_placeholder - 1)
+        } else {
+            TaxelId(t.id)
+        };
         let place = format!("taxel {} (skin.taxels[{i}])", t.id);
         if t.cut != 0 {
             return Err(Error::invalid(
@@ -118,7 +144,7 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<LinkSk
                 format!("taxel type \"{}\" is not supported (only \"pressure\")", t.kind),
             ));
         }
-        taxels.push(make_taxel(path, &place, TaxelId(t.id), t.x, t.n)?);
+        taxels.push(make_taxel(path, &place, id, t.x, t.n)?);
     }
     let frame_to_parent = skin
         .parent_frames
@@ -140,7 +166,15 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<LinkSk
         frame_to_parent,
     };
     check_link(path, &link)?;
-    Ok(link)
+    let notes = repeated
+        .into_iter()
+        .map(|(id, taxels)| super::Note::PlaceholderIds {
+            path: path.to_owned(),
+            id: TaxelId(id),
+            taxels,
+        })
+        .collect();
+    Ok(super::Noted { value: link, notes })
 }
 
 /// Serialises a link as a Cyskin calibration file (`info` + `skin`).

@@ -40,6 +40,12 @@ pub struct IcubPositions {
     pub zero_slots: Vec<usize>,
     /// Groups of slots with the same position.
     pub duplicates: Vec<DuplicateGroup>,
+    /// Slots with a position that the header's `taxel2Repr` says are not taxels (a negative
+    /// entry: a thermal pad, an unused slot), dropped.
+    pub not_taxels: Vec<usize>,
+    /// Taxels (slots) whose row gives a position and an all-zero normal: their normals are
+    /// estimated from the neighbouring taxels ([`crate::normals`]).
+    pub estimated_normals: Vec<usize>,
 }
 
 impl IcubPositions {
@@ -52,13 +58,25 @@ impl IcubPositions {
             .sum();
         let mut notes = vec![super::Note::IcubRows {
             path: path.to_owned(),
-            rows: self.skin.taxels.len() + self.zero_slots.len() + merged,
+            rows: self.skin.taxels.len() + self.zero_slots.len() + merged + self.not_taxels.len(),
             unused: self.zero_slots.clone(),
         }];
         if !self.duplicates.is_empty() {
             notes.push(super::Note::MergedDuplicates {
                 path: path.to_owned(),
                 groups: self.duplicates.clone(),
+            });
+        }
+        if !self.not_taxels.is_empty() {
+            notes.push(super::Note::NotTaxels {
+                path: path.to_owned(),
+                slots: self.not_taxels.clone(),
+            });
+        }
+        if !self.estimated_normals.is_empty() {
+            notes.push(super::Note::EstimatedNormals {
+                path: path.to_owned(),
+                taxels: self.estimated_normals.len(),
             });
         }
         notes
@@ -75,6 +93,9 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
     let mut name = String::new();
     let mut rows: Vec<(usize, [f64; 6])> = Vec::new();
     let mut in_calibration = false;
+    // `taxel2Repr ( r0 r1 ... )`: each slot's representative taxel, negative for a slot that is
+    // no taxel (-1 unused, -2 a thermal pad).
+    let (mut in_repr, mut repr_text) = (false, String::new());
     for (i, line) in text.lines().enumerate() {
         let lineno = i + 1;
         let trimmed = line.trim();
@@ -84,8 +105,17 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
         if !in_calibration {
             if trimmed == "[calibration]" {
                 in_calibration = true;
+            } else if let Some(rest) = trimmed.strip_prefix("taxel2Repr") {
+                in_repr = true;
+                repr_text.push_str(rest);
+            } else if in_repr {
+                repr_text.push(' ');
+                repr_text.push_str(trimmed);
             } else if let Some(rest) = trimmed.strip_prefix("name") {
                 name = rest.trim().to_string();
+            }
+            if in_repr && repr_text.contains(')') {
+                in_repr = false;
             }
             continue;
         }
@@ -124,8 +154,19 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
         return Err(Error::invalid(path, "header", "no [calibration] section"));
     }
 
+    let repr: Vec<i64> = repr_text
+        .trim()
+        .trim_start_matches('(')
+        .split(')')
+        .next()
+        .unwrap_or_default()
+        .split_whitespace()
+        .map(|v| v.parse::<i64>().unwrap_or(0))
+        .collect();
     let mut taxels = Vec::new();
     let mut zero_slots = Vec::new();
+    let mut not_taxels = Vec::new();
+    let mut estimated_normals = Vec::new();
     // Positions are written with a few decimals: group them on a 0.1 µm grid.
     let mut groups: HashMap<(i64, i64, i64), usize> = HashMap::new();
     let mut dup_groups: Vec<DuplicateGroup> = Vec::new();
@@ -135,14 +176,19 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
             zero_slots.push(slot);
             continue;
         }
+        if repr.get(slot).is_some_and(|&v| v < 0) {
+            not_taxels.push(slot);
+            continue;
+        }
         let place = format!("line {lineno} (taxel {slot})");
-        let taxel = make_taxel(
-            path,
-            &place,
-            TaxelId(slot as u32),
-            [r[0], r[1], r[2]],
-            [r[3], r[4], r[5]],
-        )?;
+        // A position with an all-zero normal: the normal is estimated once all are read.
+        let no_normal = r[3..].iter().all(|&v| v == 0.0);
+        let normal = if no_normal {
+            [0.0, 0.0, 1.0]
+        } else {
+            [r[3], r[4], r[5]]
+        };
+        let taxel = make_taxel(path, &place, TaxelId(slot as u32), [r[0], r[1], r[2]], normal)?;
         let k = (
             (r[0] * 1e7).round() as i64,
             (r[1] * 1e7).round() as i64,
@@ -151,6 +197,9 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
         match groups.get(&k) {
             None => {
                 groups.insert(k, slot);
+                if no_normal {
+                    estimated_normals.push(taxels.len());
+                }
                 taxels.push(taxel);
             }
             Some(&first) => {
@@ -165,6 +214,9 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
                 dup_groups[g].lines.push(*lineno);
                 if duplicates == Duplicates::Merge {
                     continue;
+                }
+                if no_normal {
+                    estimated_normals.push(taxels.len());
                 }
                 taxels.push(taxel);
             }
@@ -183,9 +235,25 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
             ),
         ));
     }
+    if !estimated_normals.is_empty() {
+        let positions: Vec<_> = taxels.iter().map(|t| t.position).collect();
+        let mut given: Vec<_> = taxels.iter().map(|t| Some(t.normal)).collect();
+        for &i in &estimated_normals {
+            given[i] = None;
+        }
+        let normals = crate::normals::estimate_normals(&positions, &given);
+        for &i in &estimated_normals {
+            taxels[i].normal = normals[i];
+        }
+    }
     Ok(IcubPositions {
+        estimated_normals: estimated_normals
+            .iter()
+            .map(|&i| taxels[i].id.0 as usize)
+            .collect(),
         skin: LinkSkin::new(name, taxels),
         zero_slots,
         duplicates: dup_groups,
+        not_taxels,
     })
 }

@@ -44,6 +44,33 @@ pub enum Note {
         /// The groups.
         groups: Vec<icub::DuplicateGroup>,
     },
+    /// Slots with a position that the file's own `taxel2Repr` says are not taxels (thermal
+    /// pads, unused slots), dropped.
+    NotTaxels {
+        /// The file.
+        path: PathBuf,
+        /// The slots.
+        slots: Vec<usize>,
+    },
+    /// Taxels given with an all-zero normal: each normal estimated from the surface of its
+    /// neighbouring taxels and oriented like its neighbours' ([`crate::normals`]).
+    EstimatedNormals {
+        /// The file.
+        path: PathBuf,
+        /// How many taxels.
+        taxels: usize,
+    },
+    /// Taxels carrying a placeholder id (a sensor not known, several taxels sharing the id):
+    /// each is kept as a vertex of the skin's mesh under an id of its own from
+    /// [`TaxelId::placeholder`], and carries no reading (a dead taxel).
+    PlaceholderIds {
+        /// The file.
+        path: PathBuf,
+        /// The id the file repeats.
+        id: TaxelId,
+        /// How many taxels carry it.
+        taxels: usize,
+    },
     /// A layout given where a tactile map was expected, flattened with the default options.
     Flattened {
         /// The layout file.
@@ -77,6 +104,29 @@ impl fmt::Display for Note {
                 }
                 Ok(())
             }
+            Note::NotTaxels { path, slots } => {
+                write!(
+                    f,
+                    "{}: {} slot(s) with a position are no taxel by the file's taxel2Repr (thermal pads, unused slots), dropped: {:?}",
+                    path.display(),
+                    slots.len(),
+                    &slots[..slots.len().min(12)]
+                )?;
+                if slots.len() > 12 {
+                    write!(f, " and {} more", slots.len() - 12)?;
+                }
+                Ok(())
+            }
+            Note::EstimatedNormals { path, taxels } => write!(
+                f,
+                "{}: {taxels} taxel(s) have an all-zero normal; each was estimated from its neighbours' surface and oriented like them",
+                path.display()
+            ),
+            Note::PlaceholderIds { path, id, taxels } => write!(
+                f,
+                "{}: {taxels} taxels carry the placeholder id {id} (no known sensor): kept as mesh vertices with ids of their own, no readings (dead taxels)",
+                path.display()
+            ),
             Note::Flattened {
                 path,
                 extent_m: (w, h),
@@ -151,7 +201,7 @@ pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
     }
     let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::json(path, &e))?;
     if value.get("skin").is_some() {
-        cyskin::from_value(value, path).map(Noted::clean)
+        cyskin::from_value(value, path)
     } else if value.get("links").is_some() {
         let layout = native::from_value(value, path)?;
         layout
@@ -160,6 +210,12 @@ pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
             .next()
             .map(Noted::clean)
             .ok_or_else(|| Error::invalid(path, "field \"links\"", "the layout has no link"))
+    } else if value.get("tactile_maps").is_some() {
+        Err(Error::invalid(
+            path,
+            "top level",
+            "a tactile map (already flat), not a layout: give it where a map is taken (e.g. skin image --map)",
+        ))
     } else {
         Err(Error::invalid(
             path,
