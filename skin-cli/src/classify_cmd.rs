@@ -1,8 +1,7 @@
 //! `skin classify`: hand or not, from tactile images, with an ONNX classifier (thesis Ch. 4.3).
 
 use crate::shared::{ModelInputs, input_scale, read_model_image};
-use anyhow::{Context, Result, bail};
-use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
+use anyhow::{Result, bail};
 use skin_learn::card::ModelCard;
 use skin_learn::classify::Classifier;
 
@@ -76,13 +75,12 @@ pub fn run(args: Args) -> Result<()> {
         }
         Some(map_path) => {
             let map = crate::shared::load_map(map_path)?;
-            let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
-                .with_context(|| format!("{}", map_path.display()))?;
-            let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::shared::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
+            let (inputs, maps) =
+                crate::shared::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
+            let mut imagers = crate::shared::model_imagers(&maps, (h, w), map_path)?;
             let quiet = crate::shared::each_touched_frame(
                 &inputs,
-                &mut imager,
+                &mut imagers,
                 args.run.threshold as f32,
                 |input, f, _, grey| {
                     let name = format!(

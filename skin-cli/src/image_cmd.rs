@@ -86,12 +86,16 @@ pub fn run(args: Args) -> Result<()> {
         }
         (Norm::ContactMax, _) => Normalisation::ContactMax,
     };
-    let raster = Rasterizer::new(&map, grid).with_context(|| format!("{}", args.map.display()))?;
-    let imager = TactileImager::new(raster, norm, args.morph, args.size)?;
-    let (out_rows, out_cols) = imager.output_size();
-
     let threshold = args.threshold as f32;
-    let inputs = load_inputs(&args.frames, &map, out.path())?;
+    let (inputs, maps) = load_inputs(&args.frames, &map, out.path())?;
+    let imagers = maps
+        .iter()
+        .map(|m| {
+            let raster = Rasterizer::new(m, grid).with_context(|| format!("{}", args.map.display()))?;
+            Ok(TactileImager::new(raster, norm, args.morph, args.size)?)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (out_rows, out_cols) = imagers[0].output_size();
     let total: usize = inputs.iter().map(|i| i.rec.frames.len()).sum();
     for input in &inputs {
         std::fs::create_dir_all(&input.dir)
@@ -111,14 +115,17 @@ pub fn run(args: Args) -> Result<()> {
         .flat_map(|(i, input)| (0..input.rec.frames.len()).map(move |f| (i, f)))
         .collect();
     jobs.par_iter().try_for_each_init(
-        || (imager.clone(), vec![0.0f32; map.ids.len()]),
-        |(imager, pressures), &(i, f)| -> Result<()> {
+        || (imagers.clone(), vec![0.0f32; map.ids.len()]),
+        |(imagers, pressures), &(i, f)| -> Result<()> {
             let input = &inputs[i];
+            let imager = &mut imagers[input.map];
+            let (rows, cols) = imager.output_size();
+            let pressures = &mut pressures[..imager.raster().taxel_count()];
             let values = &input.rec.frames[f].values;
             input.columns.gather(values, threshold, pressures);
             let grey = imager.process(pressures)?;
             let path = input.dir.join(&input.names[f]);
-            let png = skin_geom::encode_png(grey, out_rows, out_cols)
+            let png = skin_geom::encode_png(grey, rows, cols)
                 .with_context(|| format!("cannot encode {}", input.names[f]))?;
             std::fs::write(&path, &png)
                 .with_context(|| format!("cannot write {} in {}", input.names[f], args.output.display()))?;

@@ -117,6 +117,13 @@ pub fn run(args: Args) -> Result<()> {
     for note in session.layout_notes() {
         crate::say!("{note}");
     }
+    let uncovered = session.uncovered();
+    if let Some((link, id)) = uncovered.first() {
+        crate::say!(
+            "{} layout taxel(s) are on no bus of the bus map (first: taxel {id} of link \"{link}\"): dead, they never read",
+            uncovered.len()
+        );
+    }
     session.set_frame_images(args.frames);
     let mut out = match &args.output {
         Some(d) => Some(crate::output::open_dir(d, "skin run", args.force, &inputs)?),

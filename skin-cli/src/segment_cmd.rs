@@ -1,7 +1,6 @@
 //! `skin segment`: which hand part pressed where, with an ONNX segmenter (thesis Ch. 4.4).
 
 use anyhow::{Context, Result};
-use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
 use skin_learn::parts::{Shares, part_contacts};
 use skin_learn::segment::Segmenter;
 use std::path::{Path, PathBuf};
@@ -74,19 +73,17 @@ pub fn run(args: Args) -> Result<()> {
         }
         Some(map_path) => {
             let map = crate::shared::load_map(map_path)?;
-            let raster = Rasterizer::new(&map, Grid::StepMm(1.0))
-                .with_context(|| format!("{}", map_path.display()))?;
-            let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((h, w)))?;
-            let inputs = crate::shared::load_inputs(&args.run.inputs, &map, out.path())?;
-            // The per-part table needs the grid while the imager is busy.
-            let raster = imager.raster().clone();
+            let (inputs, maps) = crate::shared::load_inputs(&args.run.inputs, &map, out.path())?;
+            let mut imagers = crate::shared::model_imagers(&maps, (h, w), map_path)?;
+            // The per-part table needs the grids while the imagers are busy.
+            let rasters: Vec<_> = imagers.iter().map(|i| i.raster().clone()).collect();
             for input in &inputs {
                 std::fs::create_dir_all(&input.dir)
                     .with_context(|| format!("cannot write into {}", args.output.display()))?;
             }
             let quiet = crate::shared::each_touched_frame(
                 &inputs,
-                &mut imager,
+                &mut imagers,
                 args.run.threshold as f32,
                 |input, f, pressures, grey| {
                     let number = input.rec.frame_numbers[f];
@@ -100,7 +97,8 @@ pub fn run(args: Args) -> Result<()> {
                         Shares::of(&labels)
                     );
                     crate::say!("  part     taxels  mean reading   centroid x, y, z (mm)");
-                    for pc in part_contacts(&map, &raster, (h, w), &labels, pressures) {
+                    for pc in part_contacts(&maps[input.map], &rasters[input.map], (h, w), &labels, pressures)
+                    {
                         let c = pc.centroid.map_or("-".to_string(), |c| {
                             format!("{:.1}, {:.1}, {:.1}", 1e3 * c.x, 1e3 * c.y, 1e3 * c.z)
                         });

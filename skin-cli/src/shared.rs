@@ -2,7 +2,7 @@
 //! take them, the images a model reads, the names images get, and the CAN traffic tallies of
 //! `replay` and `live`. A command imports from here, never from another command.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use skin_can::live::{CanPort, Live, LiveFrames, LiveOptions};
 use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
@@ -52,20 +52,24 @@ pub(crate) struct Input {
     pub(crate) columns: Columns,
     /// Each frame's image file name ([`Recording::frame_stems`], `.png`).
     pub(crate) names: Vec<String>,
+    /// Its map, in the maps [`load_inputs`] returns: the map given, or that map without the
+    /// taxels the recording has no column for (dead taxels, re-triangulated over).
+    pub(crate) map: usize,
 }
 
 /// Runs `each(input, frame, pressures, grey)` on every frame of `inputs` with a reading above
-/// `threshold` (readings at or below it count as zero), imaged by `imager`; returns how many
-/// frames had no contact.
+/// `threshold` (readings at or below it count as zero), imaged by `imagers[input.map]`; returns
+/// how many frames had no contact.
 pub(crate) fn each_touched_frame(
     inputs: &[Input],
-    imager: &mut TactileImager,
+    imagers: &mut [TactileImager],
     threshold: f32,
     mut each: impl FnMut(&Input, usize, &[f32], &[u8]) -> Result<()>,
 ) -> Result<usize> {
-    let mut pressures = vec![0.0f32; imager.raster().taxel_count()];
     let mut quiet = 0usize;
     for input in inputs {
+        let imager = &mut imagers[input.map];
+        let mut pressures = vec![0.0f32; imager.raster().taxel_count()];
         for (f, frame) in input.rec.frames.iter().enumerate() {
             if !input.columns.gather(&frame.values, threshold, &mut pressures) {
                 quiet += 1;
@@ -76,6 +80,27 @@ pub(crate) fn each_touched_frame(
         }
     }
     Ok(quiet)
+}
+
+/// The imagers of a model's input (`size`: rows, cols) for `maps`: 1 mm grid, erosion and
+/// dilation, as the classifier and the segmenter were trained on.
+pub(crate) fn model_imagers(
+    maps: &[TactileMap],
+    size: (usize, usize),
+    map_path: &Path,
+) -> Result<Vec<TactileImager>> {
+    maps.iter()
+        .map(|m| {
+            let raster = skin_geom::Rasterizer::new(m, skin_geom::Grid::StepMm(1.0))
+                .with_context(|| format!("{}", map_path.display()))?;
+            Ok(TactileImager::new(
+                raster,
+                skin_geom::Normalisation::ContactMax,
+                true,
+                Some(size),
+            )?)
+        })
+        .collect()
 }
 
 /// One output name per input: its file stem, prefixed with its folder's name where two inputs
@@ -117,53 +142,77 @@ pub(crate) fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
 
 /// Reads the recordings and maps their columns onto the map's taxels; names each output folder
 /// after the recording (with its parent folder when two recordings share a name).
-pub(crate) fn load_inputs(paths: &[PathBuf], map: &TactileMap, out: &Path) -> Result<Vec<Input>> {
+pub(crate) fn load_inputs(
+    paths: &[PathBuf],
+    map: &TactileMap,
+    out: &Path,
+) -> Result<(Vec<Input>, Vec<TactileMap>)> {
     let names = output_names(paths)?;
     let mut inputs = Vec::with_capacity(paths.len());
+    let mut maps = vec![map.clone()];
+    // One reduced map per set of missing taxels (recordings of one rig share theirs).
+    let mut reduced: HashMap<Vec<TaxelId>, usize> = HashMap::new();
     for (p, name) in paths.iter().zip(names) {
         let rec = recording::read(p)?;
-        let (columns, names) = columns_and_names(p, &rec, &map.ids)?;
+        let full = rec.columns(&map.ids);
+        if full.ignored > 0 {
+            crate::say!(
+                "{}: {} reading column(s) are not taxels of the map and are ignored",
+                p.display(),
+                full.ignored
+            );
+        }
+        if full.missing.len() == map.ids.len() {
+            bail!(
+                "{}: none of the map's {} taxels is in the recording (first: {}); is it a recording of this link?",
+                p.display(),
+                map.ids.len(),
+                map.ids.first().map_or(0, |id| id.0)
+            );
+        }
+        let (k, columns) = if full.missing.is_empty() {
+            (0, full)
+        } else {
+            let placeholders = full.missing.iter().filter(|id| id.is_placeholder()).count();
+            crate::say!(
+                "{}: {} taxel(s) of the map have no column in the recording ({placeholders} of them placeholders; first: {}): dead, images interpolate across them",
+                p.display(),
+                full.missing.len(),
+                full.missing[0]
+            );
+            let k =
+                match reduced.get(&full.missing) {
+                    Some(&k) => k,
+                    None => {
+                        let dead: Vec<usize> = (0..map.ids.len())
+                            .filter(|&i| full.of_taxel[i].is_none())
+                            .collect();
+                        maps.push(skin_geom::faults::without_taxels(map, &dead).with_context(|| {
+                            format!("{}: the map without the taxels it lacks", p.display())
+                        })?);
+                        reduced.insert(full.missing.clone(), maps.len() - 1);
+                        maps.len() - 1
+                    }
+                };
+            (k, rec.columns(&maps[k].ids))
+        };
+        let (stems, repeats) = rec.frame_stems();
+        if repeats > 0 {
+            crate::say!(
+                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
+                p.display()
+            );
+        }
         inputs.push(Input {
             path: p.clone(),
             dir: out.join(name),
             rec,
             columns,
-            names: names.into_iter().map(|s| s + ".png").collect(),
+            names: stems.into_iter().map(|s| s + ".png").collect(),
+            map: k,
         });
     }
-    Ok(inputs)
-}
-
-/// The recording at `path`'s columns for the taxels `ids` (an error if one is not recorded) and
-/// its frames' file stems, with what was ignored or renamed said.
-pub(crate) fn columns_and_names(
-    path: &Path,
-    rec: &Recording,
-    ids: &[TaxelId],
-) -> Result<(Columns, Vec<String>)> {
-    let columns = rec.columns(ids);
-    if let Some(first) = columns.missing.first() {
-        bail!(
-            "{}: {} taxel(s) of the map are not in the recording (first: {first}); is it a recording of this link?",
-            path.display(),
-            columns.missing.len(),
-        );
-    }
-    if columns.ignored > 0 {
-        crate::say!(
-            "{}: {} reading column(s) are not taxels of the map and are ignored",
-            path.display(),
-            columns.ignored
-        );
-    }
-    let (stems, repeats) = rec.frame_stems();
-    if repeats > 0 {
-        crate::say!(
-            "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
-            path.display()
-        );
-    }
-    Ok((columns, stems))
+    Ok((inputs, maps))
 }
 
 /// Reads the postures of `poses`, which must name the links of `layout` (`names`), in order.

@@ -193,10 +193,61 @@ fn a_recording_of_another_link_is_refused_and_nothing_is_written() {
     let (_, err) = text(&o);
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        err.contains("other.txt") && err.contains("not in the recording"),
+        err.contains("other.txt") && err.contains("is in the recording"),
         "{err}"
     );
     assert!(!out.exists());
+}
+
+#[test]
+fn a_recording_that_lacks_some_taxels_images_across_them() {
+    // The fixture recording without the columns of three taxels: they are dead, reported once,
+    // and the images are made over the map without them (Test B's re-triangulation).
+    let dir = tempfile::tempdir().unwrap();
+    let full = std::fs::read_to_string(fixture("touches.txt")).unwrap();
+    let drop = [5usize, 100, 300];
+    let cut: String = full
+        .lines()
+        .enumerate()
+        .map(|(n, l)| {
+            let fields: Vec<&str> = l.split_whitespace().collect();
+            // Line 1 is the ids; the others start with the frame index and the time.
+            let skip = if n == 0 { 0 } else { 2 };
+            fields
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !(*k >= skip && drop.contains(&(k - skip))))
+                .map(|(_, f)| *f)
+                .collect::<Vec<_>>()
+                .join(" ")
+                + "\n"
+        })
+        .collect();
+    let rec = dir.path().join("partial.txt");
+    std::fs::write(&rec, cut).unwrap();
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "image",
+        "--map",
+        &fixture("layout.json"),
+        rec.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "68x100",
+        "-q",
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        stdout
+            .matches("3 taxel(s) of the map have no column in the recording")
+            .count(),
+        1,
+        "{stdout}"
+    );
+    let frames = full.lines().count() - 1;
+    assert_eq!(std::fs::read_dir(out.join("partial")).unwrap().count(), frames);
 }
 
 #[test]

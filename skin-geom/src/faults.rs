@@ -99,45 +99,64 @@ impl Decimation {
 
     /// The map of the surviving taxels, re-triangulated in the map plane.
     pub fn apply(&self, map: &TactileMap) -> Result<TactileMap> {
-        let keep = self.survivors(map.points.len())?;
-        if keep.len() < 3 {
-            return Err(Error::TooFewTaxels(format!(
-                "{} taxels survive: a map needs at least 3",
-                keep.len()
-            )));
-        }
-        let points: Vec<Point2<f64>> = keep.iter().map(|&i| map.points[i]).collect();
-        let skin = FaceGrid::new(map);
-        let mut faces = Vec::new();
-        for t in delaunay(&points)? {
-            let [a, b, c] = t.map(|i| points[i]);
-            let centroid = Point2::from((a.coords + b.coords + c.coords) / 3.0);
-            if (b - a).perp(&(c - a)) > 0.0 && skin.contains(&centroid) {
-                faces.push(t);
-            }
-        }
-        let mut new_index = vec![usize::MAX; map.points.len()];
-        for (k, &i) in keep.iter().enumerate() {
-            new_index[i] = k;
-        }
-        Ok(TactileMap {
-            name: map.name.clone(),
-            ids: keep.iter().map(|&i| map.ids[i]).collect(),
-            positions: if map.positions.is_empty() {
-                Vec::new()
-            } else {
-                keep.iter().map(|&i| map.positions[i]).collect()
-            },
-            points,
-            faces,
-            report: map.report.clone(),
-            zeroed: map
-                .zeroed
-                .iter()
-                .filter_map(|&i| (new_index[i] != usize::MAX).then_some(new_index[i]))
-                .collect(),
-        })
+        keep_only(map, &self.survivors(map.points.len())?)
     }
+}
+
+/// The map without the taxels at `dead` (indices into its taxels): dead taxels (no reading in a
+/// recording, no bus slot, a placeholder id) are handled as Test B handles removed ones, the
+/// survivors re-triangulated in the map plane where the map had skin, so an image interpolates
+/// across a dead taxel instead of showing a hole. Indices out of range are ignored.
+pub fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
+    let mut is_dead = vec![false; map.points.len()];
+    for &i in dead {
+        if let Some(d) = is_dead.get_mut(i) {
+            *d = true;
+        }
+    }
+    let keep: Vec<usize> = (0..map.points.len()).filter(|&i| !is_dead[i]).collect();
+    keep_only(map, &keep)
+}
+
+/// The map of the taxels `keep` (increasing indices), re-triangulated in the map plane.
+fn keep_only(map: &TactileMap, keep: &[usize]) -> Result<TactileMap> {
+    if keep.len() < 3 {
+        return Err(Error::TooFewTaxels(format!(
+            "{} taxels survive: a map needs at least 3",
+            keep.len()
+        )));
+    }
+    let points: Vec<Point2<f64>> = keep.iter().map(|&i| map.points[i]).collect();
+    let skin = FaceGrid::new(map);
+    let mut faces = Vec::new();
+    for t in delaunay(&points)? {
+        let [a, b, c] = t.map(|i| points[i]);
+        let centroid = Point2::from((a.coords + b.coords + c.coords) / 3.0);
+        if (b - a).perp(&(c - a)) > 0.0 && skin.contains(&centroid) {
+            faces.push(t);
+        }
+    }
+    let mut new_index = vec![usize::MAX; map.points.len()];
+    for (k, &i) in keep.iter().enumerate() {
+        new_index[i] = k;
+    }
+    Ok(TactileMap {
+        name: map.name.clone(),
+        ids: keep.iter().map(|&i| map.ids[i]).collect(),
+        positions: if map.positions.is_empty() {
+            Vec::new()
+        } else {
+            keep.iter().map(|&i| map.positions[i]).collect()
+        },
+        points,
+        faces,
+        report: map.report.clone(),
+        zeroed: map
+            .zeroed
+            .iter()
+            .filter_map(|&i| (new_index[i] != usize::MAX).then_some(new_index[i]))
+            .collect(),
+    })
 }
 
 /// The map's triangles bucketed on a uniform grid of about one cell per triangle, so that

@@ -239,3 +239,44 @@ proptest! {
         prop_assert!(fewer.iter().all(|i| more.contains(i)));
     }
 }
+
+#[test]
+fn a_dead_taxel_is_imaged_across_not_as_a_hole() {
+    let map = forearm();
+    // An interior taxel: the one nearest the map's centre.
+    let (lo, hi) = map.bounds();
+    let centre = nalgebra::Point2::from((lo.coords + hi.coords) / 2.0);
+    let dead = (0..map.points.len())
+        .min_by(|&a, &b| {
+            (map.points[a] - centre)
+                .norm()
+                .total_cmp(&(map.points[b] - centre).norm())
+        })
+        .unwrap();
+    let without = skin_geom::faults::without_taxels(map, &[dead]).unwrap();
+    assert_eq!(without.ids.len(), map.ids.len() - 1);
+    assert!(!without.ids.contains(&map.ids[dead]));
+    assert_eq!(without.report.distortion.flipped_faces, 0);
+    // The same pressure everywhere: over the map without the dead taxel the image stays that
+    // pressure at the dead taxel's place; over the full map, the dead taxel read 0 dips there.
+    let pixel_at = |m: &TactileMap, values: &[f32]| {
+        let mut r = Rasterizer::new(m, Grid::StepMm(1.0)).unwrap();
+        let mut image = vec![0.0f32; r.len()];
+        r.render(values, &mut image).unwrap();
+        let (row, col) = r.pixel_of(map.points[dead]).unwrap();
+        image[row * r.cols() + col]
+    };
+    let mut holed = vec![100.0f32; map.ids.len()];
+    holed[dead] = 0.0;
+    assert!(
+        pixel_at(map, &holed) < 50.0,
+        "the full map shows the dead taxel as a dip"
+    );
+    let across = pixel_at(&without, &vec![100.0f32; without.ids.len()]);
+    assert!((across - 100.0).abs() < 1e-3, "{across}");
+    // Nothing dead: the same taxels; indices out of range are ignored.
+    assert_eq!(
+        skin_geom::faults::without_taxels(map, &[usize::MAX]).unwrap().ids,
+        map.ids
+    );
+}

@@ -95,3 +95,20 @@ fn a_module_lost_for_half_a_second_is_reported_frame_by_frame_and_loses_no_touch
     let summary = session.summary(span).to_string();
     assert!(summary.contains("20 of 20 scripted touches found"), "{summary}");
 }
+
+#[test]
+fn a_layout_taxel_on_no_bus_is_reported() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
+    let mut config = SessionConfig::read(&root.join("session/run.toml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    // The fixture bus map with taxel 16's slot left empty (-1).
+    let busmap = std::fs::read_to_string(root.join("forearm/busmap.toml")).unwrap();
+    assert!(busmap.contains("[16, "));
+    let busmap_path = dir.path().join("busmap.toml");
+    std::fs::write(&busmap_path, busmap.replacen("[16, ", "[-1, ", 1)).unwrap();
+    config.busmap = busmap_path;
+    let session = Session::from_config(&config).unwrap();
+    assert_eq!(session.uncovered(), [("forearm", skin_core::TaxelId(16))]);
+    let (full, _, _) = fixture_session();
+    assert!(full.uncovered().is_empty());
+}

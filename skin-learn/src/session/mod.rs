@@ -534,6 +534,19 @@ impl Session {
         self.options.frame_images = on;
     }
 
+    /// The layout's taxels that no slot of the bus map covers, per link name, in layout
+    /// order: they never get a reading (dead taxels). Empty without CAN input.
+    pub fn uncovered(&self) -> Vec<(&str, skin_core::TaxelId)> {
+        let Some(can) = &self.can else {
+            return Vec::new();
+        };
+        can.layout
+            .uncovered()
+            .iter()
+            .map(|&(l, i)| (self.links[l].name.as_str(), self.links[l].taxels[i].id))
+            .collect()
+    }
+
     /// What reading the configuration's layout file did to make it usable (dropped rows, merged
     /// taxels, ...): warnings to pass on. Empty for a session built from code.
     pub fn layout_notes(&self) -> &[skin_core::format::Note] {
