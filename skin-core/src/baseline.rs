@@ -2,11 +2,13 @@
 //!
 //! A capacitive taxel reads a no-contact offset that differs from taxel to taxel and drifts
 //! slowly with temperature. [`Baseline::from_idle`] learns each taxel's offset and noise from
-//! frames recorded without contact; [`Baseline::apply`] then turns every raw frame into pressures:
-//! the reading's distance from the offset in the direction pressure moves it, zero when within the
-//! noise threshold (the active-set threshold eps of thesis Ch. 9.2.1, per taxel). While a taxel is
-//! not in contact its offset follows the reading slowly, so drift is tracked without eating into
-//! a touch (the iCub skin manager's compensation works the same way).
+//! frames recorded without contact (the threshold: 6 standard deviations of the taxel's idle
+//! readings, or of the link's 90th-percentile taxel's when larger; see [`BaselineOptions`]);
+//! [`Baseline::apply`] then turns every raw frame into pressures: the reading's distance from
+//! the offset in the direction pressure moves it, zero when within the noise threshold (the
+//! active-set threshold eps of thesis Ch. 9.2.1, per taxel). While a taxel is not in contact
+//! its offset follows the reading slowly, so drift is tracked without eating into a touch (the
+//! iCub skin manager's compensation works the same way).
 //!
 //! The same idle frames show taxels that cannot be trusted: no variation at all (dead), or
 //! pinned at a rail of the converter (stuck). They are listed so that a map can be rebuilt
@@ -30,8 +32,14 @@ pub enum Polarity {
 pub struct BaselineOptions {
     /// Which way pressure moves a reading.
     pub polarity: Polarity,
-    /// The noise threshold is this many standard deviations of the idle readings (default 3).
+    /// The noise threshold is this many standard deviations of the idle readings (default 6).
     pub noise_sigmas: f32,
+    /// ...of the taxel's own idle readings, or of the link's taxel at this quantile of the
+    /// link's standard deviations, whichever is larger (default 0.9). A few idle frames
+    /// underestimate a taxel that happened to sit still: on the real Cyskin recordings, the
+    /// median taxel's deviation over 5 idle frames is 55 counts, the 90th percentile's 260 to
+    /// 310, and idle readings reach 1,000 to 3,700 counts above their mean later on.
+    pub noise_floor_quantile: f32,
     /// ...and at least this, in reading units (default 1).
     pub min_noise: f32,
     /// Fraction of the gap between reading and offset closed per frame while not in contact
@@ -46,7 +54,8 @@ impl Default for BaselineOptions {
     fn default() -> Self {
         BaselineOptions {
             polarity: Polarity::Rising,
-            noise_sigmas: 3.0,
+            noise_sigmas: 6.0,
+            noise_floor_quantile: 0.9,
             min_noise: 1.0,
             drift_per_frame: 0.01,
             rails: (0.0, 65535.0),
@@ -234,10 +243,25 @@ impl IdleStats {
             ));
         }
         let mut health = TaxelHealth::default();
+        let sds: Vec<f32> = self
+            .m2
+            .iter()
+            .map(|m2| (m2 / (n - 1) as f64).sqrt() as f32)
+            .collect();
+        // The link's own noise level: its taxels' deviations at the quantile (a dead taxel's
+        // zero counts among them; the quantile keeps a few noisy ones from setting it).
+        let floor = {
+            let mut sorted = sds.clone();
+            sorted.sort_by(f32::total_cmp);
+            let q = options.noise_floor_quantile.clamp(0.0, 1.0);
+            sorted
+                .get(((sorted.len().saturating_sub(1)) as f32 * q).round() as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
         let mut noise = Vec::with_capacity(self.mean.len());
-        for i in 0..self.mean.len() {
-            let sd = (self.m2[i] / (n - 1) as f64).sqrt() as f32;
-            noise.push((options.noise_sigmas * sd).max(options.min_noise));
+        for (i, &sd) in sds.iter().enumerate() {
+            noise.push((options.noise_sigmas * sd.max(floor)).max(options.min_noise));
             let (lo, hi) = (self.lo[i], self.hi[i]);
             if lo <= options.rails.0 && hi <= options.rails.0 || lo >= options.rails.1 {
                 health.stuck.push(i);

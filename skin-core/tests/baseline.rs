@@ -26,16 +26,42 @@ fn learn(frames: &[Vec<f32>], options: &BaselineOptions) -> (Baseline, skin_core
 }
 
 #[test]
-fn offsets_are_the_idle_means_and_noise_is_three_sigma() {
+fn offsets_are_the_idle_means_and_noise_is_six_sigma_of_the_taxel_or_the_link() {
     let (b, health) = learn(&idle(40), &BaselineOptions::default());
     assert_eq!(b.len(), 6);
     assert!((b.offsets()[2] - 1020.0).abs() < 1e-3);
     // Readings -2, 0, 2, 0 repeating: sample sd = sqrt(2 * 40 / 39).
     let sd = (2.0f32 * 40.0 / 39.0).sqrt();
-    assert!((b.noise()[0] - 3.0 * sd).abs() < 1e-3, "{}", b.noise()[0]);
-    assert_eq!(b.noise()[3], 1.0, "a quiet taxel gets the minimum threshold");
+    assert!((b.noise()[0] - 6.0 * sd).abs() < 1e-3, "{}", b.noise()[0]);
+    // A taxel that sat still gets the link's noise (its 90th-percentile taxel's), not zero.
+    assert!((b.noise()[3] - 6.0 * sd).abs() < 1e-3, "{}", b.noise()[3]);
     assert_eq!(health.dead, vec![3]);
     assert_eq!(health.stuck, vec![4]);
+    // Without the link's floor, only the minimum is left for it.
+    let own = BaselineOptions {
+        noise_floor_quantile: 0.0,
+        ..BaselineOptions::default()
+    };
+    assert_eq!(learn(&idle(40), &own).0.noise()[3], 1.0);
+}
+
+#[test]
+fn a_few_noisy_taxels_do_not_set_the_links_floor() {
+    // 20 taxels: 18 wobble by +-1, 2 by +-100. The floor is the 90th-percentile taxel's: +-1.
+    let frames: Vec<Vec<f32>> = (0..10)
+        .map(|k| {
+            (0..20)
+                .map(|i| {
+                    let w = if k % 2 == 0 { 1.0 } else { -1.0 };
+                    1000.0 + w * if i < 2 { 100.0 } else { 1.0 }
+                })
+                .collect()
+        })
+        .collect();
+    let (b, _) = learn(&frames, &BaselineOptions::default());
+    let sd = |a: f32| a * (10.0f32 / 9.0).sqrt();
+    assert!((b.noise()[0] - 6.0 * sd(100.0)).abs() < 1e-2, "{}", b.noise()[0]);
+    assert!((b.noise()[5] - 6.0 * sd(1.0)).abs() < 1e-3, "{}", b.noise()[5]);
 }
 
 #[test]
@@ -44,7 +70,7 @@ fn pressures_are_readings_above_the_offset_beyond_the_noise() {
     let raw = [
         1000.0 + 3.0,
         1010.0 + 300.0,
-        1020.0 + 5.0,
+        1020.0 + 10.0,
         500.0,
         65535.0,
         1050.0 - 40.0,
@@ -53,7 +79,7 @@ fn pressures_are_readings_above_the_offset_beyond_the_noise() {
     b.apply(&raw, &mut p).unwrap();
     assert_eq!(p[0], 0.0, "3 counts is within the noise");
     assert!((p[1] - 300.0).abs() < 1e-3);
-    assert!((p[2] - 5.0).abs() < 1e-3, "5 counts is beyond 3 sigma (4.3)");
+    assert!((p[2] - 10.0).abs() < 1e-3, "10 counts is beyond 6 sigma (8.6)");
     assert_eq!(
         p[5], 0.0,
         "pressure does not lower a Cyskin reading: no negative pressures"
@@ -156,4 +182,52 @@ fn the_learner_gives_what_from_idle_gives_and_a_bad_frame_changes_nothing() {
     for frames in [0, 1, 100_001] {
         assert!(BaselineLearner::new(&[6], frames, BaselineOptions::default()).is_err());
     }
+}
+
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+
+/// For each real Cyskin recording of `fingers` fingers: whether, with the baseline of its first
+/// 5 frames (default options), any later frame presses 2 taxels or more.
+fn pressed_recordings(fingers: usize) -> Option<Vec<bool>> {
+    let dir = shared_data::shared(&format!("cyskin/recordings/{fingers}_finger"))?;
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    Some(
+        files
+            .iter()
+            .map(|f| {
+                let rec = skin_core::format::recording::read(f).unwrap();
+                let idle = rec.frames[..5].iter().map(|fr| fr.values.as_slice());
+                let (mut b, _) = Baseline::from_idle(idle, &BaselineOptions::default(), f).unwrap();
+                let mut p = vec![0.0f32; rec.taxel_ids.len()];
+                rec.frames[5..].iter().any(|fr| {
+                    b.apply(&fr.values, &mut p).unwrap();
+                    p.iter().filter(|&&v| v > 0.0).count() >= 2
+                })
+            })
+            .collect(),
+    )
+}
+
+#[test]
+fn on_the_real_recordings_nobody_touching_presses_nothing_and_a_finger_does() {
+    let (Some(none), Some(one)) = (pressed_recordings(0), pressed_recordings(1)) else {
+        return;
+    };
+    let share = |v: &[bool]| v.iter().filter(|&&p| p).count() as f64 / v.len() as f64;
+    // Idle noise reaches 1,000 to 3,700 counts on these; presses 5,000 to 13,000.
+    assert!(
+        share(&none) <= 0.05,
+        "{:.0}% of the 0-finger recordings press 2 taxels",
+        100.0 * share(&none)
+    );
+    assert!(
+        share(&one) >= 0.9,
+        "{:.0}% of the 1-finger recordings press 2 taxels",
+        100.0 * share(&one)
+    );
 }

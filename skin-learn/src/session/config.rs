@@ -11,10 +11,13 @@
 //! cache = ".skin-cache"           # tactile maps, made on first use; default as shown
 //! truth = "session.tsv"           # optional: the scripted touches, to score the run
 //! [baseline]
-//! frames = 20                     # untouched frames at the start that learn offsets
+//! frames = 20                     # untouched frames at the start that learn offsets and
+//!                                 # noise (a taxel reads pressure only beyond 6 standard
+//!                                 # deviations of its idle readings, or of the link's
+//!                                 # 90th-percentile taxel's when larger)
 //! polarity = "rising"             # "falling" for iCub (255 = no load)
 //! [touch]
-//! threshold = 5.0                 # counts above the baseline that press a taxel
+//! threshold = 5.0                 # counts above the baseline (and the noise) that press
 //! min_taxels = 2
 //! decide_frames = 3               # frames of contact before the first decision
 //! release_frames = 2              # frames without contact that end a touch
