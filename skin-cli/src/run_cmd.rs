@@ -7,7 +7,8 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpLog;
 use skin_can::live::Live;
-use skin_learn::session::{JsonLines, PngImages, Session, SessionConfig};
+use skin_learn::session::{Event, JsonLines, PngImages, Session, SessionConfig, Sink};
+use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Stdout};
 use std::path::{Path, PathBuf};
@@ -19,7 +20,7 @@ use std::time::Instant;
 /// CONFIG is a TOML file naming the skin and the models (paths relative to it):
 ///
 ///     layout = "layout.json"          # the skin (all links of a skin-layout/1 file)
-///     busmap = "busmap.toml"          # which taxel each CAN slot carries
+///     busmap = "busmap.toml"          # which taxel each CAN slot carries (CAN input only)
 ///     classifier = "handsnet.onnx"    # optional; class names and input scale from its card
 ///     segmenter = "handseg.onnx"      # optional: hand parts of touches classified as hands
 ///     image_size = "68x100"           # the models' input; default 68x100
@@ -51,6 +52,9 @@ use std::time::Instant;
 /// whole chain: a contact crossing a joint gives an across_joint event, and --frames writes
 /// stitched images too.
 ///
+/// For raw recordings (--recording), CONFIG needs only `layout` (and [baseline] frames: the
+/// untouched frames each recording starts with); every other key has a default.
+///
 /// Offline (--log): writes OUT/events.jsonl (one JSON object a line: appeared, classified,
 /// released, across_joint, gate, incomplete; times in s, centroids in m in the link frame,
 /// areas in cm², pressures in counts), OUT/touches/*.png (the image each decision was made
@@ -67,10 +71,16 @@ pub struct Args {
     #[arg(
         long,
         value_name = "LOG",
-        conflicts_with = "can",
-        required_unless_present = "can"
+        conflicts_with_all = ["can", "recording"],
+        required_unless_present_any = ["can", "recording"]
     )]
     log: Option<PathBuf>,
+    /// Offline: raw recordings (Cyskin's ids line, then index, time, counts), each through a
+    /// session of its own (its first frames learn the baseline): OUT/<recording>/ holds its
+    /// events.jsonl, touches/ and summary.txt, and OUT/recordings.tsv a line per recording.
+    /// Needs no bus map in CONFIG.
+    #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with = "can")]
+    recording: Vec<PathBuf>,
     /// Live: SocketCAN interfaces, comma-separated (Linux).
     #[arg(long, value_delimiter = ',', value_name = "can0,can1")]
     can: Vec<String>,
@@ -112,9 +122,16 @@ pub fn run(args: Args) -> Result<()> {
         crate::output::precheck_dir(dir, "skin run", args.force)?;
     }
     let config = SessionConfig::read(&args.config)?;
-    let mut inputs = Inputs::new(std::iter::once(&args.config).chain(&args.log));
+    let mut inputs = Inputs::new(
+        std::iter::once(&args.config)
+            .chain(&args.log)
+            .chain(&args.recording),
+    );
     for p in config.inputs()? {
         inputs.add(&p);
+    }
+    if !args.recording.is_empty() {
+        return recordings(&args, &config, &inputs);
     }
     let mut session = Session::from_config(&config)?;
     for note in session.layout_notes() {
@@ -212,4 +229,75 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
     }
     session.finish(sinks)?;
     Ok(started.elapsed().as_secs_f64())
+}
+
+/// What a recording's touches came to: how many, and the most separate contacts one had at
+/// its fullest frame.
+#[derive(Default)]
+struct Peaks {
+    touches: usize,
+    most_contacts: usize,
+}
+
+impl Sink for Peaks {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        if let Event::Released { peak, .. } = event {
+            self.touches += 1;
+            self.most_contacts = self.most_contacts.max(peak.contacts);
+        }
+        Ok(())
+    }
+}
+
+/// Offline, raw recordings: a session each, into OUT/<recording>/, and a line each in
+/// OUT/recordings.tsv.
+fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()> {
+    let names = crate::shared::output_names(&args.recording)?;
+    let dir = args.output.as_deref().context("--recording needs -o DIR")?;
+    let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
+    let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
+    for note in Session::from_config(config)?.layout_notes() {
+        crate::say!("{note}");
+    }
+    crate::say!("recording                       frames  touches  most contacts in a touch");
+    for (path, name) in args.recording.iter().zip(&names) {
+        let rec = skin_core::format::recording::read(path)?;
+        let mut session = Session::from_config(config)?;
+        session.set_frame_images(args.frames);
+        let here = out.path().join(name);
+        std::fs::create_dir_all(&here).with_context(|| format!("cannot write into {}", dir.display()))?;
+        let events = File::create(here.join("events.jsonl"))
+            .with_context(|| format!("cannot write into {}", dir.display()))?;
+        let mut sinks = (
+            JsonLines::new(BufWriter::new(events)),
+            (PngImages::new(&here)?, Peaks::default()),
+        );
+        let span = session.run_recording(&rec, path, &mut sinks)?;
+        let (events, (_, peaks)) = sinks;
+        events.into_inner().context("cannot write events.jsonl")?;
+        let summary = session.summary(span).to_string();
+        std::fs::write(here.join("summary.txt"), &summary)
+            .with_context(|| format!("cannot write into {}", dir.display()))?;
+        if !args.quiet {
+            crate::say!("{summary}");
+        }
+        let _ = writeln!(
+            table,
+            "{name}\t{}\t{}\t{}",
+            rec.frames.len(),
+            peaks.touches,
+            peaks.most_contacts
+        );
+        crate::say!(
+            "{name:<30} {:>7}  {:>7}  {:>7}",
+            rec.frames.len(),
+            peaks.touches,
+            peaks.most_contacts
+        );
+    }
+    std::fs::write(out.path().join("recordings.tsv"), table)
+        .with_context(|| format!("cannot write into {}", dir.display()))?;
+    out.commit()?;
+    crate::say!("wrote {}", dir.display());
+    Ok(())
 }

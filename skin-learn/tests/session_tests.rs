@@ -8,6 +8,9 @@ use skin_control::hri::{GateAction, TouchClass};
 use skin_learn::session::{Event, MissingModule, Session, SessionConfig};
 use std::path::{Path, PathBuf};
 
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+
 fn fixture_session() -> (Session, CandumpLog, PathBuf) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/session");
     let config = SessionConfig::read(&root.join("run.toml")).unwrap();
@@ -106,9 +109,112 @@ fn a_layout_taxel_on_no_bus_is_reported() {
     assert!(busmap.contains("[16, "));
     let busmap_path = dir.path().join("busmap.toml");
     std::fs::write(&busmap_path, busmap.replacen("[16, ", "[-1, ", 1)).unwrap();
-    config.busmap = busmap_path;
+    config.busmap = Some(busmap_path);
     let session = Session::from_config(&config).unwrap();
     assert_eq!(session.uncovered(), [("forearm", skin_core::TaxelId(16))]);
     let (full, _, _) = fixture_session();
     assert!(full.uncovered().is_empty());
+}
+
+/// A configuration naming only `layout` (and 5 baseline frames), in a temporary folder.
+fn layout_only(layout: &Path) -> (tempfile::TempDir, SessionConfig) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.toml");
+    let text = format!(
+        "layout = {:?}\n[baseline]\nframes = 5\n",
+        layout.to_str().unwrap()
+    );
+    std::fs::write(&path, text).unwrap();
+    let config = SessionConfig::read(&path).unwrap();
+    (dir, config)
+}
+
+#[test]
+fn a_raw_recording_goes_through_a_session_configured_by_its_layout_alone() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm");
+    let (_dir, config) = layout_only(&root.join("layout.json"));
+    let rec_path = root.join("touches.txt");
+    let mut rec = skin_core::format::recording::read(&rec_path).unwrap();
+    // Three taxels without a column, and a column that is no taxel.
+    for _ in 0..3 {
+        rec.taxel_ids.remove(10);
+        for f in &mut rec.frames {
+            f.values.remove(10);
+        }
+    }
+    rec.taxel_ids.push(skin_core::TaxelId(999_999));
+    for f in &mut rec.frames {
+        f.values.push(5_000.0);
+    }
+    let mut session = Session::from_config(&config).unwrap();
+    let mut events: Vec<Event> = Vec::new();
+    let span = session.run_recording(&rec, &rec_path, &mut events).unwrap();
+    assert!((span - rec.frames.last().unwrap().time).abs() < 1e-9);
+    // The four scripted touches of touches.tsv (fingertip, palm, object edge, two fingertips).
+    let released: Vec<(f64, usize)> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Released { time, peak, .. } => Some((*time, peak.contacts)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(released.len(), 4, "{events:?}");
+    for ((t, contacts), end) in released.iter().zip([1.5, 3.2, 4.7, 6.0]) {
+        assert!((t - end).abs() <= 0.15, "a touch ends at {t} s, scripted {end} s");
+        assert!(*contacts >= 1);
+    }
+    let summary = session.summary(span).to_string();
+    assert!(
+        summary.contains("3 taxel(s) of the layout have no column in the recording")
+            && summary.contains("1 column(s) of the recording are no taxel of the layout"),
+        "{summary}"
+    );
+    // A recording of another skin is refused by name.
+    let other = skin_core::Recording {
+        taxel_ids: vec![skin_core::TaxelId(1)],
+        frame_numbers: vec![0],
+        frames: vec![skin_core::Frame {
+            time: 0.0,
+            values: vec![0.0],
+        }],
+    };
+    let e = Session::from_config(&config)
+        .unwrap()
+        .run_recording(&other, Path::new("other.txt"), &mut events);
+    assert!(
+        e.unwrap_err()
+            .to_string()
+            .starts_with("other.txt: none of the layout's")
+    );
+}
+
+#[test]
+fn nobody_touching_the_real_patch_gives_no_touch() {
+    let Some(dir) = shared_data::shared("cyskin/recordings/0_finger") else {
+        return;
+    };
+    let Some(layout) = shared_data::shared("cyskin/curved_gesture_patch.json") else {
+        return;
+    };
+    let (_tmp, config) = layout_only(&layout);
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    let mut touched = 0;
+    for f in &files {
+        let rec = skin_core::format::recording::read(f).unwrap();
+        let mut events: Vec<Event> = Vec::new();
+        Session::from_config(&config)
+            .unwrap()
+            .run_recording(&rec, f, &mut events)
+            .unwrap();
+        touched += usize::from(events.iter().any(|e| matches!(e, Event::Appeared { .. })));
+    }
+    assert!(
+        touched * 20 <= files.len(),
+        "{touched} of {} recordings of nobody touching gave a touch",
+        files.len()
+    );
 }

@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! layout = "layout.json"          # the skin: every link of a skin-layout/1 file
-//! busmap = "busmap.toml"          # which taxel each CAN slot carries
+//! busmap = "busmap.toml"          # which taxel each CAN slot carries (CAN input only)
 //! classifier = "handsnet.onnx"    # optional; class names and input scale from its card
 //! segmenter = "handseg.onnx"      # optional: hand parts of touches classified as hands
 //! image_size = "68x100"           # the models' input; default 68x100
@@ -47,8 +47,8 @@ pub const MAX_IMAGE_SIDE: usize = 4096;
 pub struct SessionConfig {
     /// The skin: a skin-layout/1 file (all its links), or one link's Cyskin or iCub file.
     pub layout: PathBuf,
-    /// The bus map: which taxel each CAN slot carries.
-    pub busmap: PathBuf,
+    /// The bus map: which taxel each CAN slot carries (needed for CAN input only).
+    pub busmap: Option<PathBuf>,
     /// The hand / non-hand classifier (ONNX); its card names the classes.
     pub classifier: Option<PathBuf>,
     /// The hand-part segmenter (ONNX), run on touches classified as hands.
@@ -255,11 +255,9 @@ impl SessionConfig {
     /// Every file the configuration names, resolved (no output may land on one); an error for
     /// the first that does not exist.
     pub fn inputs(&self) -> Result<Vec<PathBuf>, SessionError> {
-        let mut files = vec![
-            self.resolve("layout", &self.layout)?,
-            self.resolve("busmap", &self.busmap)?,
-        ];
+        let mut files = vec![self.resolve("layout", &self.layout)?];
         for (field, p) in [
+            ("busmap", &self.busmap),
             ("classifier", &self.classifier),
             ("segmenter", &self.segmenter),
             ("truth", &self.truth),

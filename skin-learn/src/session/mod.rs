@@ -41,7 +41,9 @@ use crate::touch::{Decision, Footprint, TouchError, TouchEvent, TouchPipeline};
 use skin_can::candump::CandumpLog;
 use skin_can::{AssembledFrame, Assembler, AssemblyStats, BusMap, CounterReset, LayoutFrames, Missing};
 use skin_control::hri::{ClassGate, GateAction, TouchClass};
-use skin_core::{Baseline, BaselineLearner, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
+use skin_core::{
+    Baseline, BaselineLearner, BaselineOptions, Columns, LinkSkin, Polarity, Recording, TaxelHealth,
+};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -208,6 +210,16 @@ pub enum SessionError {
         frames: u64,
         /// Complete untouched frames needed.
         needed: usize,
+    },
+    /// A recording has none of the layout's taxels among its columns.
+    #[error("{}: none of the layout's {taxels} taxels is among the recording's {columns} columns; is it a recording of this skin?", recording.display())]
+    NotRecorded {
+        /// The recording.
+        recording: PathBuf,
+        /// Taxels of the layout.
+        taxels: usize,
+        /// Columns of the recording.
+        columns: usize,
     },
     /// A sink failed to take an event or an image.
     #[error("cannot write the session's output: {0}")]
@@ -421,10 +433,10 @@ impl Session {
     pub fn from_config(config: &SessionConfig) -> Result<Session, SessionError> {
         let files = config.inputs()?;
         let layout_path = &files[0];
-        let busmap_path = &files[1];
         let at = |field: &'static str, p: &Option<PathBuf>| {
             p.as_deref().map(|p| config.resolve(field, p)).transpose()
         };
+        let busmap_path = at("busmap", &config.busmap)?;
         let classifier_path = at("classifier", &config.classifier)?;
         let segmenter_path = at("segmenter", &config.segmenter)?;
         let truth_path = at("truth", &config.truth)?;
@@ -435,7 +447,7 @@ impl Session {
             value: links,
             notes: layout_notes,
         } = skin_geom::read_layout(layout_path)?;
-        let busmap = BusMap::read(busmap_path)?;
+        let busmap = busmap_path.as_deref().map(BusMap::read).transpose()?;
         let layout_bytes = std::fs::read(layout_path).map_err(|source| skin_core::Error::Io {
             path: layout_path.clone(),
             source,
@@ -508,10 +520,9 @@ impl Session {
             gate: config.gate,
             frame_images: false,
         };
-        let mut session = Session::new(links, pipeline, options)?
-            .with_source(&config.path)
-            .with_can(&busmap)
-            .map_err(|e| match e {
+        let mut session = Session::new(links, pipeline, options)?.with_source(&config.path);
+        if let (Some(busmap), Some(busmap_path)) = (&busmap, &busmap_path) {
+            session = session.with_can(busmap).map_err(|e| match e {
                 skin_can::Error::NotInLayout { taxel } => SessionError::NotInLayout {
                     busmap: busmap_path.clone(),
                     layout: layout_path.clone(),
@@ -519,6 +530,7 @@ impl Session {
                 },
                 e => e.into(),
             })?;
+        }
         session.layout_notes = layout_notes;
         if let Some(s) = stitching {
             session = session.with_stitching(s);
@@ -675,6 +687,63 @@ impl Session {
             cycle: r.cycle,
         })
         .map_err(SessionError::Sink)
+    }
+
+    /// A whole raw recording (Cyskin's `ids / index time counts...` form; `path` names it in
+    /// errors) through the session, then [`Session::finish`]. Each link reads its taxels'
+    /// columns by id: a taxel the recording has no column for reads 0 and is dead (its count,
+    /// with the columns that are no taxel of the layout, goes to the summary). Frame times are
+    /// the recording's; frames are numbered by the recording's frame numbers. Returns the
+    /// recording's span, seconds.
+    pub fn run_recording(
+        &mut self,
+        rec: &Recording,
+        path: &Path,
+        sink: &mut dyn Sink,
+    ) -> Result<f64, SessionError> {
+        let columns: Vec<Columns> = self.links.iter().map(|l| rec.columns(&l.ids())).collect();
+        let taxels: usize = self.links.iter().map(|l| l.taxels.len()).sum();
+        let missing: usize = columns.iter().map(|c| c.missing.len()).sum();
+        if missing == taxels {
+            return Err(SessionError::NotRecorded {
+                recording: path.to_owned(),
+                taxels,
+                columns: rec.taxel_ids.len(),
+            });
+        }
+        self.notes.clear();
+        if missing > 0 {
+            let placeholders: usize = columns
+                .iter()
+                .map(|c| c.missing.iter().filter(|id| id.is_placeholder()).count())
+                .sum();
+            self.notes.push(format!(
+                "{missing} taxel(s) of the layout have no column in the recording ({placeholders} of them placeholders): dead, they read 0"
+            ));
+        }
+        let wanted: std::collections::HashSet<_> = self.links.iter().flat_map(|l| l.ids()).collect();
+        let ignored = rec.taxel_ids.iter().filter(|id| !wanted.contains(id)).count();
+        if ignored > 0 {
+            self.notes.push(format!(
+                "{ignored} column(s) of the recording are no taxel of the layout, ignored"
+            ));
+        }
+        let mut raw: Vec<Vec<f32>> = self.links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
+        let t0 = rec.frames.first().map_or(0.0, |f| f.time);
+        for (k, frame) in rec.frames.iter().enumerate() {
+            for (r, c) in raw.iter_mut().zip(&columns) {
+                c.gather(&frame.values, f32::NEG_INFINITY, r);
+            }
+            // Times count from the first frame; a recording's times only go forward.
+            let time_us = ((frame.time - t0).max(0.0) * 1e6).round() as u64;
+            let cycle = rec.frame_numbers.get(k).copied().unwrap_or(k as u64);
+            self.push(time_us, cycle, &raw, sink)?;
+        }
+        self.finish(sink)?;
+        Ok(match (rec.frames.first(), rec.frames.last()) {
+            (Some(a), Some(b)) => (b.time - a.time).max(0.0),
+            _ => 0.0,
+        })
     }
 
     /// A whole candump log (`path` names it in errors) through the session, then
