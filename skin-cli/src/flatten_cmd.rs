@@ -4,7 +4,7 @@ use crate::shared::load_input;
 use anyhow::{Context, Result};
 use skin_core::LinkSkin;
 use skin_core::format::cyskin;
-use skin_geom::{FlattenOptions, MeshOptions, MeshSource, TactileMap, load_mesh_file};
+use skin_geom::{FlattenOptions, MeshOptions, TactileMap, load_mesh_file};
 use std::path::{Path, PathBuf};
 
 /// Flatten a link's taxels into a 2D tactile map (least-squares conformal map).
@@ -92,63 +92,11 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn print_report(input: &Path, link: &LinkSkin, map: &TactileMap) {
-    let r = &map.report;
-    let (w, h) = map.extent();
     crate::say!(
         "{}: link \"{}\", {} taxels",
         input.display(),
         link.name,
         link.taxels.len()
     );
-    match r.source {
-        Some(MeshSource::Triangulated { chart }) => crate::say!(
-            "mesh: {} triangles, Delaunay in the {chart}; {} triangles bridging holes or the outer concavity removed",
-            map.faces.len(),
-            r.mesh.bridging_faces
-        ),
-        _ => crate::say!("mesh: {} triangles as given", map.faces.len()),
-    }
-    if !r.mesh.welded.is_empty() {
-        crate::say!(
-            "taxels at the same position (sharing one map point): {}",
-            r.mesh
-                .welded
-                .iter()
-                .map(|g| format!("{:?}", g.iter().map(|t| t.0).collect::<Vec<_>>()))
-                .collect::<Vec<_>>()
-                .join(" ")
-        );
-    }
-    if r.mesh.degenerate_faces + r.mesh.duplicate_faces + r.pinch_faces > 0 {
-        crate::say!(
-            "dropped triangles: {} of zero area, {} repeated, {} pinched to another piece at one vertex",
-            r.mesh.degenerate_faces,
-            r.mesh.duplicate_faces,
-            r.pinch_faces
-        );
-    }
-    if !r.mesh.normals_off_plane.is_empty() {
-        crate::say!(
-            "{} taxel normal(s) lie more than 60 deg off the flat skin's plane: the mesh takes the plane's normal there",
-            r.mesh.normals_off_plane.len()
-        );
-    }
-    if !r.mesh.isolated.is_empty() {
-        crate::say!(
-            "taxels in no triangle (map point extrapolated from the nearest triangle): {:?}",
-            r.mesh.isolated.iter().map(|t| t.0).collect::<Vec<_>>()
-        );
-    }
-    if r.components > 1 {
-        crate::say!(
-            "{} separate pieces, flattened one by one and laid side by side",
-            r.components
-        );
-    }
-    crate::say!(
-        "map: {:.1} x {:.1} mm (LSCM, area-preserving scale)",
-        w * 1e3,
-        h * 1e3
-    );
-    crate::say!("{}", r.distortion);
+    crate::say!("{}", map.flattening());
 }

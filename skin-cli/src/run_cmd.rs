@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpLog;
 use skin_can::live::Live;
-use skin_learn::session::{Event, JsonLines, PngImages, Session, SessionConfig, Sink};
+use skin_learn::session::{JsonLines, PngImages, Session, SessionConfig};
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Stdout};
@@ -231,72 +231,42 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
     Ok(started.elapsed().as_secs_f64())
 }
 
-/// What a recording's touches came to: how many, and the most separate contacts one had at
-/// its fullest frame.
-#[derive(Default)]
-struct Peaks {
-    touches: usize,
-    most_contacts: usize,
-}
-
-impl Sink for Peaks {
-    fn event(&mut self, event: &Event) -> std::io::Result<()> {
-        if let Event::Released { peak, .. } = event {
-            self.touches += 1;
-            self.most_contacts = self.most_contacts.max(peak.contacts);
-        }
-        Ok(())
-    }
-}
-
 /// Offline, raw recordings: a session each, into OUT/<recording>/, and a line each in
-/// OUT/recordings.tsv.
+/// OUT/recordings.tsv (frames, touches, the most separate contacts a touch had at its fullest).
 fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()> {
     let names = crate::shared::output_names(&args.recording)?;
     let dir = args.output.as_deref().context("--recording needs -o DIR")?;
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
-    let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
+    let cannot = || format!("cannot write into {}", dir.display());
     for note in Session::from_config(config)?.layout_notes() {
         crate::say!("{note}");
     }
+    let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
     crate::say!("recording                       frames  touches  most contacts in a touch");
     for (path, name) in args.recording.iter().zip(&names) {
         let rec = skin_core::format::recording::read(path)?;
         let mut session = Session::from_config(config)?;
         session.set_frame_images(args.frames);
         let here = out.path().join(name);
-        std::fs::create_dir_all(&here).with_context(|| format!("cannot write into {}", dir.display()))?;
-        let events = File::create(here.join("events.jsonl"))
-            .with_context(|| format!("cannot write into {}", dir.display()))?;
-        let mut sinks = (
-            JsonLines::new(BufWriter::new(events)),
-            (PngImages::new(&here)?, Peaks::default()),
-        );
+        std::fs::create_dir_all(&here).with_context(cannot)?;
+        let events = JsonLines::new(BufWriter::new(
+            File::create(here.join("events.jsonl")).with_context(cannot)?,
+        ));
+        let mut sinks = (events, PngImages::new(&here)?);
         let span = session.run_recording(&rec, path, &mut sinks)?;
-        let (events, (_, peaks)) = sinks;
-        events.into_inner().context("cannot write events.jsonl")?;
+        sinks.0.into_inner().context("cannot write events.jsonl")?;
         let summary = session.summary(span).to_string();
-        std::fs::write(here.join("summary.txt"), &summary)
-            .with_context(|| format!("cannot write into {}", dir.display()))?;
+        std::fs::write(here.join("summary.txt"), &summary).with_context(cannot)?;
         if !args.quiet {
             crate::say!("{summary}");
         }
-        let _ = writeln!(
-            table,
-            "{name}\t{}\t{}\t{}",
-            rec.frames.len(),
-            peaks.touches,
-            peaks.most_contacts
-        );
-        crate::say!(
-            "{name:<30} {:>7}  {:>7}  {:>7}",
-            rec.frames.len(),
-            peaks.touches,
-            peaks.most_contacts
-        );
+        let touches = session.touches();
+        let most = touches.iter().map(|t| t.peak.contacts).max().unwrap_or(0);
+        let row = [rec.frames.len(), touches.len(), most];
+        let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
+        crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }
-    std::fs::write(out.path().join("recordings.tsv"), table)
-        .with_context(|| format!("cannot write into {}", dir.display()))?;
+    std::fs::write(out.path().join("recordings.tsv"), table).with_context(cannot)?;
     out.commit()?;
     crate::say!("wrote {}", dir.display());
     Ok(())

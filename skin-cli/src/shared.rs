@@ -82,25 +82,14 @@ pub(crate) fn each_touched_frame(
     Ok(quiet)
 }
 
-/// The imagers of a model's input (`size`: rows, cols) for `maps`: 1 mm grid, erosion and
-/// dilation, as the classifier and the segmenter were trained on.
+/// The imagers of a model's input (`size`: rows, cols) for `maps` ([`TactileImager::for_model`]).
 pub(crate) fn model_imagers(
     maps: &[TactileMap],
     size: (usize, usize),
     map_path: &Path,
 ) -> Result<Vec<TactileImager>> {
-    maps.iter()
-        .map(|m| {
-            let raster = skin_geom::Rasterizer::new(m, skin_geom::Grid::StepMm(1.0))
-                .with_context(|| format!("{}", map_path.display()))?;
-            Ok(TactileImager::new(
-                raster,
-                skin_geom::Normalisation::ContactMax,
-                true,
-                Some(size),
-            )?)
-        })
-        .collect()
+    let imager = |m| TactileImager::for_model(m, 1.0, size).with_context(|| map_path.display().to_string());
+    maps.iter().map(imager).collect()
 }
 
 /// One output name per input: its file stem, prefixed with its folder's name where two inputs

@@ -87,4 +87,4 @@ pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager,
 pub use resize::Resizer;
 pub use stitch::{Deadline, JointMode, JointSolve, Placement, StitchOptions, StitchReport, Stitcher};
 pub use stitch_raster::StitchedRasterizer;
-pub use tactile_map::{FlattenOptions, FlattenReport, MAP_FORMAT, TactileMap};
+pub use tactile_map::{FlattenOptions, FlattenReport, Flattening, MAP_FORMAT, TactileMap};

@@ -680,6 +680,18 @@ impl TactileImager {
         })
     }
 
+    /// The image a hand classifier or segmenter reads (thesis Ch. 4.5, App. C): `map` on a grid
+    /// of `step_mm` millimetres (1 for the shipped models), grey by the contact's own maximum,
+    /// eroded then dilated, resized to `size` (rows, cols; 68 x 100 for HandsNet).
+    pub fn for_model(map: &TactileMap, step_mm: f64, size: (usize, usize)) -> Result<Self> {
+        TactileImager::new(
+            Rasterizer::new(map, Grid::StepMm(step_mm))?,
+            Normalisation::ContactMax,
+            true,
+            Some(size),
+        )
+    }
+
     /// The rasterizer.
     pub fn raster(&self) -> &Rasterizer {
         &self.raster

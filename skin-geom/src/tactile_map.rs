@@ -623,6 +623,12 @@ impl TactileMap {
         Ok(())
     }
 
+    /// The report of the flattening that made this map: mesh, repairs, pieces, size and
+    /// distortion, a line each (`Display`; what `skin flatten` prints).
+    pub fn flattening(&self) -> Flattening<'_> {
+        Flattening { map: self }
+    }
+
     /// An SVG drawing of the map (millimetres): triangles, and a dot per taxel.
     pub fn to_svg(&self) -> String {
         use std::fmt::Write as _;
@@ -672,5 +678,75 @@ impl TactileMap {
         }
         let _ = writeln!(s, "</g>\n</svg>");
         s
+    }
+}
+
+/// What flattening made of a link, as `skin flatten` prints it ([`TactileMap::flattening`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Flattening<'a> {
+    map: &'a TactileMap,
+}
+
+impl std::fmt::Display for Flattening<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let map = self.map;
+        let r = &map.report;
+        let (w, h) = map.extent();
+        match r.source {
+            Some(MeshSource::Triangulated { chart }) => writeln!(
+                f,
+                "mesh: {} triangles, Delaunay in the {chart}; {} triangles bridging holes or the outer concavity removed",
+                map.faces.len(),
+                r.mesh.bridging_faces
+            )?,
+            _ => writeln!(f, "mesh: {} triangles as given", map.faces.len())?,
+        }
+        if !r.mesh.welded.is_empty() {
+            writeln!(
+                f,
+                "taxels at the same position (sharing one map point): {}",
+                r.mesh
+                    .welded
+                    .iter()
+                    .map(|g| format!("{:?}", g.iter().map(|t| t.0).collect::<Vec<_>>()))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )?;
+        }
+        if r.mesh.degenerate_faces + r.mesh.duplicate_faces + r.pinch_faces > 0 {
+            writeln!(
+                f,
+                "dropped triangles: {} of zero area, {} repeated, {} pinched to another piece at one vertex",
+                r.mesh.degenerate_faces, r.mesh.duplicate_faces, r.pinch_faces
+            )?;
+        }
+        if !r.mesh.normals_off_plane.is_empty() {
+            writeln!(
+                f,
+                "{} taxel normal(s) lie more than 60 deg off the flat skin's plane: the mesh takes the plane's normal there",
+                r.mesh.normals_off_plane.len()
+            )?;
+        }
+        if !r.mesh.isolated.is_empty() {
+            writeln!(
+                f,
+                "taxels in no triangle (map point extrapolated from the nearest triangle): {:?}",
+                r.mesh.isolated.iter().map(|t| t.0).collect::<Vec<_>>()
+            )?;
+        }
+        if r.components > 1 {
+            writeln!(
+                f,
+                "{} separate pieces, flattened one by one and laid side by side",
+                r.components
+            )?;
+        }
+        writeln!(
+            f,
+            "map: {:.1} x {:.1} mm (LSCM, area-preserving scale)",
+            w * 1e3,
+            h * 1e3
+        )?;
+        write!(f, "{}", r.distortion)
     }
 }

@@ -299,6 +299,14 @@ fn a_flat_sole_is_a_plane_whatever_its_normals_say() {
         96,
         "every normal was off the plane"
     );
+    let report = map.flattening().to_string();
+    assert!(
+        report.starts_with("mesh: ")
+            && report.contains("Delaunay in the best-fit plane")
+            && report.contains("96 taxel normal(s) lie more than 60 deg off")
+            && report.ends_with("flipped triangles  0"),
+        "{report}"
+    );
 }
 
 #[test]

@@ -14,7 +14,7 @@ use crate::segmentation_diagnostics::{
 use crate::{Error, Result};
 use skin_core::TaxelId;
 use skin_core::format::recording;
-use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use skin_geom::{BlindSpots, Decimation, Grid, Rasterizer, TactileImager, TactileMap};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -430,12 +430,7 @@ pub fn robustness(
         let mut sums = [0.0f64; 5];
         for seed in 0..patterns as u64 {
             let degraded = make(seed)?;
-            let mut imager = TactileImager::new(
-                Rasterizer::new(&degraded, Grid::StepMm(1.0))?,
-                Normalisation::ContactMax,
-                true,
-                Some(size),
-            )?;
+            let mut imager = TactileImager::for_model(&degraded, 1.0, size)?;
             let cols = columns_of(&degraded.ids, &column, &frames_path, "a degraded map")?;
             let mut pressures = vec![0.0f32; cols.len()];
             let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));

@@ -19,7 +19,7 @@ use crate::parts::{PartContact, part_contacts};
 use crate::segment::Segmenter;
 use nalgebra::Point3;
 use skin_core::ContactFinder;
-use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use skin_geom::{TactileImager, TactileMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -274,17 +274,11 @@ impl TouchPipeline {
                         source,
                     }
                 })?;
-            let raster =
-                Rasterizer::new(&map, Grid::StepMm(options.step_mm)).map_err(|source| TouchError::Map {
+            let imager =
+                TactileImager::for_model(&map, options.step_mm, size).map_err(|source| TouchError::Map {
                     link: name.clone(),
                     source,
                 })?;
-            let imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(size)).map_err(
-                |source| TouchError::Map {
-                    link: name.clone(),
-                    source,
-                },
-            )?;
             let area: f64 = map
                 .faces
                 .iter()
