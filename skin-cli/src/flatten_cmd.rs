@@ -1,7 +1,6 @@
 //! `skin flatten`: a link's layout -> tactile map.
 
-use crate::shared::load_input;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use skin_core::LinkSkin;
 use skin_core::format::cyskin;
 use skin_geom::{FlattenOptions, MeshOptions, TactileMap, load_mesh_file};
@@ -9,9 +8,10 @@ use std::path::{Path, PathBuf};
 
 /// Flatten a link's taxels into a 2D tactile map (least-squares conformal map).
 ///
-/// INPUT is a skin layout: the project's JSON (`skin-layout/1`, its first link), a Cyskin
-/// calibration JSON, an iCub `positions/*.txt` file (duplicated positions are merged and
-/// reported), or a mesh (.obj, .gltf, .glb) whose vertices are the taxels. Without triangles in the
+/// INPUT is a skin layout: the project's JSON (`skin-layout/1`), a Cyskin calibration JSON, an
+/// iCub `positions/*.txt` file (duplicated positions are merged and reported), a URDF whose
+/// tactile sensors (urdf_tactile arrays and taxel lists) give one skin per link, or a mesh
+/// (.obj, .gltf, .glb) whose vertices are the taxels. A file of several links needs --link. Without triangles in the
 /// input, the taxels are triangulated (Delaunay in a best-fit plane or unrolled cylinder, whichever
 /// fits; the report says which). Prints what was repaired and the map's distortion.
 ///
@@ -19,8 +19,11 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Layout file (.json, .txt, .obj, .gltf, .glb).
+    /// Layout file (.json, .txt, .urdf, .obj, .gltf, .glb).
     input: PathBuf,
+    /// The link to flatten, in a file of several (a skin-layout/1 or a URDF).
+    #[arg(long, value_name = "NAME")]
+    link: Option<String>,
     /// Where to write the tactile map.
     #[arg(short, long, value_name = "MAP.json")]
     output: PathBuf,
@@ -53,7 +56,24 @@ pub fn run(args: Args) -> Result<()> {
     crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Map)?;
     crate::output::replaceable(&inputs, args.svg.as_deref(), crate::output::Kind::Svg)?;
     inputs.check_outputs(&[("-o", Some(&args.output)), ("--svg", args.svg.as_deref())])?;
-    let mut link = load_input(&args.input)?;
+    let mut links = crate::shared::load_links(&args.input)?;
+    let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
+    let pick = match (&args.link, links.len()) {
+        (None, 1) => 0,
+        (None, n) => bail!(
+            "{}: {n} links ({}); choose one with --link",
+            args.input.display(),
+            names.join(", ")
+        ),
+        (Some(name), _) => names.iter().position(|n| n == name).with_context(|| {
+            format!(
+                "{}: no link \"{name}\" (it has {})",
+                args.input.display(),
+                names.join(", ")
+            )
+        })?,
+    };
+    let mut link = links.swap_remove(pick);
     if let Some(mesh_path) = &args.mesh {
         let mesh = load_mesh_file(mesh_path)?;
         link = mesh

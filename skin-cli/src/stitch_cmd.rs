@@ -3,7 +3,6 @@
 
 use crate::shared::read_postures;
 use anyhow::{Context, Result, bail};
-use skin_core::format::native;
 use skin_core::format::recording;
 use skin_geom::raster::to_grey;
 use skin_geom::{
@@ -14,7 +13,8 @@ use std::path::PathBuf;
 
 /// Stitch the tactile maps of a chain of links into one image, posture by posture (thesis Ch. 6).
 ///
-/// ARM.json is a project layout with one link per element of the chain, in chain order; each link
+/// ARM.json is a layout of one link per element of the chain, in chain order (a skin-layout/1,
+/// or a URDF's tactile sensors in the order their links first carry one); each link
 /// is flattened on its own (its map never changes). POSES.json (skin-poses/1) gives every link's
 /// pose over time: at each posture the boundary taxels of adjacent links are triangulated in 3D
 /// and the child map is placed to keep those edges' lengths (Eq. 6.6). Each FRAMES recording
@@ -63,11 +63,10 @@ pub fn run(args: Args) -> Result<()> {
     let out = crate::output::open_dir(&args.output, "skin stitch", args.force, &sources)?;
     let stems = crate::shared::output_names(&args.frames)?;
     let threshold = args.threshold as f32;
-    let layout = native::read_layout(&args.layout)?;
-    let names: Vec<&str> = layout.links.iter().map(|l| l.name.as_str()).collect();
+    let links = crate::shared::load_links(&args.layout)?;
+    let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
     let postures = read_postures(&args.poses, &args.layout, &names)?;
-    let maps: Vec<TactileMap> = layout
-        .links
+    let maps: Vec<TactileMap> = links
         .iter()
         .map(|l| {
             TactileMap::flatten(l, &FlattenOptions::default()).with_context(|| format!("link \"{}\"", l.name))
@@ -79,10 +78,10 @@ pub fn run(args: Args) -> Result<()> {
         max_edge: args.max_edge_mm * 1e-3,
         ..StitchOptions::default()
     };
-    let links = maps.len();
+    let joints = maps.len().saturating_sub(1);
     let mut stitcher =
         Stitcher::new(maps, reference, options).with_context(|| args.layout.display().to_string())?;
-    for j in 0..links - 1 {
+    for j in 0..joints {
         if let Some((a, b)) = stitcher.boundary(j) {
             crate::say!(
                 "joint {j} ({} - {}): {} + {} boundary taxels",
@@ -133,7 +132,7 @@ pub fn run(args: Args) -> Result<()> {
         let rec = recording::read(rec_path)?;
         // Each link's taxels among the recording's columns.
         let mut columns = Vec::new();
-        for (link, map) in layout.links.iter().zip(maps) {
+        for (link, map) in links.iter().zip(maps) {
             let c = rec.columns(&map.ids);
             if let Some(id) = c.missing.first() {
                 bail!(

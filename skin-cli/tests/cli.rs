@@ -1352,3 +1352,43 @@ fn run_takes_raw_recordings_with_a_config_of_the_layout_alone() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o).1);
 }
+
+#[test]
+fn flatten_reads_the_tactile_sensors_of_a_urdf_one_link_at_a_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("robot.urdf");
+    std::fs::write(
+        &urdf,
+        r#"<robot name="r"><link name="base"/><link name="arm"/>
+  <sensor name="a" update_rate="50"><parent link="base"/><origin xyz="0 0 0.1"/>
+    <tactile><array rows="8" cols="6" size="0.006 0.006"/></tactile></sensor>
+  <sensor name="b" update_rate="50"><parent link="arm"/>
+    <tactile><array rows="5" cols="5" size="0.008 0.008"/></tactile></sensor>
+</robot>"#,
+    )
+    .unwrap();
+    let out = dir.path().join("map.json");
+    let o = skin(&["flatten", urdf.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("2 links (base, arm); choose one with --link"),
+        "{err}"
+    );
+    let o = skin(&[
+        "flatten",
+        urdf.to_str().unwrap(),
+        "--link",
+        "arm",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        stdout.contains("link \"arm\", 25 taxels") && stdout.contains("flipped triangles  0"),
+        "{stdout}"
+    );
+    let map = skin_geom::TactileMap::read(&out).unwrap();
+    assert_eq!(map.ids.len(), 25);
+}

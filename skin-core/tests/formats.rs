@@ -472,3 +472,120 @@ fn load_links_gives_every_link_of_a_layout_and_refuses_an_empty_one() {
     let e = skin_core::format::load_links(&empty).unwrap_err().to_string();
     assert!(e.contains("empty.json") && e.contains("no link"), "{e}");
 }
+
+/// Two links: `palm` carries a 2 x 3 array (sensor frame turned 90 degrees about z and lifted
+/// 1 cm), `finger` a list of two taxels, and a sensor that both lists and has an array; a camera
+/// is skipped.
+const URDF: &str = r#"<?xml version="1.0"?>
+<robot name="hand">
+  <link name="palm"/><link name="finger"/>
+  <joint name="j" type="fixed"><parent link="palm"/><child link="finger"/></joint>
+  <sensor name="camera" update_rate="30"><parent link="palm"/><camera/></sensor>
+  <sensor name="palm_array" update_rate="100">
+    <parent link="palm"/>
+    <origin xyz="0 0 0.01" rpy="0 0 1.5707963267948966"/>
+    <tactile>
+      <array rows="2" cols="3" size="0.005 0.004" offset="0.001 0.002"/>
+    </tactile>
+  </sensor>
+  <sensor name="tips" update_rate="100">
+    <parent link="finger"/>
+    <origin xyz="0.1 0 0"/>
+    <tactile channel="tips">
+      <taxel idx="7" xyz="0 0.01 0" rpy="1.5707963267948966 0 0">
+        <geometry><mesh filename="tip.stl"/></geometry>
+      </taxel>
+      <taxel idx="3" xyz="0 -0.01 0"/>
+      <taxel idx="7" xyz="0 0.02 0"/>
+      <array rows="4" cols="4" size="0.01 0.01"/>
+    </tactile>
+  </sensor>
+</robot>
+"#;
+
+#[test]
+fn urdf_tactile_arrays_and_taxel_lists_give_a_skin_per_link() {
+    use skin_core::format::urdf_tactile;
+    let read = urdf_tactile::parse(URDF, Path::new("hand.urdf")).unwrap();
+    let [palm, finger] = &read.value[..] else {
+        panic!("{:?}", read.value);
+    };
+    assert_eq!((palm.name.as_str(), finger.name.as_str()), ("palm", "finger"));
+    // The array: idx = row * 3 + col at x = row * 5 mm - 1 mm, y = col * 4 mm - 2 mm in the
+    // sensor frame (spacing = size), turned +90 deg about z: (x, y) -> (-y, x); 1 cm up.
+    assert_eq!(palm.taxels.len(), 6);
+    for (idx, t) in palm.taxels.iter().enumerate() {
+        let (row, col) = ((idx / 3) as f64, (idx % 3) as f64);
+        let (x, y) = (row * 0.005 - 0.001, col * 0.004 - 0.002);
+        assert_eq!(
+            t.id,
+            TaxelId(idx as u32),
+            "the first tactile sensor's ids are its indices"
+        );
+        assert!(
+            (t.position - nalgebra::Point3::new(-y, x, 0.01)).norm() < 1e-12,
+            "{idx}: {:?}",
+            t.position
+        );
+        assert!((t.normal.z - 1.0).abs() < 1e-12);
+    }
+    // The list (second tactile sensor: ids 1 << 16 | idx), the first of the repeated idx 7
+    // kept, the array beside it ignored. Rolled +90 deg about x, taxel 7's normal is -y.
+    let ids: Vec<u32> = finger.ids().iter().map(|id| id.0).collect();
+    assert_eq!(ids, [1 << 16 | 7, 1 << 16 | 3]);
+    assert!((finger.taxels[0].position - nalgebra::Point3::new(0.1, 0.01, 0.0)).norm() < 1e-12);
+    assert!((finger.taxels[0].normal.into_inner() - nalgebra::Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12);
+    let notes: Vec<String> = read.notes.iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("\"tips\" has both a taxel list and an array"))
+    );
+    assert!(notes.iter().any(|n| n.contains("\"tips\" repeats taxel idx [7]")));
+    // load_links reads it by its extension.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("hand.urdf");
+    std::fs::write(&p, URDF).unwrap();
+    assert_eq!(skin_core::format::load_links(&p).unwrap().value, read.value);
+}
+
+#[test]
+fn a_bad_urdf_tactile_sensor_names_its_line() {
+    use skin_core::format::urdf_tactile::parse;
+    let bad = URDF.replace(r#"size="0.005 0.004""#, r#"size="0.005 x""#);
+    let e = parse(&bad, Path::new("hand.urdf")).unwrap_err().to_string();
+    assert!(
+        e.contains("hand.urdf: line 10 (array)") && e.contains("size"),
+        "{e}"
+    );
+    let huge = URDF.replace(r#"rows="2""#, r#"rows="100000""#);
+    assert!(
+        parse(&huge, Path::new("h.urdf"))
+            .unwrap_err()
+            .to_string()
+            .contains("at most 65,536")
+    );
+    let none = "<robot name=\"r\"><link name=\"a\"/></robot>";
+    assert!(
+        parse(none, Path::new("r.urdf"))
+            .unwrap_err()
+            .to_string()
+            .contains("no tactile sensor")
+    );
+    assert!(
+        parse("<robot><sensor", Path::new("cut.urdf"))
+            .unwrap_err()
+            .to_string()
+            .contains("cut.urdf: line 1")
+    );
+}
+
+proptest! {
+    #[test]
+    fn the_urdf_reader_never_panics(text in ".{0,300}", cut in 0usize..1400) {
+        let _ = skin_core::format::urdf_tactile::parse(&text, Path::new("x.urdf"));
+        let cut = cut.min(URDF.len());
+        let _ = skin_core::format::urdf_tactile::parse(&URDF[..cut], Path::new("x.urdf")); // ASCII
+    }
+}

@@ -20,29 +20,30 @@ fn is_mesh(path: &Path) -> bool {
     matches!(extension(path).as_str(), "obj" | "gltf" | "glb")
 }
 
-/// Every link of a layout file: all links of a project layout (`skin-layout/1`), or the one link
-/// of a Cyskin calibration, an iCub taxel file or a mesh (named after the file).
+/// Every link of a layout file: all links of a project layout (`skin-layout/1`) or of a URDF's
+/// tactile sensors (urdf_tactile), or the one link of a Cyskin calibration, an iCub taxel file
+/// or a mesh (named after the file).
 pub fn read_layout(path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
-    if !is_mesh(path) && format::read_text(path)?.contains("skin-layout/") {
+    if extension(path) == "urdf" || !is_mesh(path) && format::read_text(path)?.contains("skin-layout/") {
         return Ok(format::load_links(path)?);
     }
     Ok(read_link(path)?.map(|link| vec![link]))
 }
 
-/// The link of a layout file (a project layout's first link): `.json` (project layout or
-/// Cyskin calibration), `.txt` (iCub), or `.obj` / `.gltf` / `.glb` (a mesh, named after the
-/// file).
+/// The link of a layout file (the first link of a project layout or a URDF): `.json` (project
+/// layout or Cyskin calibration), `.txt` (iCub), `.urdf` (urdf_tactile sensors), or `.obj` /
+/// `.gltf` / `.glb` (a mesh, named after the file).
 pub fn read_link(path: &Path) -> Result<Noted<LinkSkin>> {
     if is_mesh(path) {
         let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
         return Ok(Noted::clean(load_mesh_file(path)?.into_link(name)?));
     }
     match extension(path).as_str() {
-        "txt" | "ini" | "json" => Ok(format::load_link(path)?),
+        "txt" | "ini" | "json" | "urdf" => Ok(format::load_link(path)?),
         _ => Err(skin_core::Error::invalid(
             path,
             "file name",
-            "unknown layout format (expected .json, .txt, .obj, .gltf or .glb)",
+            "unknown layout format (expected .json, .txt, .urdf, .obj, .gltf or .glb)",
         )
         .into()),
     }

@@ -7,6 +7,7 @@
 //! | [`icub`] | iCub `positions/*.txt` taxel files, metres | yes | no |
 //! | [`recording`] | Cyskin raw recordings (ids line, then index, time, counts) | yes | yes |
 //! | [`poses`] | link poses over time (`skin-poses/1`), metres | yes | no |
+//! | [`urdf_tactile`] | a URDF's tactile sensors (arrays, taxel lists), one skin per link, metres | yes | no |
 //!
 //! [`load_link`] picks the reader from the file's extension and content.
 
@@ -15,6 +16,7 @@ pub mod icub;
 pub mod native;
 pub mod poses;
 pub mod recording;
+pub mod urdf_tactile;
 
 use crate::{Error, LinkSkin, Result, Taxel, TaxelId};
 use nalgebra::{Point3, Unit, Vector3};
@@ -70,6 +72,15 @@ pub enum Note {
         id: TaxelId,
         /// How many taxels carry it.
         taxels: usize,
+    },
+    /// Something a URDF's tactile sensor holds that urdf_tactile itself would skip or warn of.
+    UrdfTactile {
+        /// The file.
+        path: PathBuf,
+        /// The sensor's name.
+        sensor: String,
+        /// What was found and done.
+        what: String,
     },
     /// A layout given where a tactile map was expected, flattened with the default options.
     Flattened {
@@ -127,6 +138,9 @@ impl fmt::Display for Note {
                 "{}: {taxels} taxels carry the placeholder id {id} (no known sensor): kept as mesh vertices with ids of their own, no readings (dead taxels)",
                 path.display()
             ),
+            Note::UrdfTactile { path, sensor, what } => {
+                write!(f, "{}: tactile sensor \"{sensor}\" {what}", path.display())
+            }
             Note::Flattened {
                 path,
                 extent_m: (w, h),
@@ -172,6 +186,9 @@ impl<T> Noted<T> {
 /// Every link of a layout file: all links of a skin-layout/1 file (an error if it has none),
 /// or the one link of a Cyskin calibration or an iCub taxel file ([`load_link`]).
 pub fn load_links(path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
+    if is_urdf(path) {
+        return urdf_tactile::read(path);
+    }
     let text = read_text(path)?;
     if text.contains("skin-layout/") {
         let layout = native::read_layout(path)?;
@@ -187,6 +204,15 @@ pub fn load_links(path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
 /// an iCub taxel file (duplicated positions merged, see [`icub::Duplicates`]), with the notes of
 /// what was done to read it.
 pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
+    if is_urdf(path) {
+        let read = urdf_tactile::read(path)?;
+        let Noted { value, notes } = read;
+        let link = value
+            .into_iter()
+            .next()
+            .ok_or_else(|| Error::invalid(path, "robot", "no tactile sensor"))?;
+        return Ok(Noted { value: link, notes });
+    }
     let text = read_text(path)?;
     let is_txt = path
         .extension()
@@ -223,6 +249,11 @@ pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
             "neither a skin layout (\"links\") nor a Cyskin calibration (\"skin\")",
         ))
     }
+}
+
+/// A URDF file, by its extension.
+fn is_urdf(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf"))
 }
 
 /// When a JSON document does not have the expected shape, finds the first element of `items`
