@@ -7,6 +7,7 @@
 //! call to [`ContactFinder::find`] then reuses its buffers and allocates nothing once it has seen
 //! as many contacts, as large, as the frame holds.
 
+use crate::contact_peaks::{Flooding, Separation};
 use crate::{Error, Result};
 use nalgebra::{Point3, Unit, Vector3};
 use std::path::Path;
@@ -39,6 +40,10 @@ pub struct ContactFinder {
     frame: u32,
     stack: Vec<usize>,
     contacts: Vec<Contact>,
+    /// The patch being found, before it becomes one contact or several.
+    patch: Vec<usize>,
+    separation: Separation,
+    flooding: Flooding,
 }
 
 impl ContactFinder {
@@ -92,7 +97,17 @@ impl ContactFinder {
             frame: 0,
             stack: Vec::with_capacity(n),
             contacts: Vec::new(),
+            patch: Vec::with_capacity(n),
+            separation: Separation::Connected,
+            flooding: Flooding::new(n),
         })
+    }
+
+    /// The finder with patches split into contacts as `separation` says (default: each
+    /// connected patch is one contact).
+    pub fn with_separation(mut self, separation: Separation) -> ContactFinder {
+        self.separation = separation;
+        self
     }
 
     /// Number of taxels the finder expects per frame.
@@ -130,16 +145,12 @@ impl ContactFinder {
             if self.seen[seed] == self.frame || !(pressures[seed] > threshold) {
                 continue;
             }
-            if count == self.contacts.len() {
-                self.contacts.push(Contact::default());
-            }
-            let contact = &mut self.contacts[count];
-            contact.taxels.clear();
             self.seen[seed] = self.frame;
+            self.patch.clear();
             self.stack.clear();
             self.stack.push(seed);
             while let Some(i) = self.stack.pop() {
-                contact.taxels.push(i);
+                self.patch.push(i);
                 for &j in &self.neighbours[self.start[i]..self.start[i + 1]] {
                     if self.seen[j] != self.frame && pressures[j] > threshold {
                         self.seen[j] = self.frame;
@@ -147,27 +158,42 @@ impl ContactFinder {
                     }
                 }
             }
-            if contact.taxels.len() < min_taxels.max(1) {
+            if self.patch.len() < min_taxels.max(1) {
                 continue;
             }
-            contact.taxels.sort_unstable();
-            let (mut sum, mut peak) = (0.0f64, 0.0f32);
-            let mut moment = Vector3::zeros();
-            let mut normal = Vector3::zeros();
-            for &i in &contact.taxels {
-                let p = pressures[i];
-                sum += f64::from(p);
-                peak = peak.max(p);
-                moment += self.positions[i].coords * f64::from(p);
-                if let Some(n) = self.normals.get(i) {
-                    normal += n * f64::from(p);
-                }
+            let parts = match self.separation {
+                Separation::Connected => 1,
+                Separation::Peaks {
+                    min_dip,
+                    min_distance_m,
+                } => self.flooding.split(
+                    &self.patch,
+                    pressures,
+                    &self.positions,
+                    &self.start,
+                    &self.neighbours,
+                    min_dip,
+                    min_distance_m,
+                    min_taxels.max(1),
+                ),
+            };
+            while self.contacts.len() < count + parts {
+                self.contacts.push(Contact::default());
             }
-            contact.centroid = Point3::from(moment / sum);
-            contact.normal = Unit::try_new(normal, 1e-12);
-            contact.mean_pressure = (sum / contact.taxels.len() as f64) as f32;
-            contact.peak_pressure = peak;
-            count += 1;
+            for c in &mut self.contacts[count..count + parts] {
+                c.taxels.clear();
+            }
+            for &i in &self.patch {
+                let part = match self.separation {
+                    Separation::Connected => 0,
+                    Separation::Peaks { .. } => self.flooding.take_basin(i),
+                };
+                self.contacts[count + part].taxels.push(i);
+            }
+            for contact in &mut self.contacts[count..count + parts] {
+                describe(contact, pressures, &self.positions, &self.normals);
+            }
+            count += parts;
         }
         let contacts = &mut self.contacts[..count];
         contacts.sort_unstable_by(|a, b| {
@@ -176,6 +202,27 @@ impl ContactFinder {
         });
         Ok(&self.contacts[..count])
     }
+}
+
+/// Fills a contact's centroid, normal, mean and peak from its taxels (sorted here).
+fn describe(contact: &mut Contact, pressures: &[f32], positions: &[Point3<f64>], normals: &[Vector3<f64>]) {
+    contact.taxels.sort_unstable();
+    let (mut sum, mut peak) = (0.0f64, 0.0f32);
+    let mut moment = Vector3::zeros();
+    let mut normal = Vector3::zeros();
+    for &i in &contact.taxels {
+        let p = pressures[i];
+        sum += f64::from(p);
+        peak = peak.max(p);
+        moment += positions[i].coords * f64::from(p);
+        if let Some(n) = normals.get(i) {
+            normal += n * f64::from(p);
+        }
+    }
+    contact.centroid = Point3::from(moment / sum);
+    contact.normal = Unit::try_new(normal, 1e-12);
+    contact.mean_pressure = (sum / contact.taxels.len() as f64) as f32;
+    contact.peak_pressure = peak;
 }
 
 #[cfg(test)]
@@ -247,6 +294,122 @@ mod tests {
             e.contains("m.json") && e.contains("face 0") && e.contains('9'),
             "{e}"
         );
+    }
+
+    /// A `cols` x `rows` grid of taxels `pitch` apart, triangulated.
+    fn grid(cols: usize, rows: usize, pitch: f64) -> (Vec<Point3<f64>>, Vec<[usize; 3]>) {
+        let p = (0..rows * cols)
+            .map(|i| Point3::new((i % cols) as f64 * pitch, (i / cols) as f64 * pitch, 0.0))
+            .collect();
+        let mut f = Vec::new();
+        for r in 0..rows - 1 {
+            for c in 0..cols - 1 {
+                let a = r * cols + c;
+                f.push([a, a + 1, a + cols + 1]);
+                f.push([a, a + cols + 1, a + cols]);
+            }
+        }
+        (p, f)
+    }
+
+    /// Gaussian presses (centre x, y in metres, peak, sigma in metres) on the taxels at `p`.
+    fn presses(p: &[Point3<f64>], presses: &[(f64, f64, f32, f64)]) -> Vec<f32> {
+        p.iter()
+            .map(|q| {
+                presses
+                    .iter()
+                    .map(|&(x, y, peak, s)| {
+                        let d2 = (q.x - x).powi(2) + (q.y - y).powi(2);
+                        peak * (-d2 / (2.0 * s * s)).exp() as f32
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn two_fingertips_side_by_side_are_two_contacts_one_broad_press_is_one() {
+        // 4 mm pitch; two fingertips (sigma 4 mm) 16 mm apart: closer than a finger is wide, one
+        // connected patch, but the pressure falls to a quarter of the peaks between them.
+        let (p, f) = grid(20, 12, 0.004);
+        let two = presses(&p, &[(0.028, 0.020, 100.0, 0.004), (0.044, 0.020, 90.0, 0.004)]);
+        let mut connected = ContactFinder::new(&p, &[], &f, Path::new("grid")).unwrap();
+        assert_eq!(
+            connected.find(&two, 5.0, 2).unwrap().len(),
+            1,
+            "one connected patch"
+        );
+        let mut split = ContactFinder::new(&p, &[], &f, Path::new("grid"))
+            .unwrap()
+            .with_separation(Separation::FINGERS);
+        let c = split.find(&two, 5.0, 2).unwrap().to_vec();
+        assert_eq!(c.len(), 2, "{c:?}");
+        // Each centroid near its fingertip, the harder one first.
+        assert!(
+            (c[0].centroid - Point3::new(0.028, 0.020, 0.0)).norm() < 0.002,
+            "{:?}",
+            c[0].centroid
+        );
+        assert!(
+            (c[1].centroid - Point3::new(0.044, 0.020, 0.0)).norm() < 0.002,
+            "{:?}",
+            c[1].centroid
+        );
+        // One broad press (a palm, sigma 12 mm) and one fingertip alone stay one contact each.
+        for one in [
+            presses(&p, &[(0.036, 0.020, 100.0, 0.012)]),
+            presses(&p, &[(0.036, 0.020, 100.0, 0.004)]),
+        ] {
+            assert_eq!(split.find(&one, 5.0, 2).unwrap().len(), 1);
+        }
+        // Two peaks closer than the minimum distance, or without a deep enough dip, are one.
+        let near = presses(&p, &[(0.028, 0.020, 100.0, 0.002), (0.036, 0.020, 100.0, 0.002)]);
+        assert_eq!(connected.find(&near, 5.0, 2).unwrap().len(), 1);
+        assert_eq!(split.find(&near, 5.0, 2).unwrap().len(), 1, "8 mm apart");
+        let shallow = presses(&p, &[(0.028, 0.020, 100.0, 0.006), (0.044, 0.020, 100.0, 0.006)]);
+        assert_eq!(
+            split.find(&shallow, 5.0, 2).unwrap().len(),
+            1,
+            "the pressure dips by less than half"
+        );
+    }
+
+    proptest! {
+        /// Split or not, every pressed taxel of a kept patch is in exactly one contact, each
+        /// contact lies within one connected patch, and splitting never joins patches.
+        #[test]
+        fn split_contacts_partition_the_connected_patches(
+            values in proptest::collection::vec(0.0f32..10.0, 40),
+            threshold in 0.0f32..10.0,
+            min_dip in 0.0f32..1.0,
+            min_distance_m in 0.0f64..0.03,
+        ) {
+            let (p, f) = strip(20);
+            let mut connected = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+            let mut split = ContactFinder::new(&p, &[], &f, Path::new("strip"))
+                .unwrap()
+                .with_separation(Separation::Peaks { min_dip, min_distance_m });
+            let patches = connected.find(&values, threshold, 1).unwrap().to_vec();
+            let parts = split.find(&values, threshold, 1).unwrap().to_vec();
+            prop_assert!(parts.len() >= patches.len());
+            let mut patch_of = vec![usize::MAX; 40];
+            for (k, c) in patches.iter().enumerate() {
+                for &i in &c.taxels {
+                    patch_of[i] = k;
+                }
+            }
+            let mut seen = [false; 40];
+            for c in &parts {
+                prop_assert!(!c.taxels.is_empty());
+                let k = patch_of[c.taxels[0]];
+                for &i in &c.taxels {
+                    prop_assert!(!seen[i]);
+                    seen[i] = true;
+                    prop_assert_eq!(patch_of[i], k);
+                }
+            }
+            prop_assert_eq!(seen.iter().filter(|&&s| s).count(), patch_of.iter().filter(|&&k| k != usize::MAX).count());
+        }
     }
 
     proptest! {

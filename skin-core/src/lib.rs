@@ -41,6 +41,7 @@
 
 mod baseline;
 mod contact;
+mod contact_peaks;
 mod error;
 pub mod format;
 mod frame;
@@ -51,6 +52,7 @@ mod taxel;
 
 pub use baseline::{Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth};
 pub use contact::{Contact, ContactFinder};
+pub use contact_peaks::Separation;
 pub use error::{Error, Result};
 pub use frame::{Columns, Frame, Recording};
 pub use layout::{LinkSkin, SkinLayout};

@@ -18,7 +18,7 @@ use crate::image_model::ModelError;
 use crate::parts::{PartContact, part_contacts};
 use crate::segment::Segmenter;
 use nalgebra::Point3;
-use skin_core::ContactFinder;
+use skin_core::{ContactFinder, Separation};
 use skin_geom::{TactileImager, TactileMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -86,6 +86,8 @@ pub struct TouchOptions {
     pub step_mm: f64,
     /// Class names of the classifier's outputs, in order; the class named `hand` is segmented.
     pub classes: Vec<String>,
+    /// How a patch of pressed taxels becomes contacts (default: each connected patch is one).
+    pub separation: Separation,
 }
 
 impl Default for TouchOptions {
@@ -98,6 +100,7 @@ impl Default for TouchOptions {
             reclassify_growth: 1.25,
             step_mm: 1.0,
             classes: vec!["hand".into(), "non_hand".into()],
+            separation: Separation::Connected,
         }
     }
 }
@@ -267,13 +270,12 @@ impl TouchPipeline {
         for map in maps {
             let name = map.name.clone();
             // A tactile map carries no normals: contacts get none (`Contact::normal` is None).
-            let finder =
-                ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&name)).map_err(|source| {
-                    TouchError::Mesh {
-                        link: name.clone(),
-                        source,
-                    }
-                })?;
+            let finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&name))
+                .map_err(|source| TouchError::Mesh {
+                    link: name.clone(),
+                    source,
+                })?
+                .with_separation(options.separation);
             let imager =
                 TactileImager::for_model(&map, options.step_mm, size).map_err(|source| TouchError::Map {
                     link: name.clone(),

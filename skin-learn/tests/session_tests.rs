@@ -218,3 +218,23 @@ fn nobody_touching_the_real_patch_gives_no_touch() {
         files.len()
     );
 }
+
+#[test]
+fn touch_split_is_read_with_its_defaults_and_checked() {
+    let path = Path::new("/nowhere/run.toml");
+    let config = SessionConfig::parse("layout = \"l.json\"\n[touch.split]\n", path).unwrap();
+    let options = config.touch_options(vec!["hand".into(), "non_hand".into()]);
+    assert_eq!(options.separation, skin_core::Separation::FINGERS);
+    let plain = SessionConfig::parse("layout = \"l.json\"\n", path).unwrap();
+    assert_eq!(
+        plain.touch_options(Vec::new()).separation,
+        skin_core::Separation::Connected
+    );
+    let e = SessionConfig::parse("layout = \"l.json\"\n[touch.split]\nmin_dip = 2\n", path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("[touch.split] min_dip") && e.contains("from 0 to 1"),
+        "{e}"
+    );
+}

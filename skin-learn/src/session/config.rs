@@ -22,6 +22,9 @@
 //! decide_frames = 3               # frames of contact before the first decision
 //! release_frames = 2              # frames without contact that end a touch
 //! reclassify_growth = 1.25        # classify again when the touch grows by this factor
+//! [touch.split]                   # optional: fingers side by side as separate contacts
+//! min_dip = 0.5                   # the pressure falls by half between two peaks...
+//! min_distance_mm = 12            # ...at least 12 mm apart (else one connected patch)
 //! [gate]                          # optional: what the robot should do
 //! hand = "comply"                 # stop, comply, slow or resume
 //! non_hand = "stop"
@@ -36,6 +39,7 @@ use crate::touch::TouchOptions;
 use serde::Deserialize;
 use skin_control::hri::ClassGate;
 use skin_core::Polarity;
+use skin_core::Separation;
 use std::path::{Path, PathBuf};
 
 /// The largest side of a model's input image, pixels.
@@ -107,6 +111,9 @@ pub struct TouchConfig {
     pub release_frames: usize,
     /// Classify again when the touch grows by this factor (1 to 1e6).
     pub reclassify_growth: f32,
+    /// `[touch.split]`: split a patch between prominent pressure peaks (fingers side by side);
+    /// without it each connected patch is one contact (the thesis' rule).
+    pub split: Option<SplitConfig>,
 }
 
 impl Default for TouchConfig {
@@ -118,6 +125,27 @@ impl Default for TouchConfig {
             decide_frames: d.decide_frames,
             release_frames: d.release_frames,
             reclassify_growth: d.reclassify_growth,
+            split: None,
+        }
+    }
+}
+
+/// `[touch.split]`: see [`Separation::Peaks`].
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SplitConfig {
+    /// How far the pressure must fall between two peaks, as a fraction of the lower (0 to 1;
+    /// default 0.5).
+    pub min_dip: f32,
+    /// How far apart two peaks must lie, millimetres (0 to 1000; default 12).
+    pub min_distance_mm: f64,
+}
+
+impl Default for SplitConfig {
+    fn default() -> Self {
+        SplitConfig {
+            min_dip: 0.5,
+            min_distance_mm: 12.0,
         }
     }
 }
@@ -188,6 +216,22 @@ impl SessionConfig {
                 "a factor from 1 to 1e6",
             ));
         }
+        if let Some(sp) = &t.split {
+            if !(0.0..=1.0).contains(&sp.min_dip) {
+                return Err(value(
+                    "[touch.split] min_dip",
+                    sp.min_dip.to_string(),
+                    "a fraction from 0 to 1",
+                ));
+            }
+            if !(0.0..=1000.0).contains(&sp.min_distance_mm) {
+                return Err(value(
+                    "[touch.split] min_distance_mm",
+                    sp.min_distance_mm.to_string(),
+                    "millimetres from 0 to 1000",
+                ));
+            }
+        }
         for (field, v) in [
             ("[touch] min_taxels", t.min_taxels),
             ("[touch] decide_frames", t.decide_frames),
@@ -232,6 +276,10 @@ impl SessionConfig {
             decide_frames: t.decide_frames,
             release_frames: t.release_frames,
             reclassify_growth: t.reclassify_growth,
+            separation: t.split.map_or(Separation::Connected, |s| Separation::Peaks {
+                min_dip: s.min_dip,
+                min_distance_m: s.min_distance_mm * 1e-3,
+            }),
             classes,
             ..TouchOptions::default()
         }
