@@ -12,10 +12,10 @@ use crate::segmentation_diagnostics::{
     Naming, SEAM_BINS, mirror_hand, name_regions, off_borders, seam_distance,
 };
 use crate::{Error, Result};
-use skin_core::TaxelId;
 use skin_core::format::recording;
+use skin_core::{Recording, TaxelId};
 use skin_geom::{BlindSpots, Decimation, Grid, Rasterizer, TactileImager, TactileMap};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -110,22 +110,13 @@ fn cases_of(e: &crate::dataset::Entry, truth: &[u8]) -> [bool; 7] {
     ]
 }
 
-/// The column of a recording (`file`) that holds each of `ids` (the taxels of `whose` map), by
-/// `column`: taxel id -> column.
-fn columns_of(
-    ids: &[TaxelId],
-    column: &HashMap<TaxelId, usize>,
-    file: &Path,
-    whose: &str,
-) -> Result<Vec<usize>> {
-    ids.iter()
-        .map(|id| {
-            column
-                .get(id)
-                .copied()
-                .ok_or_else(|| inconsistent(file, format!("no column for taxel {id} of {whose}")))
-        })
-        .collect()
+/// The column of `rec` (read from `file`) that holds each of `ids` (the taxels of `whose` map).
+fn columns_of(rec: &Recording, ids: &[TaxelId], file: &Path, whose: &str) -> Result<Vec<usize>> {
+    let columns = rec.columns(ids);
+    match columns.missing.first() {
+        Some(id) => Err(inconsistent(file, format!("no column for taxel {id} of {whose}"))),
+        None => Ok(columns.of_taxel.into_iter().flatten().collect()),
+    }
 }
 
 /// A dataset whose files disagree.
@@ -168,8 +159,7 @@ pub fn taxel_truth(data: &Dataset, test: &[usize]) -> Result<Option<TaxelTruth>>
             );
             return Err(inconsistent(path, message));
         }
-        let column: HashMap<_, _> = rec.taxel_ids.iter().enumerate().map(|(k, id)| (*id, k)).collect();
-        let cols = columns_of(&map.ids, &column, path, "map.json")?;
+        let cols = columns_of(&rec, &map.ids, path, "map.json")?;
         Ok(test
             .iter()
             .map(|&i| cols.iter().map(|&c| rec.frames[i].values[c]).collect())
@@ -389,12 +379,6 @@ pub fn robustness(
         );
         return Err(inconsistent(&frames_path, message));
     }
-    let column: HashMap<_, _> = frames
-        .taxel_ids
-        .iter()
-        .enumerate()
-        .map(|(k, id)| (*id, k))
-        .collect();
     let size = model.input_size();
     let mut truths_full = Vec::new();
     for &i in test {
@@ -431,7 +415,7 @@ pub fn robustness(
         for seed in 0..patterns as u64 {
             let degraded = make(seed)?;
             let mut imager = TactileImager::for_model(&degraded, 1.0, size)?;
-            let cols = columns_of(&degraded.ids, &column, &frames_path, "a degraded map")?;
+            let cols = columns_of(&frames, &degraded.ids, &frames_path, "a degraded map")?;
             let mut pressures = vec![0.0f32; cols.len()];
             let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
             let (mut kept, mut before) = (0usize, 0usize);
