@@ -238,21 +238,27 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
     let dir = args.output.as_deref().context("--recording needs -o DIR")?;
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
     let cannot = || format!("cannot write into {}", dir.display());
-    for note in Session::from_config(config)?.layout_notes() {
+    // A session per recording (each learns its own baseline); the first one's layout notes
+    // are said once, before the table.
+    let mut first = Some(Session::from_config(config)?);
+    for note in first.iter().flat_map(Session::layout_notes) {
         crate::say!("{note}");
     }
     let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
     crate::say!("recording                       frames  touches  most contacts in a touch");
     for (path, name) in args.recording.iter().zip(&names) {
         let rec = skin_core::format::recording::read(path)?;
-        let mut session = Session::from_config(config)?;
+        let mut session = match first.take() {
+            Some(s) => s,
+            None => Session::from_config(config)?,
+        };
         session.set_frame_images(args.frames);
         let here = out.path().join(name);
         std::fs::create_dir_all(&here).with_context(cannot)?;
         let events = JsonLines::new(BufWriter::new(
             File::create(here.join("events.jsonl")).with_context(cannot)?,
         ));
-        let mut sinks = (events, PngImages::new(&here)?);
+        let mut sinks = (events, PngImages::new(&here).with_context(cannot)?);
         let span = session.run_recording(&rec, path, &mut sinks)?;
         sinks.0.into_inner().context("cannot write events.jsonl")?;
         let summary = session.summary(span).to_string();
