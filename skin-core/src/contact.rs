@@ -180,15 +180,23 @@ impl ContactFinder {
             while self.contacts.len() < count + parts {
                 self.contacts.push(Contact::default());
             }
-            for c in &mut self.contacts[count..count + parts] {
-                c.taxels.clear();
-            }
-            for &i in &self.patch {
-                let part = match self.separation {
-                    Separation::Connected => 0,
-                    Separation::Peaks { .. } => self.flooding.take_basin(i),
-                };
-                self.contacts[count + part].taxels.push(i);
+            if parts == 1 {
+                // The patch is the contact: swap buffers rather than copy (the flooding's
+                // labels of a patch it left whole are cleared all the same).
+                std::mem::swap(&mut self.contacts[count].taxels, &mut self.patch);
+                if matches!(self.separation, Separation::Peaks { .. }) {
+                    for &i in &self.contacts[count].taxels {
+                        self.flooding.take_basin(i);
+                    }
+                }
+            } else {
+                for c in &mut self.contacts[count..count + parts] {
+                    c.taxels.clear();
+                }
+                for &i in &self.patch {
+                    let part = self.flooding.take_basin(i);
+                    self.contacts[count + part].taxels.push(i);
+                }
             }
             for contact in &mut self.contacts[count..count + parts] {
                 describe(contact, pressures, &self.positions, &self.normals);
