@@ -185,13 +185,7 @@ pub(crate) fn load_inputs(
                 };
             (k, rec.columns(&maps[k].ids))
         };
-        let (stems, repeats) = rec.frame_stems();
-        if repeats > 0 {
-            crate::say!(
-                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
-                p.display()
-            );
-        }
+        let stems = frame_stems(p, &rec);
         inputs.push(Input {
             path: p.clone(),
             dir: out.join(name),
@@ -202,6 +196,19 @@ pub(crate) fn load_inputs(
         });
     }
     Ok((inputs, maps))
+}
+
+/// The recording's frame file stems ([`Recording::frame_stems`]), saying how many frame
+/// numbers repeat (their images get a `_dup<k>` suffix instead of overwriting).
+pub(crate) fn frame_stems(path: &Path, rec: &Recording) -> Vec<String> {
+    let (stems, repeats) = rec.frame_stems();
+    if repeats > 0 {
+        crate::say!(
+            "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
+            path.display()
+        );
+    }
+    stems
 }
 
 /// Reads the postures of `poses`, which must name the links of `layout` (`names`), in order.

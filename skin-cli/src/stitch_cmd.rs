@@ -146,13 +146,7 @@ pub fn run(args: Args) -> Result<()> {
         let dir = out.path().join(stem);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot write into {}", args.output.display()))?;
-        let (files, repeats) = rec.frame_stems();
-        if repeats > 0 {
-            crate::say!(
-                "{}: {repeats} frame number(s) repeat an earlier frame's; their images are named frame_<number>_dup<k>.png",
-                rec_path.display()
-            );
-        }
+        let files = crate::shared::frame_stems(rec_path, &rec);
         let mut placed: Option<usize> = None;
         let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.of_taxel.len()]).collect();
         let (mut image, mut grey) = (Vec::new(), Vec::new());
