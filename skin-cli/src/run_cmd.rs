@@ -38,6 +38,10 @@ use std::time::Instant;
 ///     decide_frames = 3               # frames of contact before the first decision
 ///     release_frames = 2              # frames without contact that end a touch
 ///     reclassify_growth = 1.25        # classify again when the touch grows by this factor
+///     contacts = "peaks"              # split between pressure peaks; "connected": thesis 3.2
+///     [touch.split]                   # the peaks rule (defaults as shown):
+///     min_dip = 0.5                   # the pressure falls by half between two peaks...
+///     min_distance_mm = 12            # ...at least 12 mm apart
 ///     [gate]                          # optional: what the robot should do
 ///     hand = "comply"                 # stop, comply, slow or resume
 ///     non_hand = "stop"
@@ -45,7 +49,7 @@ use std::time::Instant;
 ///     poses = "poses.json"            # skin-poses/1: every link's pose over time
 ///
 /// Per frame: CAN frames -> assembled frame (bus map) -> baseline -> contacts (connected
-/// pressed taxels) -> touches -> tactile image of the touch at its fullest -> classifier (and
+/// pressed taxels, split between separate pressure peaks) -> touches -> tactile image of the touch at its fullest -> classifier (and
 /// segmenter for hands). A module missing from a frame keeps its last readings and is reported.
 ///
 /// With [stitch], the maps are stitched at each posture and contacts are also searched over the

@@ -174,7 +174,6 @@ impl ContactFinder {
                     &self.neighbours,
                     min_dip,
                     min_distance_m,
-                    min_taxels.max(1),
                 ),
             };
             while self.contacts.len() < count + parts {
@@ -363,6 +362,13 @@ mod tests {
             "{:?}",
             c[1].centroid
         );
+        // A hand's four fingertips in a row are four contacts: nothing caps the count.
+        let four: Vec<(f64, f64, f32, f64)> = (0..4)
+            .map(|k| (0.012 + 0.016 * k as f64, 0.020, 100.0 - 5.0 * k as f32, 0.004))
+            .collect();
+        let four = presses(&p, &four);
+        assert_eq!(connected.find(&four, 5.0, 2).unwrap().len(), 1);
+        assert_eq!(split.find(&four, 5.0, 2).unwrap().len(), 4);
         // One broad press (a palm, sigma 12 mm) and one fingertip alone stay one contact each.
         for one in [
             presses(&p, &[(0.036, 0.020, 100.0, 0.012)]),

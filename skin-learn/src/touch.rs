@@ -86,7 +86,8 @@ pub struct TouchOptions {
     pub step_mm: f64,
     /// Class names of the classifier's outputs, in order; the class named `hand` is segmented.
     pub classes: Vec<String>,
-    /// How a patch of pressed taxels becomes contacts (default: each connected patch is one).
+    /// How a patch of pressed taxels becomes contacts (default [`Separation::FINGERS`]: split
+    /// between pressure peaks, so fingers side by side are separate contacts).
     pub separation: Separation,
 }
 
@@ -100,7 +101,7 @@ impl Default for TouchOptions {
             reclassify_growth: 1.25,
             step_mm: 1.0,
             classes: vec!["hand".into(), "non_hand".into()],
-            separation: Separation::Connected,
+            separation: Separation::FINGERS,
         }
     }
 }

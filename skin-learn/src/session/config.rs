@@ -22,9 +22,11 @@
 //! decide_frames = 3               # frames of contact before the first decision
 //! release_frames = 2              # frames without contact that end a touch
 //! reclassify_growth = 1.25        # classify again when the touch grows by this factor
-//! [touch.split]                   # optional: fingers side by side as separate contacts
+//! contacts = "peaks"              # a patch splits between pressure peaks (fingers side by
+//!                                 # side); "connected": a patch is one contact (thesis 3.2)
+//! [touch.split]                   # the peaks rule's parameters, defaults as shown:
 //! min_dip = 0.5                   # the pressure falls by half between two peaks...
-//! min_distance_mm = 12            # ...at least 12 mm apart (else one connected patch)
+//! min_distance_mm = 12            # ...at least 12 mm apart (else one contact)
 //! [gate]                          # optional: what the robot should do
 //! hand = "comply"                 # stop, comply, slow or resume
 //! non_hand = "stop"
@@ -111,9 +113,22 @@ pub struct TouchConfig {
     pub release_frames: usize,
     /// Classify again when the touch grows by this factor (1 to 1e6).
     pub reclassify_growth: f32,
-    /// `[touch.split]`: split a patch between prominent pressure peaks (fingers side by side);
-    /// without it each connected patch is one contact (the thesis' rule).
+    /// How a patch of pressed taxels becomes contacts; default [`ContactRule::Peaks`].
+    pub contacts: ContactRule,
+    /// `[touch.split]`: the parameters of [`ContactRule::Peaks`].
     pub split: Option<SplitConfig>,
+}
+
+/// `[touch] contacts`: how a connected patch of pressed taxels becomes contacts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactRule {
+    /// `"peaks"`: split between prominent pressure peaks (`[touch.split]`), so fingers side by
+    /// side are separate contacts.
+    #[default]
+    Peaks,
+    /// `"connected"`: each connected patch is one contact (thesis Ch. 3.2).
+    Connected,
 }
 
 impl Default for TouchConfig {
@@ -125,6 +140,7 @@ impl Default for TouchConfig {
             decide_frames: d.decide_frames,
             release_frames: d.release_frames,
             reclassify_growth: d.reclassify_growth,
+            contacts: ContactRule::default(),
             split: None,
         }
     }
@@ -216,6 +232,13 @@ impl SessionConfig {
                 "a factor from 1 to 1e6",
             ));
         }
+        if t.contacts == ContactRule::Connected && t.split.is_some() {
+            return Err(value(
+                "[touch.split]",
+                "present".into(),
+                "no [touch.split] with contacts = \"connected\" (it sets the peaks rule)",
+            ));
+        }
         if let Some(sp) = &t.split {
             if !(0.0..=1.0).contains(&sp.min_dip) {
                 return Err(value(
@@ -276,10 +299,16 @@ impl SessionConfig {
             decide_frames: t.decide_frames,
             release_frames: t.release_frames,
             reclassify_growth: t.reclassify_growth,
-            separation: t.split.map_or(Separation::Connected, |s| Separation::Peaks {
-                min_dip: s.min_dip,
-                min_distance_m: s.min_distance_mm * 1e-3,
-            }),
+            separation: match t.contacts {
+                ContactRule::Connected => Separation::Connected,
+                ContactRule::Peaks => {
+                    let s = t.split.unwrap_or_default();
+                    Separation::Peaks {
+                        min_dip: s.min_dip,
+                        min_distance_m: s.min_distance_mm * 1e-3,
+                    }
+                }
+            },
             classes,
             ..TouchOptions::default()
         }

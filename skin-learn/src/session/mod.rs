@@ -27,7 +27,9 @@ mod sink;
 mod stitching;
 mod summary;
 
-pub use config::{BaselineConfig, MAX_IMAGE_SIDE, SessionConfig, StitchConfig, TouchConfig};
+pub use config::{
+    BaselineConfig, ContactRule, MAX_IMAGE_SIDE, SessionConfig, SplitConfig, StitchConfig, TouchConfig,
+};
 pub use event::{Event, FrameView, GreyImage, MissingModule};
 pub use sink::{JsonLines, PngImages, Sink};
 pub use stitching::{Spanning, Stitching};
