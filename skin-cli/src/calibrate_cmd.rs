@@ -17,7 +17,9 @@ use std::path::PathBuf;
 /// PROBES.csv has the header `contact,x_m,y_m,z_m,taxel,response`: one row per (contact, taxel
 /// that answered), contact centroids in metres, raw responses. Writes the fitted taxels as a
 /// layout (metres); taxels that cannot be calibrated are listed with the reason and left out,
-/// never guessed. With --truth (a layout: project JSON or Cyskin JSON, taxels matched by id),
+/// never guessed: among them a taxel whose contacts do not surround its fitted centre (the edge
+/// of what was probed: probe past it). Each fitted centre's uncertainty (from the fit) is in
+/// --report. With --truth (a layout: project JSON or Cyskin JSON, taxels matched by id),
 /// prints the errors of Eq. 7.5-7.8 as in the thesis' Table 7.1, and with --plot draws the error
 /// against samples per taxel (10 random subsets per point, as Fig. 7.9).
 #[derive(clap::Args)]
@@ -40,6 +42,14 @@ pub struct CalibrateArgs {
     /// Taxels with fewer answered contacts are flagged.
     #[arg(long, default_value_t = 8, value_name = "N", value_parser = crate::numbers::count::<1, 1_000_000>)]
     min_responses: usize,
+    /// A taxel whose contacts leave a wider angle than this (degrees) around its fitted centre
+    /// is flagged: its contacts do not surround it (the edge of what was probed).
+    #[arg(long, default_value_t = 170.0, value_name = "DEG")]
+    max_open_angle: f64,
+    /// Also write one line per taxel: status, samples, position, the centre's uncertainty (1
+    /// standard deviation from the fit, mm) and the open angle around it (TSV).
+    #[arg(long, value_name = "REPORT.tsv")]
+    report: Option<PathBuf>,
     /// Name of the link in the written layout (default: the file name of PROBES).
     #[arg(long)]
     name: Option<String>,
@@ -150,7 +160,22 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     let inputs = crate::output::Inputs::new([Some(&args.probes), args.truth.as_ref()].into_iter().flatten());
     crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::Layout)?;
     crate::output::replaceable(&inputs, args.plot.as_deref(), crate::output::Kind::Svg)?;
-    inputs.check_outputs(&[("-o", Some(&args.output)), ("--plot", args.plot.as_deref())])?;
+    crate::output::replaceable(
+        &inputs,
+        args.report.as_deref(),
+        crate::output::Kind::Table(skin_learn::calibration::REPORT_HEADER),
+    )?;
+    inputs.check_outputs(&[
+        ("-o", Some(&args.output)),
+        ("--plot", args.plot.as_deref()),
+        ("--report", args.report.as_deref()),
+    ])?;
+    if !(args.max_open_angle.is_finite() && (0.0..=360.0).contains(&args.max_open_angle)) {
+        bail!(
+            "--max-open-angle must be from 0 to 360 degrees, not {}",
+            args.max_open_angle
+        );
+    }
     let dataset = ProbeDataset::read(&args.probes)?;
     if args.plot.is_some() && args.truth.is_none() {
         bail!("--plot draws the error against the truth: give --truth too");
@@ -161,6 +186,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     };
     let options = CalibrationOptions {
         min_responses: args.min_responses,
+        max_open_angle_deg: args.max_open_angle,
         ..CalibrationOptions::default()
     };
     let report = calibrate(&dataset, &options);
@@ -183,6 +209,18 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     }
     if report.flagged().count() > 20 {
         crate::say!("  ... and {} more", report.flagged().count() - 20);
+    }
+    let mut sds: Vec<f64> = report
+        .taxels
+        .iter()
+        .filter(|t| t.status == Status::Fitted)
+        .filter_map(|t| t.centre_sd_mm)
+        .collect();
+    sds.sort_by(f64::total_cmp);
+    if let (Some(mid), Some(top)) = (sds.get(sds.len() / 2), sds.last()) {
+        crate::say!(
+            "centre uncertainty of the fitted taxels (1 sd, from the fit; the contacts' own error adds to it): median {mid:.2} mm, largest {top:.2} mm"
+        );
     }
     if fitted == 0 {
         bail!(
@@ -207,6 +245,10 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     };
     crate::output::write_file(&args.output, text.as_bytes(), &inputs)?;
     crate::say!("wrote {}", args.output.display());
+    if let Some(path) = &args.report {
+        crate::output::write_file(path, report.to_tsv().as_bytes(), &inputs)?;
+        crate::say!("wrote {}", path.display());
+    }
 
     if let Some(truth) = &truth {
         let e = CalibrationErrors::compare(&report, truth);

@@ -576,6 +576,70 @@ fn probe_sim_then_calibrate_writes_a_cyskin_layout_and_flags_what_it_cannot_fit(
     assert!(flagged > 0 && link.taxels.len() + flagged <= 61, "{stdout}");
 }
 
+/// Probed only inside its outermost taxels, the hexagonal patch's border is one-sided: the
+/// taxels there are flagged as not surrounded, and the report gives every taxel's status and
+/// the fitted ones' uncertainty.
+#[test]
+fn calibrate_flags_edge_taxels_its_contacts_do_not_surround_and_reports_uncertainty() {
+    let dir = tempfile::tempdir().unwrap();
+    let probes = dir.path().join("p.csv");
+    let o = skin(&[
+        "probe-sim",
+        "--layout",
+        &hex("layout.json"),
+        "--contacts",
+        "800",
+        "--margin-mm",
+        "0",
+        "-o",
+        probes.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (out, report) = (dir.path().join("cal.json"), dir.path().join("report.tsv"));
+    let o = skin(&[
+        "calibrate",
+        probes.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(stdout.contains("not surrounded by its contacts"), "{stdout}");
+    assert!(stdout.contains("centre uncertainty"), "{stdout}");
+    let table = std::fs::read_to_string(&report).unwrap();
+    let mut lines = table.lines();
+    assert_eq!(lines.next(), Some(skin_learn::calibration::REPORT_HEADER));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split('\t').collect()).collect();
+    assert_eq!(rows.len(), 61);
+    for r in &rows {
+        assert_eq!(r.len(), 8, "{r:?}");
+        if r[1] == "fitted" {
+            let sd: f64 = r[6].parse().unwrap();
+            assert!(sd > 0.0 && sd < 2.0, "{r:?}");
+        } else {
+            assert!(r[3].is_empty(), "a flagged taxel has no position: {r:?}");
+        }
+    }
+    let edge = rows.iter().filter(|r| r[1].starts_with("not surrounded")).count();
+    assert!(
+        (1..=30).contains(&edge),
+        "{edge} taxels flagged as not surrounded"
+    );
+    // A bad angle is refused before anything is written.
+    let o = skin(&[
+        "calibrate",
+        probes.to_str().unwrap(),
+        "-o",
+        dir.path().join("x.json").to_str().unwrap(),
+        "--max-open-angle",
+        "400",
+    ]);
+    assert!(!o.status.success() && text(&o).1.contains("--max-open-angle"));
+    assert!(!dir.path().join("x.json").exists());
+}
+
 #[test]
 fn calibrate_names_the_line_and_field_of_a_bad_row() {
     let dir = tempfile::tempdir().unwrap();

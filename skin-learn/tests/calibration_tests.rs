@@ -215,9 +215,10 @@ fn the_error_curve_flattens_by_16_samples_per_taxel() {
         &CalibrationOptions::default(),
     );
     let at = |n| curve.iter().find(|p| p.samples == n).unwrap();
-    // With 6 or 8 samples some taxels are still flagged (a centre outside their contacts).
+    // With 6 or 8 samples some taxels are still flagged (a centre outside their contacts, or
+    // contacts that do not surround it); from 12 on, under one taxel in 61 on average.
     assert!(
-        curve.iter().filter(|p| p.samples >= 12).all(|p| p.fitted >= 60.0),
+        curve.iter().filter(|p| p.samples >= 12).all(|p| p.fitted >= 59.5),
         "{curve:?}"
     );
     // Most of the gain is made by 16 samples: doubling them to 32 gains under a quarter of what
@@ -324,4 +325,162 @@ mod properties {
             let _ = ProbeDataset::parse(&d.to_csv(), Path::new("x.csv"));
         }
     }
+}
+
+#[path = "support/elastic_probe.rs"]
+mod elastic_probe;
+use elastic_probe::{ElasticProbe, cylinder_patch};
+
+/// Calibrates `probes` of `patch`: (taxels flagged, largest error of the others in mm, the
+/// flagged ones' ids).
+fn flagged_and_worst(
+    patch: &LinkSkin,
+    probes: &ProbeDataset,
+    options: &CalibrationOptions,
+) -> (usize, f64, Vec<TaxelId>) {
+    let report = calibrate(probes, options);
+    let e = CalibrationErrors::compare(&report, patch);
+    let flagged: Vec<TaxelId> = report.flagged().map(|t| t.id).collect();
+    assert_eq!(e.compared + flagged.len(), patch.taxels.len());
+    (flagged.len(), e.max_mm, flagged)
+}
+
+/// The thesis' bound (Table 7.1: 4 mm) on a real-sized patch, with a probe model other than the
+/// one the calibration fits, contacts landing near the border and past it as a robot probing a
+/// whole link makes them: at most 2% of the taxels flagged, every other one within 4 mm.
+#[test]
+fn a_524_taxel_patch_probed_4000_times_places_every_unflagged_taxel_within_4_mm() {
+    let patch = cylinder_patch(524, 7.3, 60.0);
+    assert_eq!(patch.taxels.len(), 524);
+    for seed in [1, 2, 3] {
+        for (name, probes) in [
+            (
+                "elastic probe, contacts up to 8 mm past the border",
+                ElasticProbe::default().run(&patch, 4000, seed),
+            ),
+            (
+                "elastic probe, contacts up to 4 mm past the border",
+                ElasticProbe {
+                    margin_mm: 4.0,
+                    ..ElasticProbe::default()
+                }
+                .run(&patch, 4000, seed),
+            ),
+            (
+                "probe-sim, contacts up to 2 mm past the border",
+                ProbeSimulator {
+                    margin_mm: 2.0,
+                    ..ProbeSimulator::default()
+                }
+                .run(&patch, 4000, seed),
+            ),
+        ] {
+            let (flagged, worst, _) = flagged_and_worst(&patch, &probes, &CalibrationOptions::default());
+            eprintln!("seed {seed}, {name}: {flagged} flagged, largest error {worst:.2} mm");
+            assert!(flagged * 50 <= 524, "seed {seed}, {name}: {flagged} flagged");
+            assert!(
+                worst <= 4.0,
+                "seed {seed}, {name}: an unflagged taxel {worst:.2} mm off"
+            );
+        }
+    }
+}
+
+/// Probed only inside its outermost taxels, a patch's border is one-sided: there the fit
+/// extrapolates, and without the surround check some centres land over 4 mm off (6.6 and 7.5 mm
+/// measured). With it those taxels are flagged, every flagged one lies at the border, and the
+/// others stay within 4 mm.
+#[test]
+fn probed_only_inside_its_border_a_patch_flags_its_edge_taxels_instead_of_placing_them_off() {
+    let patch = cylinder_patch(524, 7.3, 60.0);
+    // Border: taxels with fewer than six lattice neighbours; near it: within a pitch of one.
+    let near = |a: &skin_core::Taxel, b: &skin_core::Taxel| (a.position - b.position).norm() < 0.0085;
+    let border: Vec<&skin_core::Taxel> = patch
+        .taxels
+        .iter()
+        .filter(|t| patch.taxels.iter().filter(|o| o.id != t.id && near(t, o)).count() < 6)
+        .collect();
+    let unchecked = CalibrationOptions {
+        max_open_angle_deg: 360.0,
+        ..CalibrationOptions::default()
+    };
+    let mut worst_unchecked: f64 = 0.0;
+    for (name, probes) in [
+        (
+            "elastic probe",
+            ElasticProbe {
+                margin_mm: 0.0,
+                ..ElasticProbe::default()
+            }
+            .run(&patch, 4000, 1),
+        ),
+        (
+            "probe-sim",
+            ProbeSimulator {
+                margin_mm: 0.0,
+                ..ProbeSimulator::default()
+            }
+            .run(&patch, 4000, 1),
+        ),
+    ] {
+        let (flagged, worst, ids) = flagged_and_worst(&patch, &probes, &CalibrationOptions::default());
+        eprintln!("{name}, contacts inside the border: {flagged} flagged, largest error {worst:.2} mm");
+        assert!(worst <= 4.0, "{name}: an unflagged taxel {worst:.2} mm off");
+        for id in &ids {
+            let t = patch.taxels.iter().find(|t| t.id == *id).unwrap();
+            assert!(
+                border.iter().any(|b| b.id == t.id || near(b, t)),
+                "{name}: taxel {id} flagged away from the border"
+            );
+        }
+        let report = calibrate(&probes, &CalibrationOptions::default());
+        assert!(
+            report
+                .flagged()
+                .any(|t| matches!(t.status, Status::NotSurrounded { .. }))
+        );
+        worst_unchecked = worst_unchecked.max(flagged_and_worst(&patch, &probes, &unchecked).1);
+    }
+    assert!(
+        worst_unchecked > 4.0,
+        "the check is needed: {worst_unchecked:.2} mm without it"
+    );
+}
+
+/// The centre's uncertainty is the spread of the fitted centre over repeated noisy datasets: a
+/// Gaussian sampled with response noise only, fitted 300 times, gives centres whose standard
+/// deviation matches the reported one within 20%.
+#[test]
+fn the_reported_centre_uncertainty_is_the_spread_of_the_fitted_centre() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let noise = Normal::new(0.0, 0.03).unwrap();
+    let (xs, clean) = exact_samples([0.5, -0.4], [4.5, 4.5], 1.0);
+    let (mut centres, mut reported) = (Vec::new(), Vec::new());
+    for _ in 0..300 {
+        let ts: Vec<f64> = clean.iter().map(|t| t + noise.sample(&mut rng)).collect();
+        let fit = GaussianFit::fit(&xs, &ts, GaussianFit::start(&xs, &ts), &Default::default()).unwrap();
+        centres.push([fit.beta[0], fit.beta[1]]);
+        reported.push(fit.centre_sd(&xs, &ts).unwrap());
+    }
+    let n = centres.len() as f64;
+    let spread = |k: usize| {
+        let m = centres.iter().map(|c| c[k]).sum::<f64>() / n;
+        (centres.iter().map(|c| (c[k] - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    };
+    let observed = spread(0).max(spread(1));
+    let said = reported.iter().sum::<f64>() / n;
+    assert!(
+        (said / observed - 1.0).abs() < 0.2,
+        "reported {said:.4} mm, observed {observed:.4} mm"
+    );
+    // Fewer samples than the model has parameters (plus one) say nothing.
+    assert!(
+        GaussianFit {
+            ..GaussianFit::fit(&xs, &clean, GaussianFit::start(&xs, &clean), &Default::default()).unwrap()
+        }
+        .centre_sd(&xs[..5], &clean[..5])
+        .is_none()
+    );
 }

@@ -122,6 +122,31 @@ impl GaussianFit {
         b[4] * (-(d1 * d1 / (b[2] * b[2]) + d2 * d2 / (b[3] * b[3]))).exp()
     }
 
+    /// The standard deviation of the fitted centre along its least certain direction, in the
+    /// units of `xs` (the calibration's millimetres), from the samples the fit was made on: the
+    /// Gauss-Newton covariance `s^2 (J^T J)^-1` of (b1, b2), with `s^2` the residual variance over
+    /// `n - 5` degrees of freedom and `J` the model's Jacobian at the fit. `None` with no more
+    /// samples than parameters, or where J^T J is singular (the centre is not determined).
+    pub fn centre_sd(&self, xs: &[[f64; 2]], ts: &[f64]) -> Option<f64> {
+        if xs.len() != ts.len() || xs.len() <= 5 {
+            return None;
+        }
+        let beta = Vector5::from(self.beta);
+        let mut jtj = Matrix5::zeros();
+        let mut ssr = 0.0;
+        for (x, &t) in xs.iter().zip(ts) {
+            let (v, dv, _) = model(&beta, Vector2::new(x[0], x[1]));
+            ssr += (t - v).powi(2);
+            jtj += dv * dv.transpose();
+        }
+        let s2 = ssr / (xs.len() - 5) as f64;
+        let inv = jtj.try_inverse()?;
+        let centre = inv.fixed_view::<2, 2>(0, 0).into_owned() * s2;
+        let eig = centre.symmetric_eigen();
+        let largest = eig.eigenvalues.max();
+        (largest.is_finite() && largest >= 0.0).then(|| largest.sqrt())
+    }
+
     /// The documented start point: the mean of the samples, their largest standard deviation for
     /// both widths, the largest response for the height.
     pub fn start(xs: &[[f64; 2]], ts: &[f64]) -> [f64; 5] {
