@@ -11,8 +11,10 @@
 //! iCub skin manager's compensation works the same way).
 //!
 //! The same idle frames show taxels that cannot be trusted: no variation at all (dead), or
-//! pinned at a rail of the converter (stuck). They are listed so that a map can be rebuilt
-//! without them.
+//! pinned at the rail of the converter that pressure moves toward (stuck). A taxel resting at
+//! the other rail is not listed: electronics that subtract the offset themselves clip at rest
+//! (a Cyskin stream reads 0 on most taxels until touched). They are listed so that a map can be
+//! rebuilt without them.
 
 use crate::{Error, Result};
 use std::path::Path;
@@ -45,8 +47,8 @@ pub struct BaselineOptions {
     /// Fraction of the gap between reading and offset closed per frame while not in contact
     /// (default 0.01: a time constant of 100 frames, 5 s at 20 Hz).
     pub drift_per_frame: f32,
-    /// The converter's range (lowest, highest reading); a taxel whose idle readings sit on either
-    /// end is stuck. Default 0 to 65535 (16 bits).
+    /// The converter's range (lowest, highest reading); a taxel whose idle readings sit on the
+    /// end pressure moves toward is stuck. Default 0 to 65535 (16 bits).
     pub rails: (f32, f32),
 }
 
@@ -66,9 +68,9 @@ impl Default for BaselineOptions {
 /// Taxels that the idle frames show to be unusable (layout indices).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct TaxelHealth {
-    /// Readings that never changed over the idle frames.
+    /// Readings that never changed over the idle frames (away from the rest rail).
     pub dead: Vec<usize>,
-    /// Readings pinned at a rail of the converter.
+    /// Readings pinned at the rail pressure moves them toward.
     pub stuck: Vec<usize>,
 }
 
@@ -263,9 +265,16 @@ impl IdleStats {
         for (i, &sd) in sds.iter().enumerate() {
             noise.push((options.noise_sigmas * sd.max(floor)).max(options.min_noise));
             let (lo, hi) = (self.lo[i], self.hi[i]);
-            if lo <= options.rails.0 && hi <= options.rails.0 || lo >= options.rails.1 {
+            // Pinned at the rail pressure moves the reading toward, it cannot read pressure:
+            // stuck. Pinned at the other rail is a stream whose electronics subtract the offset
+            // and clip (Cyskin sends 0 at rest): quiet, not broken, whatever the idle frames say.
+            let (toward, away) = match options.polarity {
+                Polarity::Rising => (lo >= options.rails.1, hi <= options.rails.0),
+                Polarity::Falling => (hi <= options.rails.0, lo >= options.rails.1),
+            };
+            if toward {
                 health.stuck.push(i);
-            } else if lo == hi {
+            } else if lo == hi && !away {
                 health.dead.push(i);
             }
         }

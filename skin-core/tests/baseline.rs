@@ -37,6 +37,17 @@ fn offsets_are_the_idle_means_and_noise_is_six_sigma_of_the_taxel_or_the_link() 
     assert!((b.noise()[3] - 6.0 * sd).abs() < 1e-3, "{}", b.noise()[3]);
     assert_eq!(health.dead, vec![3]);
     assert_eq!(health.stuck, vec![4]);
+    // Resting at 0, the rail pressure moves away from, is a stream that clips at rest: it can
+    // still read pressure, so it is neither dead nor stuck. Pinned at 0 with falling readings,
+    // it is stuck.
+    let zeros: Vec<Vec<f32>> = (0..10).map(|_| vec![0.0, 2.0]).collect();
+    let (_, rest) = learn(&zeros, &BaselineOptions::default());
+    assert!(rest.stuck.is_empty() && rest.dead == vec![1], "{rest:?}");
+    let falling = BaselineOptions {
+        polarity: Polarity::Falling,
+        ..BaselineOptions::default()
+    };
+    assert_eq!(learn(&zeros, &falling).1.stuck, vec![0]);
     // Without the link's floor, only the minimum is left for it.
     let own = BaselineOptions {
         noise_floor_quantile: 0.0,
@@ -202,7 +213,14 @@ fn pressed_recordings(fingers: usize) -> Option<Vec<bool>> {
             .map(|f| {
                 let rec = skin_core::format::recording::read(f).unwrap();
                 let idle = rec.frames[..5].iter().map(|fr| fr.values.as_slice());
-                let (mut b, _) = Baseline::from_idle(idle, &BaselineOptions::default(), f).unwrap();
+                let (mut b, health) = Baseline::from_idle(idle, &BaselineOptions::default(), f).unwrap();
+                // Cyskin rests at 0 on most taxels: that is no fault.
+                assert!(
+                    health.stuck.is_empty(),
+                    "{}: stuck {:?}",
+                    f.display(),
+                    health.stuck
+                );
                 let mut p = vec![0.0f32; rec.taxel_ids.len()];
                 rec.frames[5..].iter().any(|fr| {
                     b.apply(&fr.values, &mut p).unwrap();
