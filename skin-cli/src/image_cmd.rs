@@ -12,8 +12,10 @@ use std::path::PathBuf;
 /// MAP is a tactile map from `skin flatten` (or a Cyskin `tactile_maps` file); a layout file is
 /// accepted too and flattened first. Each FRAMES file is a Cyskin raw recording (line 1: taxel
 /// ids; then frame number, time in s, one reading per id).
-/// Every taxel of the map must be in the recording; readings of ids the map does not know are
-/// ignored and counted. Pressure is interpolated barycentrically on a grid laid on the map (thesis
+/// Taxels of the map the recording lacks are dead: reported, and the image interpolates across
+/// them (as the thesis' Test B removes taxels); readings of ids the map does not know are ignored
+/// and counted. Readings are raw: give --threshold above the idle noise (Cyskin: about 2000).
+/// Pressure is interpolated barycentrically on a grid laid on the map (thesis
 /// Ch. 3.3), then grey = floor(255 K / K_bar) (eq. 3.1).
 ///
 /// Images go to OUT_DIR/<recording name>/frame_<number>.png; frames are processed in parallel.
