@@ -118,6 +118,25 @@ pub fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
     keep_only(map, &keep)
 }
 
+/// The map with every taxel in its place (same indices, ids and points) but its triangles made
+/// again without the `dead` ones, as [`without_taxels`] makes them: a dead taxel belongs to no
+/// triangle, so contacts join across it and images interpolate across it, while readings keep
+/// the layout's order. What a running session needs when a recording lacks some taxels.
+pub fn bridging_dead(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
+    let reduced = without_taxels(map, dead)?;
+    let mut is_dead = vec![false; map.points.len()];
+    for &i in dead {
+        if let Some(d) = is_dead.get_mut(i) {
+            *d = true;
+        }
+    }
+    let keep: Vec<usize> = (0..map.points.len()).filter(|&i| !is_dead[i]).collect();
+    Ok(TactileMap {
+        faces: reduced.faces.iter().map(|f| f.map(|k| keep[k])).collect(),
+        ..map.clone()
+    })
+}
+
 /// The map of the taxels `keep` (increasing indices), re-triangulated in the map plane.
 fn keep_only(map: &TactileMap, keep: &[usize]) -> Result<TactileMap> {
     if keep.len() < 3 {

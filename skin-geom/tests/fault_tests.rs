@@ -279,4 +279,12 @@ fn a_dead_taxel_is_imaged_across_not_as_a_hole() {
         skin_geom::faults::without_taxels(map, &[usize::MAX]).unwrap().ids,
         map.ids
     );
+    // Bridged in place: every taxel keeps its index, the dead one is in no triangle, and the
+    // image over the map, with the dead taxel reading 0, shows no dip.
+    let bridged = skin_geom::faults::bridging_dead(map, &[dead]).unwrap();
+    assert_eq!((&bridged.ids, &bridged.points), (&map.ids, &map.points));
+    assert!(bridged.faces.iter().all(|f| !f.contains(&dead)));
+    assert_eq!(bridged.faces.len(), without.faces.len());
+    let across = pixel_at(&bridged, &holed);
+    assert!((across - 100.0).abs() < 1e-3, "{across}");
 }

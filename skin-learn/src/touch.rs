@@ -222,6 +222,8 @@ struct Link {
     /// Thresholded pressures of a frame imaged for output.
     scratch: Vec<f32>,
     touch: Option<Touch>,
+    /// Taxels without readings, bridged by the finder's and imager's triangles.
+    dead: Vec<usize>,
 }
 
 /// The per-frame path of a whole skin: contacts, touches, images, decisions.
@@ -300,6 +302,7 @@ impl TouchPipeline {
                 finder,
                 imager,
                 touch: None,
+                dead: Vec::new(),
             });
         }
         let hand = options.classes.iter().position(|c| c == "hand");
@@ -312,6 +315,50 @@ impl TouchPipeline {
             next_touch: 0,
             times: StageTimes::default(),
         })
+    }
+
+    /// Declares the taxels of `link` (indices, layout order) that have no readings: they are
+    /// handled as the thesis' Test B handles removed taxels, the link's triangles made again
+    /// without them ([`skin_geom::faults::bridging_dead`]), so a press over a dead taxel stays one
+    /// contact and its image has no hole. Frames still give one pressure per taxel (a dead one's
+    /// is ignored). An empty list restores the whole mesh. Costs a triangulation: call it when the
+    /// input changes, not per frame.
+    pub fn set_dead(&mut self, link: usize, dead: &[usize]) -> Result<(), TouchError> {
+        let separation = self.options.separation;
+        let step_mm = self.options.step_mm;
+        let Some(l) = self.links.get_mut(link) else {
+            return Err(TouchError::Frame {
+                time: 0.0,
+                why: format!("no link {link}: the skin has {}", self.links.len()),
+            });
+        };
+        let mut dead: Vec<usize> = dead.iter().copied().filter(|&i| i < l.map.ids.len()).collect();
+        dead.sort_unstable();
+        dead.dedup();
+        if dead == l.dead {
+            return Ok(());
+        }
+        let map = if dead.is_empty() {
+            l.map.clone()
+        } else {
+            skin_geom::faults::bridging_dead(&l.map, &dead).map_err(|source| TouchError::Map {
+                link: l.name.clone(),
+                source,
+            })?
+        };
+        let size = l.imager.output_size();
+        l.finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&l.name))
+            .map_err(|source| TouchError::Mesh {
+                link: l.name.clone(),
+                source,
+            })?
+            .with_separation(separation);
+        l.imager = TactileImager::for_model(&map, step_mm, size).map_err(|source| TouchError::Map {
+            link: l.name.clone(),
+            source,
+        })?;
+        l.dead = dead;
+        Ok(())
     }
 
     /// Link names, in the order frames give their pressures.

@@ -402,11 +402,22 @@ impl Session {
 
     /// Takes assembled CAN frames of `busmap` ([`Session::push_can`]); a module missing from a
     /// frame holds its last readings. Fails for a taxel the links lack.
-    pub fn with_can(mut self, busmap: &BusMap) -> Result<Session, skin_can::Error> {
+    pub fn with_can(mut self, busmap: &BusMap) -> Result<Session, SessionError> {
         let ids: Vec<Vec<_>> = self.links.iter().map(LinkSkin::ids).collect();
+        let layout = LayoutFrames::new(busmap, &ids, Missing::HoldLast)?;
+        // Taxels on no bus never read: bridged like a recording's missing columns.
+        for k in 0..self.links.len() {
+            let dead: Vec<usize> = layout
+                .uncovered()
+                .iter()
+                .filter(|&&(l, _)| l == k)
+                .map(|&(_, i)| i)
+                .collect();
+            self.pipeline.set_dead(k, &dead)?;
+        }
         self.can = Some(CanInput {
             interfaces: busmap.buses.iter().map(|b| b.interface.clone()).collect(),
-            layout: LayoutFrames::new(busmap, &ids, Missing::HoldLast)?,
+            layout,
             busmap: busmap.clone(),
         });
         Ok(self)
@@ -525,12 +536,12 @@ impl Session {
         let mut session = Session::new(links, pipeline, options)?.with_source(&config.path);
         if let (Some(busmap), Some(busmap_path)) = (&busmap, &busmap_path) {
             session = session.with_can(busmap).map_err(|e| match e {
-                skin_can::Error::NotInLayout { taxel } => SessionError::NotInLayout {
+                SessionError::Can(skin_can::Error::NotInLayout { taxel }) => SessionError::NotInLayout {
                     busmap: busmap_path.clone(),
                     layout: layout_path.clone(),
                     taxel,
                 },
-                e => e.into(),
+                e => e,
             })?;
         }
         session.layout_notes = layout_notes;
@@ -720,8 +731,19 @@ impl Session {
                 .map(|c| c.missing.iter().filter(|id| id.is_placeholder()).count())
                 .sum();
             self.notes.push(format!(
-                "{missing} taxel(s) of the layout have no column in the recording ({placeholders} of them placeholders): dead, they read 0"
+                "{missing} taxel(s) of the layout have no column in the recording ({placeholders} of them placeholders): dead, contacts and images bridge them"
             ));
+        }
+        // Dead taxels are handled as Test B handles removed ones: each link's triangles are made
+        // again without them (and made whole again for a recording that has them all).
+        for (k, c) in columns.iter().enumerate() {
+            let dead: Vec<usize> = c
+                .of_taxel
+                .iter()
+                .enumerate()
+                .filter_map(|(i, col)| col.is_none().then_some(i))
+                .collect();
+            self.pipeline.set_dead(k, &dead)?;
         }
         let wanted: std::collections::HashSet<_> = self.links.iter().flat_map(|l| l.ids()).collect();
         let ignored = rec.taxel_ids.iter().filter(|id| !wanted.contains(id)).count();
