@@ -18,8 +18,9 @@ use std::path::PathBuf;
 /// is flattened on its own (its map never changes). POSES.json (skin-poses/1) gives every link's
 /// pose over time: at each posture the boundary taxels of adjacent links are triangulated in 3D
 /// and the child map is placed to keep those edges' lengths (Eq. 6.6). Each FRAMES recording
-/// (one reading per taxel id of the layout) becomes one stitched tactile image per frame, using
-/// the posture in effect at the frame's time: OUT/<recording>/frame_<n>.png. Prints each
+/// (a reading per taxel id; taxels it lacks are dead, reported, and the chain is stitched again
+/// without them so images bridge them) becomes one stitched tactile image per frame, using the
+/// posture in effect at the frame's time: OUT/<recording>/frame_<n>.png. Prints each
 /// posture's solve: edges, cost, iterations, and how well the stitched edges keep their 3D length.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
@@ -79,6 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         ..StitchOptions::default()
     };
     let joints = maps.len().saturating_sub(1);
+    let full_maps = maps.clone();
     let mut stitcher =
         Stitcher::new(maps, reference, options).with_context(|| args.layout.display().to_string())?;
     for j in 0..joints {
@@ -126,23 +128,81 @@ pub fn run(args: Args) -> Result<()> {
         }
         solved.push(report);
     }
-    let maps = stitcher.maps();
-    let mut raster = StitchedRasterizer::new(maps, args.step_mm)?;
+    let raster = StitchedRasterizer::new(stitcher.maps(), args.step_mm)?;
+    let mut full = Chain {
+        stitcher,
+        solved,
+        raster,
+    };
+    // The chain without the taxels a recording lacks, for as long as recordings lack the same.
+    let mut holed: Option<(Vec<Vec<usize>>, Chain)> = None;
     for (rec_path, stem) in args.frames.iter().zip(&stems) {
         let rec = recording::read(rec_path)?;
-        // Each link's taxels among the recording's columns.
-        let mut columns = Vec::new();
-        for (link, map) in links.iter().zip(maps) {
-            let c = rec.columns(&map.ids);
-            if let Some(id) = c.missing.first() {
-                bail!(
-                    "{}: taxel {id} of link \"{}\" is not recorded",
-                    rec_path.display(),
-                    link.name
-                );
+        // Taxels without a column are dead: the chain is stitched again without them (as Test B
+        // removes taxels), so images interpolate across them.
+        let dead: Vec<Vec<usize>> = full_maps
+            .iter()
+            .map(|m| {
+                let c = rec.columns(&m.ids);
+                (0..c.of_taxel.len())
+                    .filter(|&i| c.of_taxel[i].is_none())
+                    .collect()
+            })
+            .collect();
+        let chain = if dead.iter().all(Vec::is_empty) {
+            &mut full
+        } else {
+            for ((link, d), map) in links.iter().zip(&dead).zip(&full_maps) {
+                if let Some(&first) = d.first() {
+                    crate::say!(
+                        "{}: {} taxel(s) of link \"{}\" are not recorded (first: {}): dead, the images bridge them",
+                        rec_path.display(),
+                        d.len(),
+                        link.name,
+                        map.ids[first]
+                    );
+                }
             }
-            columns.push(c);
-        }
+            if holed.as_ref().is_none_or(|(d, _)| *d != dead) {
+                let reduced = full_maps
+                    .iter()
+                    .zip(&dead)
+                    .map(|(m, d)| {
+                        skin_geom::faults::without_taxels(m, d)
+                            .with_context(|| format!("{}: link \"{}\"", rec_path.display(), m.name))
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                let mut stitcher = Stitcher::new(reduced, reference, options)
+                    .with_context(|| format!("{} without the taxels it lacks", args.layout.display()))?;
+                let mut solved = Vec::new();
+                for p in &postures.postures {
+                    solved.push(
+                        stitcher
+                            .reset(&p.poses)
+                            .with_context(|| format!("posture \"{}\"", p.name))?,
+                    );
+                }
+                let raster = StitchedRasterizer::new(stitcher.maps(), args.step_mm)?;
+                holed = Some((
+                    dead.clone(),
+                    Chain {
+                        stitcher,
+                        solved,
+                        raster,
+                    },
+                ));
+            }
+            match &mut holed {
+                Some((_, chain)) => chain,
+                None => bail!("internal: the chain without the dead taxels was not built"),
+            }
+        };
+        let Chain {
+            stitcher,
+            solved,
+            raster,
+        } = chain;
+        let columns: Vec<_> = stitcher.maps().iter().map(|m| rec.columns(&m.ids)).collect();
         let dir = out.path().join(stem);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot write into {}", args.output.display()))?;
@@ -184,6 +244,13 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!("wrote the stitched maps to {}", args.output.display());
     }
     Ok(())
+}
+
+/// A stitched chain: its maps, every posture's solve, and the rasterizer over them.
+struct Chain {
+    stitcher: Stitcher,
+    solved: Vec<StitchReport>,
+    raster: StitchedRasterizer,
 }
 
 fn file_name(name: &str) -> String {

@@ -757,6 +757,57 @@ fn stitch_shows_a_touch_across_the_joint_as_one_blob_at_every_posture() {
     }
 }
 
+/// A recording that lacks the most pressed taxel of each press: reported, the chain stitched
+/// again without it, and each press is still one blob (no hole where the taxel was).
+#[test]
+fn stitch_bridges_the_taxels_a_recording_lacks() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = skin_core::format::recording::read(Path::new(&arm("touch.txt"))).unwrap();
+    let mut gone = Vec::new();
+    for k in [20, 60, 100] {
+        let v = &full.frames[k].values;
+        let top = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        if !gone.contains(&top) {
+            gone.push(top);
+        }
+    }
+    gone.sort_unstable();
+    let mut holed = full.clone();
+    for &c in gone.iter().rev() {
+        holed.taxel_ids.remove(c);
+        for f in &mut holed.frames {
+            f.values.remove(c);
+        }
+    }
+    let path = dir.path().join("holed.txt");
+    skin_core::format::recording::write(&path, &holed).unwrap();
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "stitch",
+        "--layout",
+        &arm("layout.json"),
+        "--poses",
+        &arm("poses.json"),
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--threshold",
+        "10",
+    ]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        stdout.contains("are not recorded") && stdout.contains("dead, the images bridge them"),
+        "{stdout}"
+    );
+    for frame in [20, 60, 100] {
+        let img = image::open(out.join(format!("holed/frame_{frame:05}.png")))
+            .unwrap()
+            .to_luma8();
+        assert_eq!(blobs(&img), 1, "frame {frame}");
+    }
+}
+
 #[test]
 fn stitch_refuses_poses_for_other_links() {
     let dir = tempfile::tempdir().unwrap();
