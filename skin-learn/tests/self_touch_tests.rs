@@ -223,6 +223,7 @@ fn exploration_goes_where_samples_are_missing() {
 fn a_closed_loop_calibrates_a_patch_on_its_own() {
     use rand::{Rng, SeedableRng};
     use skin_control::approach_press::{ApproachPress, Phase, PressOptions};
+    use skin_learn::calibration::exploration::beyond_edges;
     use skin_learn::calibration::{
         CalibrationErrors, CalibrationOptions, ProbeDataset, ProbeSimulator, calibrate,
     };
@@ -258,9 +259,8 @@ fn a_closed_loop_calibrates_a_patch_on_its_own() {
     let dt = 0.001;
     // A sample counts for a taxel when the press lands within 6 mm of where the taxel is thought
     // to be: far answers are weak and leave the Gaussian's centre loose.
-    while let Some(k) = next_probe_point(&candidates, &cad, &samples, 16, 0.006) {
-        assert!(dataset.contacts.len() < 1000, "exploration does not end");
-        let target = candidates.swap_remove(k);
+    // One press: approach, settle at 5 N, and the skin's answer with the tip as the centroid.
+    let mut press_at = |target: Point3<f64>| {
         let mut press = ApproachPress::new(target, normal, PressOptions::default());
         let mut tip = target + n * 0.05;
         let mut force = 0.0;
@@ -278,7 +278,11 @@ fn a_closed_loop_calibrates_a_patch_on_its_own() {
         }
         assert!((force - 5.0).abs() < 0.1);
         // The robot records the tip as the contact centroid (Ch. 7.2.3).
-        let contact = session.press(&tip, force);
+        (tip, session.press(&tip, force))
+    };
+    while let Some(k) = next_probe_point(&candidates, &cad, &samples, 16, 0.006) {
+        assert!(dataset.contacts.len() < 1000, "exploration does not end");
+        let (tip, contact) = press_at(candidates.swap_remove(k));
         for (id, _) in &contact.responses {
             let i = id.0 as usize;
             if (tip - cad[i]).norm() <= 0.006 {
@@ -286,6 +290,24 @@ fn a_closed_loop_calibrates_a_patch_on_its_own() {
             }
         }
         dataset.contacts.push(contact);
+    }
+    // Taxels at the patch's edge may have been pressed from one side only: the calibration flags
+    // them with the side to press, and the loop presses there until none is left.
+    let at: Vec<_> = truth.taxels.iter().zip(&cad).map(|(t, p)| (t.id, *p)).collect();
+    let mut rounds = 0;
+    loop {
+        let report = calibrate(&dataset, &CalibrationOptions::default());
+        let mut picks = beyond_edges(&report, &at, &candidates, 0.005, 0.004);
+        if picks.is_empty() {
+            break;
+        }
+        rounds += 1;
+        assert!(rounds <= 5, "edge taxels still one-sided after 5 rounds");
+        picks.sort_unstable();
+        for k in picks.into_iter().rev() {
+            let (_, contact) = press_at(candidates.swap_remove(k));
+            dataset.contacts.push(contact);
+        }
     }
     let report = calibrate(&dataset, &CalibrationOptions::default());
     let e = CalibrationErrors::compare(&report, &truth);

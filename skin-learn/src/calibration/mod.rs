@@ -130,6 +130,9 @@ pub enum Status {
     NotSurrounded {
         /// The widest angle without a contact, degrees.
         open_deg: f64,
+        /// The middle of that angle, in the taxel's plane: where to press next
+        /// ([`exploration::beyond_edges`]).
+        toward: Unit<Vector3<f64>>,
     },
     /// The fit did not meet the stopping rule within the iteration budget, while still near its
     /// contacts.
@@ -146,7 +149,7 @@ impl std::fmt::Display for Status {
             Status::TooFewResponses { have, need } => write!(f, "too few responses ({have}, need {need})"),
             Status::NoResponse => write!(f, "every response is zero"),
             Status::Degenerate(why) => write!(f, "degenerate: {why}"),
-            Status::NotSurrounded { open_deg } => write!(
+            Status::NotSurrounded { open_deg, .. } => write!(
                 f,
                 "not surrounded by its contacts ({open_deg:.0} deg around its centre without one: probe beyond it)"
             ),

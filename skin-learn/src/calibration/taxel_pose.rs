@@ -29,10 +29,10 @@ impl Pose {
     }
 }
 
-/// The widest angle around `centre` (degrees) with no sample in it, counting the samples at
-/// least `min_mm` from it (closer ones say nothing of a direction): 360 with none, under 180
-/// when the samples surround it.
-pub(crate) fn open_angle(xs: &[[f64; 2]], centre: [f64; 2], min_mm: f64) -> f64 {
+/// The widest angle around `centre` with no sample in it, counting the samples at least `min_mm`
+/// from it (closer ones say nothing of a direction), in degrees, and the direction (radians, in
+/// the samples' plane) of its middle: 360 with none, under 180 when the samples surround it.
+pub(crate) fn open_angle(xs: &[[f64; 2]], centre: [f64; 2], min_mm: f64) -> (f64, f64) {
     let mut angles: Vec<f64> = xs
         .iter()
         .map(|x| [x[0] - centre[0], x[1] - centre[1]])
@@ -40,15 +40,19 @@ pub(crate) fn open_angle(xs: &[[f64; 2]], centre: [f64; 2], min_mm: f64) -> f64 
         .map(|d| d[1].atan2(d[0]))
         .collect();
     if angles.is_empty() {
-        return 360.0;
+        return (360.0, 0.0);
     }
     angles.sort_by(f64::total_cmp);
     let tau = std::f64::consts::TAU;
-    let mut gap = angles[0] + tau - angles[angles.len() - 1];
+    let last = angles[angles.len() - 1];
+    let (mut gap, mut middle) = (angles[0] + tau - last, last + (angles[0] + tau - last) / 2.0);
     for w in angles.windows(2) {
-        gap = gap.max(w[1] - w[0]);
+        if w[1] - w[0] > gap {
+            gap = w[1] - w[0];
+            middle = (w[0] + w[1]) / 2.0;
+        }
     }
-    gap.to_degrees()
+    (gap.to_degrees(), middle)
 }
 
 /// A plane fitted to points: centroid, orthonormal basis (v1, v2, v3) with v3 the normal (the
@@ -178,13 +182,17 @@ pub(crate) fn estimate(
     // one side, where the response's true shape differs from the Gaussian's: on a 524-taxel patch
     // probed only inside its outermost taxels, such centres fell up to 7.5 mm off while their
     // fits' own uncertainty said 0.3 mm for some (calibration_tests.rs).
-    let open = open_angle(&xs, [fit.beta[0], fit.beta[1]], 1.0);
+    let (open, middle) = open_angle(&xs, [fit.beta[0], fit.beta[1]], 1.0);
     if open > options.max_open_angle_deg {
+        let toward = Unit::new_normalize(v1 * middle.cos() + v2 * middle.sin());
         return Pose {
             fit: Some(fit),
             centre_sd_mm,
             open_angle_deg: Some(open),
-            ..Pose::flagged(Status::NotSurrounded { open_deg: open })
+            ..Pose::flagged(Status::NotSurrounded {
+                open_deg: open,
+                toward,
+            })
         };
     }
     // Back to 3D: x~ = [v1 v2 v3] [b1, b2, 0]^T + v3 v3^T x*, with x* the mean centroid.
