@@ -9,6 +9,8 @@ use std::process::Output;
 mod cli_support;
 use cli_support::{root, skin};
 
+#[path = "../../test-support/recordings.rs"]
+mod recordings;
 #[path = "../../test-support/shared_data.rs"]
 mod shared_data;
 use shared_data::shared;
@@ -537,23 +539,24 @@ fn calibrate_recovers_the_hex_patch_and_prints_the_thesis_table() {
     );
 }
 
+/// `skin probe-sim` on the hexagonal patch with `args`, into DIR/p.csv.
+fn hex_probes(dir: &Path, args: &[&str]) -> PathBuf {
+    let probes = dir.join("p.csv");
+    let mut all = vec!["probe-sim", "--layout"];
+    let layout = hex("layout.json");
+    all.push(&layout);
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["-o", probes.to_str().unwrap()]);
+    let o = skin(&all);
+    assert!(o.status.success(), "{}", text(&o).1);
+    probes
+}
+
 #[test]
 fn probe_sim_then_calibrate_writes_a_cyskin_layout_and_flags_what_it_cannot_fit() {
     let dir = tempfile::tempdir().unwrap();
-    let probes = dir.path().join("p.csv");
     // Few contacts: some border taxels answer too rarely and must be flagged, not guessed.
-    let o = skin(&[
-        "probe-sim",
-        "--layout",
-        &hex("layout.json"),
-        "--contacts",
-        "60",
-        "--seed",
-        "3",
-        "-o",
-        probes.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o).1);
+    let probes = hex_probes(dir.path(), &["--contacts", "60", "--seed", "3"]);
     let out = dir.path().join("cal.json");
     let o = skin(&[
         "calibrate",
@@ -582,19 +585,7 @@ fn probe_sim_then_calibrate_writes_a_cyskin_layout_and_flags_what_it_cannot_fit(
 #[test]
 fn calibrate_flags_edge_taxels_its_contacts_do_not_surround_and_reports_uncertainty() {
     let dir = tempfile::tempdir().unwrap();
-    let probes = dir.path().join("p.csv");
-    let o = skin(&[
-        "probe-sim",
-        "--layout",
-        &hex("layout.json"),
-        "--contacts",
-        "800",
-        "--margin-mm",
-        "0",
-        "-o",
-        probes.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o).1);
+    let probes = hex_probes(dir.path(), &["--contacts", "800", "--margin-mm", "0"]);
     let (out, report) = (dir.path().join("cal.json"), dir.path().join("report.tsv"));
     let o = skin(&[
         "calibrate",
@@ -771,14 +762,7 @@ fn stitch_bridges_the_taxels_a_recording_lacks() {
             gone.push(top);
         }
     }
-    gone.sort_unstable();
-    let mut holed = full.clone();
-    for &c in gone.iter().rev() {
-        holed.taxel_ids.remove(c);
-        for f in &mut holed.frames {
-            f.values.remove(c);
-        }
-    }
+    let holed = recordings::without_columns(&full, &gone);
     let path = dir.path().join("holed.txt");
     skin_core::format::recording::write(&path, &holed).unwrap();
     let out = dir.path().join("out");

@@ -8,6 +8,8 @@ use skin_control::hri::{GateAction, TouchClass};
 use skin_learn::session::{Event, MissingModule, Session, SessionConfig};
 use std::path::{Path, PathBuf};
 
+#[path = "../../test-support/recordings.rs"]
+mod recordings;
 #[path = "../../test-support/shared_data.rs"]
 mod shared_data;
 
@@ -118,10 +120,15 @@ fn a_layout_taxel_on_no_bus_is_reported() {
 
 /// A configuration naming only `layout` (and 5 baseline frames), in a temporary folder.
 fn layout_only(layout: &Path) -> (tempfile::TempDir, SessionConfig) {
+    layout_and(layout, "")
+}
+
+/// The layout-only configuration with `touch` lines in its `[touch]` table.
+fn layout_and(layout: &Path, touch: &str) -> (tempfile::TempDir, SessionConfig) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("run.toml");
     let text = format!(
-        "layout = {:?}\n[baseline]\nframes = 5\n",
+        "layout = {:?}\n[baseline]\nframes = 5\n[touch]\n{touch}\n",
         layout.to_str().unwrap()
     );
     std::fs::write(&path, text).unwrap();
@@ -264,14 +271,7 @@ fn touch_split_is_read_with_its_defaults_and_checked() {
 fn most_contacts(fingers: usize, extra: &str) -> Option<Vec<usize>> {
     let dir = shared_data::shared(&format!("cyskin/recordings/{fingers}_finger"))?;
     let layout = shared_data::shared("cyskin/curved_gesture_patch.json")?;
-    let tmp = tempfile::tempdir().unwrap();
-    let path = tmp.path().join("run.toml");
-    let text = format!(
-        "layout = {:?}\n[baseline]\nframes = 5\n[touch]\n{extra}\n",
-        layout.to_str().unwrap()
-    );
-    std::fs::write(&path, text).unwrap();
-    let config = SessionConfig::read(&path).unwrap();
+    let (_tmp, config) = layout_and(&layout, extra);
     let mut files: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -371,14 +371,7 @@ fn a_dead_taxel_under_a_press_leaves_the_contact_whole() {
             gone.push(best.0);
         }
     }
-    gone.sort_unstable();
-    let mut holed = full.clone();
-    for &c in gone.iter().rev() {
-        holed.taxel_ids.remove(c);
-        for f in &mut holed.frames {
-            f.values.remove(c);
-        }
-    }
+    let holed = recordings::without_columns(&full, &gone);
     let holed = contacts(&holed);
     assert_eq!(whole, [1, 1, 2, 2]);
     assert_eq!(
