@@ -57,6 +57,14 @@ pub enum TouchError {
         /// Segmenter input (rows, cols).
         b: (usize, usize),
     },
+    /// A link index beyond the skin's links.
+    #[error("no link {link}: the skin has {links}")]
+    NoLink {
+        /// The index asked for.
+        link: usize,
+        /// Links of the skin.
+        links: usize,
+    },
     /// A frame does not have one pressure slice per link, or one pressure per taxel.
     #[error("frame at {time} s: {why}")]
     Frame {
@@ -226,6 +234,26 @@ struct Link {
     dead: Vec<usize>,
 }
 
+/// The contact search and the imager of a link's map (`map.name` names it in errors). A tactile
+/// map carries no normals: contacts get none (`Contact::normal` is None).
+fn search_and_image(
+    map: &TactileMap,
+    options: &TouchOptions,
+    size: (usize, usize),
+) -> Result<(ContactFinder, TactileImager), TouchError> {
+    let finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&map.name))
+        .map_err(|source| TouchError::Mesh {
+            link: map.name.clone(),
+            source,
+        })?
+        .with_separation(options.separation);
+    let imager = TactileImager::for_model(map, options.step_mm, size).map_err(|source| TouchError::Map {
+        link: map.name.clone(),
+        source,
+    })?;
+    Ok((finder, imager))
+}
+
 /// The per-frame path of a whole skin: contacts, touches, images, decisions.
 pub struct TouchPipeline {
     links: Vec<Link>,
@@ -272,18 +300,7 @@ impl TouchPipeline {
         let mut links = Vec::with_capacity(maps.len());
         for map in maps {
             let name = map.name.clone();
-            // A tactile map carries no normals: contacts get none (`Contact::normal` is None).
-            let finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&name))
-                .map_err(|source| TouchError::Mesh {
-                    link: name.clone(),
-                    source,
-                })?
-                .with_separation(options.separation);
-            let imager =
-                TactileImager::for_model(&map, options.step_mm, size).map_err(|source| TouchError::Map {
-                    link: name.clone(),
-                    source,
-                })?;
+            let (finder, imager) = search_and_image(&map, &options, size)?;
             let area: f64 = map
                 .faces
                 .iter()
@@ -324,13 +341,9 @@ impl TouchPipeline {
     /// is ignored). An empty list restores the whole mesh. Costs a triangulation: call it when the
     /// input changes, not per frame.
     pub fn set_dead(&mut self, link: usize, dead: &[usize]) -> Result<(), TouchError> {
-        let separation = self.options.separation;
-        let step_mm = self.options.step_mm;
+        let links = self.links.len();
         let Some(l) = self.links.get_mut(link) else {
-            return Err(TouchError::Frame {
-                time: 0.0,
-                why: format!("no link {link}: the skin has {}", self.links.len()),
-            });
+            return Err(TouchError::NoLink { link, links });
         };
         let mut dead: Vec<usize> = dead.iter().copied().filter(|&i| i < l.map.ids.len()).collect();
         dead.sort_unstable();
@@ -346,17 +359,7 @@ impl TouchPipeline {
                 source,
             })?
         };
-        let size = l.imager.output_size();
-        l.finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&l.name))
-            .map_err(|source| TouchError::Mesh {
-                link: l.name.clone(),
-                source,
-            })?
-            .with_separation(separation);
-        l.imager = TactileImager::for_model(&map, step_mm, size).map_err(|source| TouchError::Map {
-            link: l.name.clone(),
-            source,
-        })?;
+        (l.finder, l.imager) = search_and_image(&map, &self.options, l.imager.output_size())?;
         l.dead = dead;
         Ok(())
     }
