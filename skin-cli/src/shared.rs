@@ -173,12 +173,9 @@ pub(crate) fn load_inputs(
                 match reduced.get(&full.missing) {
                     Some(&k) => k,
                     None => {
-                        let dead: Vec<usize> = (0..map.ids.len())
-                            .filter(|&i| full.of_taxel[i].is_none())
-                            .collect();
-                        maps.push(skin_geom::faults::without_taxels(map, &dead).with_context(|| {
-                            format!("{}: the map without the taxels it lacks", p.display())
-                        })?);
+                        maps.push(skin_geom::faults::without_taxels(map, &full.dead()).with_context(
+                            || format!("{}: the map without the taxels it lacks", p.display()),
+                        )?);
                         reduced.insert(full.missing.clone(), maps.len() - 1);
                         maps.len() - 1
                     }

@@ -35,6 +35,13 @@ pub struct Columns {
 }
 
 impl Columns {
+    /// The layout indices of the taxels without a column (dead taxels), increasing.
+    pub fn dead(&self) -> Vec<usize> {
+        (0..self.of_taxel.len())
+            .filter(|&i| self.of_taxel[i].is_none())
+            .collect()
+    }
+
     /// The readings of one frame's `values` in taxel order, into `out` (one per taxel): readings
     /// at or below `threshold` and taxels without a column read 0. Returns whether any taxel
     /// reads above the threshold. `values` shorter than a column reads 0 there.
@@ -76,9 +83,10 @@ impl Recording {
     }
 
     /// A file stem per frame, for one output file each: `frame_<number>` (five digits at
-    /// least; a frame without a recorded number is numbered by its index), and `frame_<number>_dup<k>` for the k-th repeat of a frame number (a recording
-    /// joined from two, a counter reset), so no frame's file is written over another's. Also
-    /// returns how many frames repeat an earlier number.
+    /// least; a frame without a recorded number is numbered by its index), and
+    /// `frame_<number>_dup<k>` for the k-th repeat of a frame number (a recording joined from
+    /// two, a counter reset), so no frame's file is written over another's. Also returns how
+    /// many frames repeat an earlier number.
     pub fn frame_stems(&self) -> (Vec<String>, usize) {
         let mut seen: HashMap<u64, usize> = HashMap::new();
         let mut repeats = 0;

@@ -108,14 +108,18 @@ impl Decimation {
 /// survivors re-triangulated in the map plane where the map had skin, so an image interpolates
 /// across a dead taxel instead of showing a hole. Indices out of range are ignored.
 pub fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
-    let mut is_dead = vec![false; map.points.len()];
+    keep_only(map, &alive(map.points.len(), dead))
+}
+
+/// The indices below `n` not in `dead`, increasing.
+fn alive(n: usize, dead: &[usize]) -> Vec<usize> {
+    let mut is_dead = vec![false; n];
     for &i in dead {
         if let Some(d) = is_dead.get_mut(i) {
             *d = true;
         }
     }
-    let keep: Vec<usize> = (0..map.points.len()).filter(|&i| !is_dead[i]).collect();
-    keep_only(map, &keep)
+    (0..n).filter(|&i| !is_dead[i]).collect()
 }
 
 /// The map with every taxel in its place (same indices, ids and points) but its triangles made
@@ -123,14 +127,8 @@ pub fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
 /// triangle, so contacts join across it and images interpolate across it, while readings keep
 /// the layout's order. What a running session needs when a recording lacks some taxels.
 pub fn bridging_dead(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
-    let reduced = without_taxels(map, dead)?;
-    let mut is_dead = vec![false; map.points.len()];
-    for &i in dead {
-        if let Some(d) = is_dead.get_mut(i) {
-            *d = true;
-        }
-    }
-    let keep: Vec<usize> = (0..map.points.len()).filter(|&i| !is_dead[i]).collect();
+    let keep = alive(map.points.len(), dead);
+    let reduced = keep_only(map, &keep)?;
     Ok(TactileMap {
         faces: reduced.faces.iter().map(|f| f.map(|k| keep[k])).collect(),
         ..map.clone()

@@ -715,42 +715,34 @@ impl Session {
         sink: &mut dyn Sink,
     ) -> Result<f64, SessionError> {
         let columns: Vec<Columns> = self.links.iter().map(|l| rec.columns(&l.ids())).collect();
-        let taxels: usize = self.links.iter().map(|l| l.taxels.len()).sum();
-        let missing: usize = columns.iter().map(|c| c.missing.len()).sum();
-        if missing == taxels {
+        // The whole skin at once: a column of one link is not "ignored" by another.
+        let all: Vec<skin_core::TaxelId> = self.links.iter().flat_map(LinkSkin::ids).collect();
+        let whole = rec.columns(&all);
+        if whole.missing.len() == all.len() {
             return Err(SessionError::NotRecorded {
                 recording: path.to_owned(),
-                taxels,
+                taxels: all.len(),
                 columns: rec.taxel_ids.len(),
             });
         }
         self.notes.clear();
-        if missing > 0 {
-            let placeholders: usize = columns
-                .iter()
-                .map(|c| c.missing.iter().filter(|id| id.is_placeholder()).count())
-                .sum();
+        if !whole.missing.is_empty() {
+            let placeholders = whole.missing.iter().filter(|id| id.is_placeholder()).count();
             self.notes.push(format!(
-                "{missing} taxel(s) of the layout have no column in the recording ({placeholders} of them placeholders): dead, contacts and images bridge them"
+                "{} taxel(s) of the layout have no column in the recording ({placeholders} of them placeholders): dead, contacts and images bridge them",
+                whole.missing.len()
+            ));
+        }
+        if whole.ignored > 0 {
+            self.notes.push(format!(
+                "{} column(s) of the recording are no taxel of the layout, ignored",
+                whole.ignored
             ));
         }
         // Dead taxels are handled as Test B handles removed ones: each link's triangles are made
         // again without them (and made whole again for a recording that has them all).
         for (k, c) in columns.iter().enumerate() {
-            let dead: Vec<usize> = c
-                .of_taxel
-                .iter()
-                .enumerate()
-                .filter_map(|(i, col)| col.is_none().then_some(i))
-                .collect();
-            self.pipeline.set_dead(k, &dead)?;
-        }
-        let wanted: std::collections::HashSet<_> = self.links.iter().flat_map(|l| l.ids()).collect();
-        let ignored = rec.taxel_ids.iter().filter(|id| !wanted.contains(id)).count();
-        if ignored > 0 {
-            self.notes.push(format!(
-                "{ignored} column(s) of the recording are no taxel of the layout, ignored"
-            ));
+            self.pipeline.set_dead(k, &c.dead())?;
         }
         let mut raw: Vec<Vec<f32>> = self.links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
         let t0 = rec.frames.first().map_or(0.0, |f| f.time);
