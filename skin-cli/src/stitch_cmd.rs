@@ -2,7 +2,7 @@
 //! all of them.
 
 use crate::shared::read_postures;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use skin_core::format::recording;
 use skin_geom::raster::to_grey;
 use skin_geom::{
@@ -81,10 +81,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     let joints = maps.len().saturating_sub(1);
     let full_maps = maps.clone();
-    let mut stitcher =
-        Stitcher::new(maps, reference, options).with_context(|| args.layout.display().to_string())?;
+    // Solve every posture once (a posture is static).
+    let mut full = Chain::new(maps, reference, options, &postures.postures, args.step_mm)
+        .with_context(|| args.layout.display().to_string())?;
     for j in 0..joints {
-        if let Some((a, b)) = stitcher.boundary(j) {
+        if let Some((a, b)) = full.stitcher.boundary(j) {
             crate::say!(
                 "joint {j} ({} - {}): {} + {} boundary taxels",
                 names[j],
@@ -94,14 +95,11 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    // Solve every posture once (a posture is static).
-    let mut solved: Vec<StitchReport> = Vec::new();
-    for p in &postures.postures {
-        let report = stitcher
-            .reset(&p.poses)
-            .with_context(|| format!("posture \"{}\"", p.name))?;
+    for (p, report) in postures.postures.iter().zip(&full.solved) {
         for (j, s) in report.joints.iter().enumerate() {
-            let (worst, n) = stitcher.edge_fidelity(j, &p.poses, &report.placements, options.max_edge);
+            let (worst, n) = full
+                .stitcher
+                .edge_fidelity(j, &p.poses, &report.placements, options.max_edge);
             crate::say!(
                 "posture \"{}\", joint {j}: {} edges, cost {:.3} mm^2 in {} iterations{}; stitched edges keep their 3D length within {:.1}% ({n} pairs)",
                 p.name,
@@ -122,33 +120,18 @@ pub fn run(args: Args) -> Result<()> {
             let name = format!("stitched_{}.svg", file_name(&p.name));
             std::fs::write(
                 out.path().join(&name),
-                skin_geom::stitch::stitched_svg(stitcher.maps(), &report.placements).as_bytes(),
+                skin_geom::stitch::stitched_svg(full.stitcher.maps(), &report.placements).as_bytes(),
             )
             .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
         }
-        solved.push(report);
     }
-    let raster = StitchedRasterizer::new(stitcher.maps(), args.step_mm)?;
-    let mut full = Chain {
-        stitcher,
-        solved,
-        raster,
-    };
     // The chain without the taxels a recording lacks, for as long as recordings lack the same.
     let mut holed: Option<(Vec<Vec<usize>>, Chain)> = None;
     for (rec_path, stem) in args.frames.iter().zip(&stems) {
         let rec = recording::read(rec_path)?;
         // Taxels without a column are dead: the chain is stitched again without them (as Test B
         // removes taxels), so images interpolate across them.
-        let dead: Vec<Vec<usize>> = full_maps
-            .iter()
-            .map(|m| {
-                let c = rec.columns(&m.ids);
-                (0..c.of_taxel.len())
-                    .filter(|&i| c.of_taxel[i].is_none())
-                    .collect()
-            })
-            .collect();
+        let dead: Vec<Vec<usize>> = full_maps.iter().map(|m| rec.columns(&m.ids).dead()).collect();
         let chain = if dead.iter().all(Vec::is_empty) {
             &mut full
         } else {
@@ -163,38 +146,21 @@ pub fn run(args: Args) -> Result<()> {
                     );
                 }
             }
-            if holed.as_ref().is_none_or(|(d, _)| *d != dead) {
-                let reduced = full_maps
-                    .iter()
-                    .zip(&dead)
-                    .map(|(m, d)| {
-                        skin_geom::faults::without_taxels(m, d)
-                            .with_context(|| format!("{}: link \"{}\"", rec_path.display(), m.name))
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                let mut stitcher = Stitcher::new(reduced, reference, options)
-                    .with_context(|| format!("{} without the taxels it lacks", args.layout.display()))?;
-                let mut solved = Vec::new();
-                for p in &postures.postures {
-                    solved.push(
-                        stitcher
-                            .reset(&p.poses)
-                            .with_context(|| format!("posture \"{}\"", p.name))?,
-                    );
-                }
-                let raster = StitchedRasterizer::new(stitcher.maps(), args.step_mm)?;
-                holed = Some((
-                    dead.clone(),
-                    Chain {
-                        stitcher,
-                        solved,
-                        raster,
-                    },
-                ));
-            }
             match &mut holed {
-                Some((_, chain)) => chain,
-                None => bail!("internal: the chain without the dead taxels was not built"),
+                Some((d, chain)) if *d == dead => chain,
+                slot => {
+                    let reduced = full_maps
+                        .iter()
+                        .zip(&dead)
+                        .map(|(m, d)| {
+                            skin_geom::faults::without_taxels(m, d)
+                                .with_context(|| format!("{}: link \"{}\"", rec_path.display(), m.name))
+                        })
+                        .collect::<Result<Vec<_>>>()?;
+                    let chain = Chain::new(reduced, reference, options, &postures.postures, args.step_mm)
+                        .with_context(|| format!("{} without the taxels it lacks", args.layout.display()))?;
+                    &mut slot.insert((dead, chain)).1
+                }
             }
         };
         let Chain {
@@ -251,6 +217,34 @@ struct Chain {
     stitcher: Stitcher,
     solved: Vec<StitchReport>,
     raster: StitchedRasterizer,
+}
+
+impl Chain {
+    /// The chain of `maps` stitched at every posture (`reference`: the posture that sets the
+    /// boundaries and the first warm start).
+    fn new(
+        maps: Vec<TactileMap>,
+        reference: &[nalgebra::Isometry3<f64>],
+        options: StitchOptions,
+        postures: &[skin_core::format::poses::Posture],
+        step_mm: f64,
+    ) -> Result<Chain> {
+        let mut stitcher = Stitcher::new(maps, reference, options)?;
+        let mut solved = Vec::new();
+        for p in postures {
+            solved.push(
+                stitcher
+                    .reset(&p.poses)
+                    .with_context(|| format!("posture \"{}\"", p.name))?,
+            );
+        }
+        let raster = StitchedRasterizer::new(stitcher.maps(), step_mm)?;
+        Ok(Chain {
+            stitcher,
+            solved,
+            raster,
+        })
+    }
 }
 
 fn file_name(name: &str) -> String {
