@@ -11,9 +11,10 @@ use std::path::{Path, PathBuf};
 /// INPUT is a skin layout: the project's JSON (`skin-layout/1`), a Cyskin calibration JSON, an
 /// iCub `positions/*.txt` file (duplicated positions are merged and reported), a URDF whose
 /// tactile sensors (urdf_tactile arrays and taxel lists) give one skin per link, or a mesh
-/// (.obj, .gltf, .glb) whose vertices are the taxels. A file of several links needs --link. Without triangles in the
-/// input, the taxels are triangulated (Delaunay in a best-fit plane or unrolled cylinder, whichever
-/// fits; the report says which). Prints what was repaired and the map's distortion.
+/// (.obj, .gltf, .glb) whose vertices are the taxels. A file of several links needs --link.
+/// Without triangles in the input, the taxels are triangulated (Delaunay in a best-fit plane or
+/// unrolled cylinder, whichever fits; the report says which). Prints what was repaired (real
+/// files' quirks, each named) and the map's distortion.
 ///
 /// Output units are metres. Exit code 1 with one line on stderr if anything is wrong.
 #[derive(clap::Args)]

@@ -49,8 +49,9 @@ use std::time::Instant;
 ///     poses = "poses.json"            # skin-poses/1: every link's pose over time
 ///
 /// Per frame: CAN frames -> assembled frame (bus map) -> baseline -> contacts (connected
-/// pressed taxels, split between separate pressure peaks) -> touches -> tactile image of the touch at its fullest -> classifier (and
-/// segmenter for hands). A module missing from a frame keeps its last readings and is reported.
+/// pressed taxels, split between separate pressure peaks) -> touches -> tactile image of the
+/// touch at its fullest -> classifier (and segmenter for hands). A module missing from a frame
+/// keeps its last readings and is reported.
 ///
 /// With [stitch], the maps are stitched at each posture and contacts are also searched over the
 /// whole chain: a contact crossing a joint gives an across_joint event, and --frames writes

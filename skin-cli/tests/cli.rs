@@ -206,27 +206,9 @@ fn a_recording_that_lacks_some_taxels_images_across_them() {
     // The fixture recording without the columns of three taxels: they are dead, reported once,
     // and the images are made over the map without them (Test B's re-triangulation).
     let dir = tempfile::tempdir().unwrap();
-    let full = std::fs::read_to_string(fixture("touches.txt")).unwrap();
-    let drop = [5usize, 100, 300];
-    let cut: String = full
-        .lines()
-        .enumerate()
-        .map(|(n, l)| {
-            let fields: Vec<&str> = l.split_whitespace().collect();
-            // Line 1 is the ids; the others start with the frame index and the time.
-            let skip = if n == 0 { 0 } else { 2 };
-            fields
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| !(*k >= skip && drop.contains(&(k - skip))))
-                .map(|(_, f)| *f)
-                .collect::<Vec<_>>()
-                .join(" ")
-                + "\n"
-        })
-        .collect();
+    let full = skin_core::format::recording::read(Path::new(&fixture("touches.txt"))).unwrap();
     let rec = dir.path().join("partial.txt");
-    std::fs::write(&rec, cut).unwrap();
+    skin_core::format::recording::write(&rec, &recordings::without_columns(&full, &[5, 100, 300])).unwrap();
     let out = dir.path().join("out");
     let o = skin(&[
         "image",
@@ -248,8 +230,10 @@ fn a_recording_that_lacks_some_taxels_images_across_them() {
         1,
         "{stdout}"
     );
-    let frames = full.lines().count() - 1;
-    assert_eq!(std::fs::read_dir(out.join("partial")).unwrap().count(), frames);
+    assert_eq!(
+        std::fs::read_dir(out.join("partial")).unwrap().count(),
+        full.frames.len()
+    );
 }
 
 #[test]

@@ -78,7 +78,7 @@ impl Flooding {
         b
     }
 
-    /// Splits `patch` (taxel indices) of `pressures`; afterwards [`Self::basin`] gives each of its
+    /// Splits `patch` (taxel indices) of `pressures`; afterwards [`Self::take_basin`] gives each of its
     /// taxels' final basin (0-based, dense) and the count is returned.
     #[allow(clippy::too_many_arguments)] // one call site, all of it the finder's state
     pub(crate) fn split(

@@ -141,14 +141,9 @@ fn a_raw_recording_goes_through_a_session_configured_by_its_layout_alone() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm");
     let (_dir, config) = layout_only(&root.join("layout.json"));
     let rec_path = root.join("touches.txt");
-    let mut rec = skin_core::format::recording::read(&rec_path).unwrap();
     // Three taxels without a column, and a column that is no taxel.
-    for _ in 0..3 {
-        rec.taxel_ids.remove(10);
-        for f in &mut rec.frames {
-            f.values.remove(10);
-        }
-    }
+    let full = skin_core::format::recording::read(&rec_path).unwrap();
+    let mut rec = recordings::without_columns(&full, &[10, 11, 12]);
     rec.taxel_ids.push(skin_core::TaxelId(999_999));
     for f in &mut rec.frames {
         f.values.push(5_000.0);
