@@ -559,6 +559,16 @@ fn a_bad_urdf_tactile_sensor_names_its_line() {
         e.contains("hand.urdf: line 10 (array)") && e.contains("size"),
         "{e}"
     );
+    // Lines are counted as the reader moves on: 3,000 lines of links before the sensor move
+    // the fault to line 3,010, and a cut file names its last line.
+    let links: String = (0..3000).map(|i| format!("<link name=\"l{i}\"/>\n")).collect();
+    let long = bad.replacen("<robot", &format!("{links}<robot"), 1);
+    let e = parse(&long, Path::new("long.urdf")).unwrap_err().to_string();
+    assert!(e.contains("long.urdf: line 3010 (array)"), "{e}");
+    let e = parse(&format!("{links}<robot><sensor"), Path::new("cut.urdf"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cut.urdf: line 3001"), "{e}");
     let huge = URDF.replace(r#"rows="2""#, r#"rows="100000""#);
     assert!(
         parse(&huge, Path::new("h.urdf"))

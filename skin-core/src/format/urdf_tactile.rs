@@ -66,9 +66,21 @@ struct Array {
 
 /// Parses URDF text; `path` names it in errors and notes.
 pub fn parse(text: &str, path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
-    let line_at = |pos: u64| {
+    // Lines counted as the reader moves on (positions only grow): counting from the start at
+    // every element would be quadratic in the file's size.
+    let (mut counted_to, mut lines_before) = (0usize, 0usize);
+    let mut line_at = |pos: u64| {
         let end = usize::try_from(pos).unwrap_or(usize::MAX).min(text.len());
-        text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+        if end >= counted_to {
+            lines_before += text.as_bytes()[counted_to..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            counted_to = end;
+            lines_before + 1
+        } else {
+            text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+        }
     };
     let mut reader = quick_xml::Reader::from_str(text);
     // Names of the open elements, outermost first.
@@ -76,15 +88,17 @@ pub fn parse(text: &str, path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
     let mut current: Option<Sensor> = None;
     let mut sensors: Vec<Sensor> = Vec::new();
     loop {
-        let pos = reader.buffer_position();
-        let event = reader.read_event().map_err(|e| {
-            Error::invalid(
-                path,
-                format!("line {}", line_at(reader.error_position())),
-                format!("not XML: {e}"),
-            )
-        })?;
-        let line = line_at(pos);
+        let line = line_at(reader.buffer_position());
+        let event = match reader.read_event() {
+            Ok(event) => event,
+            Err(e) => {
+                return Err(Error::invalid(
+                    path,
+                    format!("line {}", line_at(reader.error_position())),
+                    format!("not XML: {e}"),
+                ));
+            }
+        };
         match event {
             Event::Start(e) => {
                 element(&e, &open, line, &mut current, path)?;
