@@ -40,6 +40,8 @@ pub struct ContactFinder {
     frame: u32,
     stack: Vec<usize>,
     contacts: Vec<Contact>,
+    /// How many of `contacts` the last frame found.
+    found: usize,
     /// The patch being found, before it becomes one contact or several.
     patch: Vec<usize>,
     separation: Separation,
@@ -97,6 +99,7 @@ impl ContactFinder {
             frame: 0,
             stack: Vec::with_capacity(n),
             contacts: Vec::new(),
+            found: 0,
             patch: Vec::with_capacity(n),
             separation: Separation::Connected,
             flooding: Flooding::new(n),
@@ -207,7 +210,13 @@ impl ContactFinder {
             let total = |c: &Contact| c.mean_pressure as f64 * c.taxels.len() as f64;
             total(b).total_cmp(&total(a))
         });
+        self.found = count;
         Ok(&self.contacts[..count])
+    }
+
+    /// The contacts [`Self::find`] returned last (none before the first frame).
+    pub fn last(&self) -> &[Contact] {
+        &self.contacts[..self.found]
     }
 }
 

@@ -400,6 +400,26 @@ impl TouchPipeline {
         Ok((grey, size))
     }
 
+    /// The pressure image (real pressures, counts; row-major at the map's raster size, before
+    /// grey conversion and resizing) behind [`Self::last_image`] or the last
+    /// [`Self::frame_image`] of `link`, and its size (rows, cols).
+    pub fn last_pressure_image(&self, link: usize) -> Option<(&[f32], (usize, usize))> {
+        let l = self.links.get(link)?;
+        let raster = l.imager.raster();
+        Some((l.imager.pressure_image(), (raster.rows(), raster.cols())))
+    }
+
+    /// The contacts of `link` in the last frame processed, largest total pressure first.
+    /// Their taxels index the link's layout; the map carries no normals, so `normal` is none.
+    pub fn contacts(&self, link: usize) -> &[skin_core::Contact] {
+        self.links.get(link).map_or(&[], |l| l.finder.last())
+    }
+
+    /// Skin area per taxel of `link`, cm² (the map's triangle area over its taxels).
+    pub fn taxel_area_cm2(&self, link: usize) -> Option<f64> {
+        self.links.get(link).map(|l| l.area_per_taxel_cm2)
+    }
+
     /// A touch is in progress on `link`.
     pub fn touching(&self, link: usize) -> bool {
         self.links.get(link).is_some_and(|l| l.touch.is_some())

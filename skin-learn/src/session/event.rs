@@ -156,6 +156,14 @@ impl Event {
             | Event::AcrossJointEnd { time } => *time,
         }
     }
+
+    /// Appends the event as a line of events.jsonl, without the newline: keys sorted
+    /// (through a `Value`, whose maps sort them), so every line lists its fields in the same
+    /// order whatever the variant.
+    pub fn write_json(&self, out: &mut Vec<u8>) -> serde_json::Result<()> {
+        let value = serde_json::to_value(self)?;
+        serde_json::to_writer(out, &value)
+    }
 }
 
 /// A module whose readings a frame lacks.
@@ -176,6 +184,50 @@ pub struct GreyImage {
     pub cols: usize,
     /// `rows * cols` pixels.
     pub pixels: Vec<u8>,
+}
+
+/// One frame after the baseline, as the session processed it ([`Sink::frame`](super::Sink)):
+/// each link's pressures and contacts. Borrowed from the session; nothing is copied.
+#[derive(Clone, Copy)]
+pub struct ProcessedFrame<'a> {
+    /// The frame's stamp on the input's clock, µs (a candump log's or the live bus's time since
+    /// the epoch; a recording's time since its first frame).
+    pub time_us: u64,
+    /// Seconds from the session's first frame (the times of [`Event`]s).
+    pub time: f64,
+    /// The frame's number (CAN cycle, or the recording's frame number).
+    pub cycle: u64,
+    /// Pressures per link (layout order), counts above the baseline.
+    pub pressures: &'a [Vec<f32>],
+    pub(super) pipeline: &'a crate::touch::TouchPipeline,
+}
+
+impl<'a> ProcessedFrame<'a> {
+    /// The contacts of `link` in this frame (see [`TouchPipeline::contacts`](crate::touch::TouchPipeline::contacts)).
+    pub fn contacts(&self, link: usize) -> &'a [skin_core::Contact] {
+        self.pipeline.contacts(link)
+    }
+
+    /// Skin area per taxel of `link`, cm².
+    pub fn taxel_area_cm2(&self, link: usize) -> Option<f64> {
+        self.pipeline.taxel_area_cm2(link)
+    }
+
+    /// The pressure image a decision of this frame on `link` was made from
+    /// ([`TouchPipeline::last_pressure_image`](crate::touch::TouchPipeline::last_pressure_image)).
+    pub fn decision_pressure_image(&self, link: usize) -> Option<(&'a [f32], (usize, usize))> {
+        self.pipeline.last_pressure_image(link)
+    }
+}
+
+impl std::fmt::Debug for ProcessedFrame<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProcessedFrame")
+            .field("time_us", &self.time_us)
+            .field("cycle", &self.cycle)
+            .field("links", &self.pressures.len())
+            .finish_non_exhaustive()
+    }
 }
 
 /// Where a frame image belongs (with [`SessionOptions::frame_images`](super::SessionOptions)).

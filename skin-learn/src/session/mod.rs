@@ -30,7 +30,7 @@ mod summary;
 pub use config::{
     BaselineConfig, ContactRule, MAX_IMAGE_SIDE, SessionConfig, SplitConfig, StitchConfig, TouchConfig,
 };
-pub use event::{Event, FrameView, GreyImage, MissingModule};
+pub use event::{Event, FrameView, GreyImage, MissingModule, ProcessedFrame};
 pub use sink::{JsonLines, PngImages, Sink};
 pub use stitching::{Spanning, Stitching};
 pub use summary::{Summary, Timings};
@@ -610,7 +610,7 @@ impl Session {
 
     /// One assembled CAN frame (needs [`Session::with_can`]).
     pub fn push_can(&mut self, frame: &AssembledFrame, sink: &mut dyn Sink) -> Result<(), SessionError> {
-        let time = self.time(frame.time_us);
+        let time = self.time(frame.time_us, sink)?;
         let Some(can) = &self.can else {
             return Err(SessionError::NoBusMap);
         };
@@ -632,7 +632,7 @@ impl Session {
             sink.event(&Event::Incomplete { time, missing })
                 .map_err(SessionError::Sink)?;
         }
-        self.step(time, frame.cycle, frame.is_complete(), sink)
+        self.step(frame.time_us, time, frame.cycle, frame.is_complete(), sink)
     }
 
     /// One frame from any source: `readings[link][taxel]` in layout order, at `time_us`
@@ -645,7 +645,7 @@ impl Session {
         readings: &[impl AsRef<[f32]>],
         sink: &mut dyn Sink,
     ) -> Result<(), SessionError> {
-        let time = self.time(time_us);
+        let time = self.time(time_us, sink)?;
         if readings.len() != self.raw.len() {
             return Err(SessionError::Frame {
                 time,
@@ -670,7 +670,7 @@ impl Session {
             }
             dst.copy_from_slice(src);
         }
-        self.step(time, cycle, true, sink)
+        self.step(time_us, time, cycle, true, sink)
     }
 
     /// Reports the counter restarts `stats` has seen since the last call ([`Event::CounterReset`]);
@@ -847,15 +847,23 @@ impl Session {
         })
     }
 
-    /// Seconds from the first frame.
-    fn time(&mut self, time_us: u64) -> f64 {
-        let t0 = *self.t0_us.get_or_insert(time_us);
-        time_us.saturating_sub(t0) as f64 * 1e-6
+    /// Seconds from the first frame (whose stamp the sink is told).
+    fn time(&mut self, time_us: u64, sink: &mut dyn Sink) -> Result<f64, SessionError> {
+        let t0 = match self.t0_us {
+            Some(t0) => t0,
+            None => {
+                self.t0_us = Some(time_us);
+                sink.origin(time_us).map_err(SessionError::Sink)?;
+                time_us
+            }
+        };
+        Ok(time_us.saturating_sub(t0) as f64 * 1e-6)
     }
 
     /// The frame in `self.raw` through the whole path.
     fn step(
         &mut self,
+        time_us: u64,
         time: f64,
         cycle: u64,
         complete: bool,
@@ -888,6 +896,14 @@ impl Session {
             .process(time, &self.pressures, &mut self.touch_events)?;
         let t = Instant::now();
         self.emit(sink)?;
+        sink.frame(&ProcessedFrame {
+            time_us,
+            time,
+            cycle,
+            pressures: &self.pressures,
+            pipeline: &self.pipeline,
+        })
+        .map_err(SessionError::Sink)?;
         if self.options.frame_images {
             for l in 0..self.links.len() {
                 if self.pipeline.touching(l) {

@@ -2,7 +2,7 @@
 //! object a line: `events.jsonl`, or standard output live) and [`PngImages`] (the image of each
 //! decision and, on request, of every touched frame).
 
-use super::event::{Event, FrameView, GreyImage};
+use super::event::{Event, FrameView, GreyImage, ProcessedFrame};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -17,6 +17,20 @@ pub trait Sink {
     /// Ignored unless implemented.
     fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
         let _ = (view, cycle, image);
+        Ok(())
+    }
+
+    /// The input's clock at the session's first frame, µs: event times count from it. Called
+    /// once, before anything else. Ignored unless implemented.
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        let _ = origin_us;
+        Ok(())
+    }
+
+    /// Every frame after the baseline is learned, after the frame's events: pressures and
+    /// contacts per link. Called on the frame path: keep it short. Ignored unless implemented.
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        let _ = frame;
         Ok(())
     }
 }
@@ -46,11 +60,8 @@ impl<W: Write> JsonLines<W> {
 
 impl<W: Write> Sink for JsonLines<W> {
     fn event(&mut self, event: &Event) -> std::io::Result<()> {
-        // Through a `Value`, whose maps sort their keys: every line lists its fields in the
-        // same (alphabetical) order, whatever the variant.
-        let value = serde_json::to_value(event).map_err(std::io::Error::other)?;
         self.line.clear();
-        serde_json::to_writer(&mut self.line, &value).map_err(std::io::Error::other)?;
+        event.write_json(&mut self.line).map_err(std::io::Error::other)?;
         self.line.push(b'\n');
         self.out.write_all(&self.line)
     }
@@ -113,6 +124,16 @@ impl<A: Sink, B: Sink> Sink for (A, B) {
         self.0.frame_image(view, cycle, image)?;
         self.1.frame_image(view, cycle, image)
     }
+
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        self.0.origin(origin_us)?;
+        self.1.origin(origin_us)
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        self.0.frame(frame)?;
+        self.1.frame(frame)
+    }
 }
 
 /// A sink that may be absent.
@@ -124,6 +145,14 @@ impl<S: Sink> Sink for Option<S> {
     fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
         self.as_mut()
             .map_or(Ok(()), |s| s.frame_image(view, cycle, image))
+    }
+
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.origin(origin_us))
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.frame(frame))
     }
 }
 
@@ -142,5 +171,13 @@ impl<S: Sink + ?Sized> Sink for &mut S {
 
     fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
         (**self).frame_image(view, cycle, image)
+    }
+
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        (**self).origin(origin_us)
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        (**self).frame(frame)
     }
 }
