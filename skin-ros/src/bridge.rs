@@ -1,0 +1,366 @@
+//! A session's output as ROS 2 messages: [`RosSink`] is a [`Sink`] that turns each frame and
+//! event into the messages of [`crate::topics`] and hands them, as CDR, to an [`Outlet`]: an
+//! MCAP file ([`crate::McapOutlet`], feature `mcap`), a live Zenoh session
+//! ([`crate::ZenohOutlet`], feature `zenoh`), or anything a robot stack writes.
+//!
+//! Stamps: a frame's is its time on the input's clock (a candump log's or the live bus's time
+//! since the epoch; a recording's time since its first frame), an event's is the session's
+//! first frame plus the event's time.
+
+use crate::cdr::CdrWriter;
+use crate::messages::{
+    self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, Stamp, TouchEventMsg,
+};
+use crate::topics::{PrefixError, Topics};
+use skin_core::LinkSkin;
+use skin_learn::session::{Event, ProcessedFrame, Sink};
+use skin_learn::touch::Footprint;
+
+/// Where a [`RosSink`]'s messages go.
+pub trait Outlet {
+    /// One message on `topic` (an index into the [`Topics::list`] the outlet was opened with),
+    /// stamped `stamp_ns` (ns), as CDR with its encapsulation header.
+    fn publish(&mut self, topic: usize, stamp_ns: u64, cdr: &[u8]) -> std::io::Result<()>;
+}
+
+/// Collects messages in memory (tests, a stack that polls): (topic, stamp ns, CDR).
+impl Outlet for Vec<(usize, u64, Vec<u8>)> {
+    fn publish(&mut self, topic: usize, stamp_ns: u64, cdr: &[u8]) -> std::io::Result<()> {
+        self.push((topic, stamp_ns, cdr.to_vec()));
+        Ok(())
+    }
+}
+
+/// What a [`RosSink`] publishes beyond the defaults.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RosOptions {
+    /// Topic prefix, `/skin` by default.
+    pub prefix: String,
+    /// Also publish each decision's pressure image (`32FC1`, counts) on
+    /// `PREFIX/<link>/pressure_image`.
+    pub pressure_images: bool,
+}
+
+impl Default for RosOptions {
+    fn default() -> Self {
+        RosOptions {
+            prefix: "/skin".into(),
+            pressure_images: false,
+        }
+    }
+}
+
+/// Arrow length, m: drawn from outside the skin to the contact.
+const ARROW_M: f64 = 0.03;
+
+/// A [`Sink`] that publishes a session as ROS 2 messages (see the [module](self)).
+pub struct RosSink<O: Outlet> {
+    outlet: O,
+    topics: Topics,
+    names: Vec<String>,
+    ids: Vec<Vec<u32>>,
+    normals: Vec<Vec<[f64; 3]>>,
+    clouds: Vec<PointCloud>,
+    w: CdrWriter,
+    json: Vec<u8>,
+    origin_ns: u64,
+    /// Links whose decision's pressure image is still to publish.
+    pending_images: Vec<bool>,
+    /// Arrows are on screen (a frame without contacts clears them once).
+    arrows_shown: bool,
+}
+
+impl<O: Outlet> std::fmt::Debug for RosSink<O> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RosSink")
+            .field("topics", &self.topics.list.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<O: Outlet> RosSink<O> {
+    /// The topics a skin with `links` publishes under `options` (what the outlet is opened
+    /// with).
+    pub fn topics(links: &[LinkSkin], options: &RosOptions) -> Result<Topics, PrefixError> {
+        let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
+        Topics::new(&options.prefix, &names, options.pressure_images)
+    }
+
+    /// A sink for a session over `links` (layout order, as [`Session::links`] gives them),
+    /// publishing `topics` ([`RosSink::topics`]) to `outlet`. The point clouds are written now.
+    ///
+    /// [`Session::links`]: skin_learn::session::Session::links
+    pub fn new(links: &[LinkSkin], topics: Topics, outlet: O) -> RosSink<O> {
+        let names: Vec<String> = links.iter().map(|l| l.name.clone()).collect();
+        let ids: Vec<Vec<u32>> = links
+            .iter()
+            .map(|l| l.taxels.iter().map(|t| t.id.0).collect())
+            .collect();
+        let normals = links
+            .iter()
+            .map(|l| l.taxels.iter().map(|t| t.normal.into_inner().into()).collect())
+            .collect();
+        let clouds = links
+            .iter()
+            .zip(&ids)
+            .map(|(l, ids)| {
+                let p: Vec<[f32; 3]> = l
+                    .taxels
+                    .iter()
+                    .map(|t| [t.position.x as f32, t.position.y as f32, t.position.z as f32])
+                    .collect();
+                PointCloud::new(&l.name, &p, ids)
+            })
+            .collect();
+        RosSink {
+            outlet,
+            pending_images: vec![false; names.len()],
+            topics,
+            names,
+            ids,
+            normals,
+            clouds,
+            w: CdrWriter::new(),
+            json: Vec::with_capacity(512),
+            origin_ns: 0,
+            arrows_shown: false,
+        }
+    }
+
+    /// The outlet (its counts, its file).
+    pub fn outlet(&self) -> &O {
+        &self.outlet
+    }
+
+    /// The outlet, given back (to finish a file).
+    pub fn into_outlet(self) -> O {
+        self.outlet
+    }
+
+    /// The topics it publishes.
+    pub fn topic_list(&self) -> &Topics {
+        &self.topics
+    }
+
+    fn link(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    fn publish(&mut self, topic: usize, stamp_ns: u64) -> std::io::Result<()> {
+        self.outlet.publish(topic, stamp_ns, self.w.bytes())
+    }
+}
+
+fn footprint(f: &Footprint) -> FootprintMsg {
+    FootprintMsg {
+        contacts: f.contacts as u32,
+        taxels: f.taxels as u32,
+        area: (f.area_cm2 * 1e-4) as f32,
+        mean_pressure: f.mean_pressure,
+        centroid: f.centroid.coords.into(),
+    }
+}
+
+impl<O: Outlet> Sink for RosSink<O> {
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        self.origin_ns = origin_us.saturating_mul(1000);
+        Ok(())
+    }
+
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        let stamp_ns = self.origin_ns + (event.time().max(0.0) * 1e9).round() as u64;
+        let stamp = Stamp::from_ns(stamp_ns);
+        self.json.clear();
+        event.write_json(&mut self.json).map_err(std::io::Error::other)?;
+        let json = std::str::from_utf8(&self.json).map_err(std::io::Error::other)?;
+        let mut m = TouchEventMsg {
+            json,
+            ..TouchEventMsg::default()
+        };
+        match event {
+            Event::Incomplete { missing, .. } => {
+                m.kind = EventKind::Incomplete;
+                m.missing = missing.iter().map(|x| (x.bus.as_str(), x.address)).collect();
+            }
+            Event::CounterReset { bus, cycle, .. } => {
+                m.kind = EventKind::CounterReset;
+                m.bus = bus;
+                m.cycle = *cycle;
+            }
+            Event::Appeared {
+                link,
+                touch,
+                footprint: f,
+                ..
+            } => {
+                m.kind = EventKind::Appeared;
+                m.link = link;
+                m.touch = *touch;
+                m.footprint = footprint(f);
+            }
+            Event::Classified {
+                link,
+                touch,
+                revised,
+                class,
+                probability,
+                parts,
+                ..
+            } => {
+                m.kind = EventKind::Classified;
+                m.link = link;
+                m.touch = *touch;
+                m.revised = *revised;
+                m.touch_class = class;
+                m.probability = *probability;
+                m.parts = parts
+                    .iter()
+                    .map(|p| HandPartMsg {
+                        part: p.part.name(),
+                        taxels: p.taxels as u32,
+                        mean_pressure: p.mean_pressure,
+                        centroid: p.centroid.map(|c| c.coords.into()),
+                    })
+                    .collect();
+            }
+            Event::Released {
+                link,
+                touch,
+                duration,
+                frames,
+                peak,
+                class,
+                probability,
+                ..
+            } => {
+                m.kind = EventKind::Released;
+                m.link = link;
+                m.touch = *touch;
+                m.duration = *duration;
+                m.frames = *frames as u32;
+                m.footprint = footprint(peak);
+                m.touch_class = class.as_deref().unwrap_or_default();
+                m.probability = probability.unwrap_or(f32::NAN);
+            }
+            Event::Gate { action, .. } => {
+                m.kind = EventKind::Gate;
+                m.action = action.name();
+            }
+            Event::AcrossJoint {
+                links,
+                taxels,
+                centroid,
+                ..
+            } => {
+                m.kind = EventKind::AcrossJoint;
+                m.links = links.iter().map(String::as_str).collect();
+                m.footprint.taxels = *taxels as u32;
+                m.footprint.centroid = *centroid;
+            }
+            Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
+        }
+        messages::touch_event(&mut self.w, stamp, &m);
+        let events = self.topics.events;
+        self.outlet.publish(events, stamp_ns, self.w.bytes())?;
+        if let Event::Classified { link, image, .. } = event
+            && let Some(l) = self.link(link)
+        {
+            messages::image_mono8(&mut self.w, stamp, link, image.rows, image.cols, &image.pixels);
+            let topic = self.topics.links[l].tactile_image;
+            self.publish(topic, stamp_ns)?;
+            self.pending_images[l] = self.topics.links[l].pressure_image.is_some();
+        }
+        Ok(())
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        let stamp_ns = frame.time_us.saturating_mul(1000);
+        let stamp = Stamp::from_ns(stamp_ns);
+        for (l, pressures) in frame.pressures.iter().enumerate().take(self.clouds.len()) {
+            let topic = self.topics.links[l].pressure;
+            let bytes = self.clouds[l].fill(stamp, pressures);
+            self.outlet.publish(topic, stamp_ns, bytes)?;
+            if self.pending_images[l]
+                && let (Some(topic), Some((values, (rows, cols)))) = (
+                    self.topics.links[l].pressure_image,
+                    frame.decision_pressure_image(l),
+                )
+            {
+                self.pending_images[l] = false;
+                messages::image_32fc1(&mut self.w, stamp, &self.names[l], rows, cols, values);
+                self.publish(topic, stamp_ns)?;
+            }
+        }
+        let links = self.names.len().min(frame.pressures.len());
+        let count: usize = (0..links).map(|l| frame.contacts(l).len()).sum();
+        if count == 0 {
+            if self.arrows_shown {
+                self.arrows_shown = false;
+                messages::arrows(&mut self.w, stamp, std::iter::empty());
+                self.publish(self.topics.markers, stamp_ns)?;
+            }
+            return Ok(());
+        }
+        // Each contact's normal: its taxels' normals weighted by pressure (the map has none).
+        let normal = |l: usize, taxels: &[usize]| {
+            let mut n = [0.0f64; 3];
+            for &t in taxels {
+                let p = f64::from(frame.pressures[l].get(t).copied().unwrap_or(0.0));
+                let tn = self.normals[l].get(t).copied().unwrap_or_default();
+                for k in 0..3 {
+                    n[k] += p * tn[k];
+                }
+            }
+            let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if norm > 0.0 { n.map(|x| x / norm) } else { [0.0; 3] }
+        };
+        let all = || (0..links).flat_map(move |l| frame.contacts(l).iter().map(move |c| (l, c)));
+        let msgs = all().map(|(l, c)| ContactMsg {
+            link: &self.names[l],
+            position: c.centroid.coords.into(),
+            normal: normal(l, &c.taxels),
+            mean_pressure: c.mean_pressure,
+            peak_pressure: c.peak_pressure,
+            area: (frame.taxel_area_cm2(l).unwrap_or(0.0) * 1e-4 * c.taxels.len() as f64) as f32,
+            taxels: &c.taxels,
+            ids: &self.ids[l],
+        });
+        messages::contacts(&mut self.w, stamp, ExactSize(msgs, count));
+        self.outlet
+            .publish(self.topics.contacts, stamp_ns, self.w.bytes())?;
+        let arrows = all().enumerate().map(|(k, (l, c))| {
+            let n = normal(l, &c.taxels);
+            let n = if n == [0.0; 3] { [0.0, 0.0, 1.0] } else { n };
+            let end: [f64; 3] = c.centroid.coords.into();
+            Arrow {
+                frame_id: &self.names[l],
+                id: k as i32,
+                start: [0, 1, 2].map(|i| end[i] + ARROW_M * n[i]),
+                end,
+                color: [1.0, 0.2, 0.1, 1.0],
+            }
+        });
+        messages::arrows(&mut self.w, stamp, ExactSize(arrows, count));
+        self.outlet
+            .publish(self.topics.markers, stamp_ns, self.w.bytes())?;
+        self.arrows_shown = true;
+        Ok(())
+    }
+}
+
+/// An iterator whose length is known (a flattened one is not `ExactSizeIterator`).
+struct ExactSize<I>(I, usize);
+
+impl<I: Iterator> Iterator for ExactSize<I> {
+    type Item = I::Item;
+    fn next(&mut self) -> Option<I::Item> {
+        let item = self.0.next()?;
+        self.1 = self.1.saturating_sub(1);
+        Some(item)
+    }
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.1, Some(self.1))
+    }
+}
+
+impl<I: Iterator> ExactSizeIterator for ExactSize<I> {}

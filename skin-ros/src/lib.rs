@@ -1,0 +1,88 @@
+//! ROS 2 without ROS: a skin session's frames and events as ROS 2 messages, written to an MCAP
+//! file that `ros2 bag play` and Foxglove open, or published live on Zenoh as rmw_zenoh (the
+//! Zenoh middleware of ROS 2 Jazzy) does, with nothing of ROS installed.
+//!
+//! ```text
+//! Session --Sink--> RosSink --CDR messages--> Outlet: McapOutlet  (feature mcap: a rosbag2 file)
+//!   (frames: pressures, contacts;       (topics)          ZenohOutlet (feature zenoh: live)
+//!    events: appeared, classified ...)                     Vec<(topic, stamp, bytes)> (tests)
+//! ```
+//!
+//! - [`cdr`]: the CDR writer. [`messages`]: `PointCloud2`, `Image`, `MarkerArray`,
+//!   `skin_msgs/Contacts` and `skin_msgs/TouchEvent` encoded with it.
+//! - [`interfaces`]: the `.msg` definitions (standard ones, and the repository's `skin_msgs`
+//!   package), their `ros2msg` schemas; [`type_hash`]: their RIHS01 hashes (REP-2016).
+//! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens.
+//! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait.
+//!
+//! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
+//! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). A robot stack that wants only the solver
+//! depends on none of this.
+//!
+//! ```
+//! use skin_ros::{Outlet, RosOptions, RosSink, messages::Stamp};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // Two taxels on a link "palm", published to memory.
+//! use skin_core::{LinkSkin, Taxel, TaxelId};
+//! use nalgebra::{Point3, Vector3, Unit};
+//! let taxel = |id, x| Taxel { id: TaxelId(id), position: Point3::new(x, 0.0, 0.0), normal: Unit::new_normalize(Vector3::z()) };
+//! let links = vec![LinkSkin::new("palm", vec![taxel(1, 0.0), taxel(2, 0.005)])];
+//! let topics = RosSink::<Vec<(usize, u64, Vec<u8>)>>::topics(&links, &RosOptions::default())?;
+//! assert_eq!(topics.list[0].name, "/skin/palm/pressure");
+//! let interfaces = skin_ros::interfaces::Interfaces::skin()?;
+//! assert!(interfaces.type_hash("sensor_msgs/msg/PointCloud2").is_some_and(|h| h.starts_with("RIHS01_")));
+//! # Ok(()) }
+//! ```
+
+pub mod bridge;
+pub mod cdr;
+pub mod interfaces;
+#[cfg(feature = "mcap")]
+pub mod mcap_file;
+pub mod messages;
+pub mod topics;
+pub mod type_hash;
+#[cfg(feature = "zenoh")]
+pub mod zenoh_live;
+
+pub use bridge::{Outlet, RosOptions, RosSink};
+#[cfg(feature = "mcap")]
+pub use mcap_file::McapOutlet;
+#[cfg(feature = "zenoh")]
+pub use zenoh_live::{ZenohOptions, ZenohOutlet, ZenohStats};
+
+/// What can go wrong publishing a skin to ROS 2.
+#[derive(Debug, thiserror::Error)]
+pub enum RosError {
+    /// A message definition cannot be read.
+    #[error(transparent)]
+    Definition(#[from] interfaces::DefinitionError),
+    /// A topic prefix is not a ROS name.
+    #[error(transparent)]
+    Prefix(#[from] topics::PrefixError),
+    /// A topic's type has no definition.
+    #[error("no definition of {0}")]
+    UnknownType(&'static str),
+    /// The output file (data-safety rules).
+    #[error(transparent)]
+    Output(#[from] skin_core::output::OutputError),
+    /// Writing the MCAP file.
+    #[error("{}: {why}", path.display())]
+    Mcap {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What failed.
+        why: String,
+    },
+    /// An endpoint that cannot be used.
+    #[error("zenoh endpoint \"{endpoint}\": {why}")]
+    Endpoint {
+        /// The endpoint given.
+        endpoint: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// The Zenoh session.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+}

@@ -1,0 +1,233 @@
+//! The topics a skin publishes, under a prefix (`/skin` unless remapped):
+//!
+//! | topic | type | when |
+//! |---|---|---|
+//! | `PREFIX/<link>/pressure` | `sensor_msgs/msg/PointCloud2` | every frame after the baseline |
+//! | `PREFIX/<link>/tactile_image` | `sensor_msgs/msg/Image` (`mono8`) | each decision on the link |
+//! | `PREFIX/<link>/pressure_image` | `sensor_msgs/msg/Image` (`32FC1`) | each decision, when asked |
+//! | `PREFIX/contacts` | `skin_msgs/msg/Contacts` | every frame with a contact |
+//! | `PREFIX/events` | `skin_msgs/msg/TouchEvent` | every event (one per line of events.jsonl) |
+//! | `PREFIX/markers` | `visualization_msgs/msg/MarkerArray` | every frame with a contact, and the frame after the last |
+//!
+//! A link name is used as a topic token once mapped to ROS's rules ([`topic_token`]): letters,
+//! digits and `_`, not starting with a digit, no `__`; the frame ids keep the name as it is.
+
+/// A topic: its full name and message type.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topic {
+    /// Full name, `/skin/forearm/pressure`.
+    pub name: String,
+    /// Message type, `sensor_msgs/msg/PointCloud2`.
+    pub type_name: &'static str,
+}
+
+/// A link name as a ROS topic token: every character other than an ASCII letter, digit or `_`
+/// becomes `_`, runs of `_` become one, `_` at either end goes, and a token that would start
+/// with a digit (or be empty) gets `link_` in front. `upper arm.L` -> `upper_arm_L`,
+/// `3rd-link` -> `link_3rd_link`.
+pub fn topic_token(name: &str) -> String {
+    let mut out = String::with_capacity(name.len());
+    for c in name.chars() {
+        let c = if c.is_ascii_alphanumeric() { c } else { '_' };
+        if c == '_' && (out.is_empty() || out.ends_with('_')) {
+            continue;
+        }
+        out.push(c);
+    }
+    while out.ends_with('_') {
+        out.pop();
+    }
+    if out.is_empty() || out.starts_with(|c: char| c.is_ascii_digit()) {
+        out.insert_str(0, if out.is_empty() { "link" } else { "link_" });
+    }
+    out
+}
+
+/// A topic prefix that is not a valid ROS name.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "topic prefix \"{prefix}\": {why} (a ROS name: '/' then tokens of letters, digits and '_' separated by '/', e.g. /skin or /robot1/skin)"
+)]
+pub struct PrefixError {
+    /// The prefix given.
+    pub prefix: String,
+    /// What is wrong.
+    pub why: &'static str,
+}
+
+/// Checks a topic prefix (`/skin`, `/robot1/skin`): absolute, tokens of ASCII letters, digits
+/// and `_` not starting with a digit, no `__`, no trailing `/`. Returns it without a trailing
+/// `/`.
+pub fn check_prefix(prefix: &str) -> Result<String, PrefixError> {
+    let err = |why| PrefixError {
+        prefix: prefix.to_owned(),
+        why,
+    };
+    let trimmed = prefix.strip_suffix('/').unwrap_or(prefix);
+    let Some(rest) = trimmed.strip_prefix('/') else {
+        return Err(err("it must start with '/'"));
+    };
+    if rest.is_empty() {
+        return Err(err("it needs at least one token after '/'"));
+    }
+    for token in rest.split('/') {
+        if token.is_empty() {
+            return Err(err("it has an empty token ('//')"));
+        }
+        if !token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(err("a token has a character other than a letter, digit or '_'"));
+        }
+        if token.starts_with(|c: char| c.is_ascii_digit()) {
+            return Err(err("a token starts with a digit"));
+        }
+        if token.contains("__") {
+            return Err(err("a token has '__'"));
+        }
+    }
+    Ok(trimmed.to_owned())
+}
+
+/// The topics of a skin with these links, in a fixed order, with the index of each kind.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topics {
+    /// Every topic; publishers and channels are made in this order.
+    pub list: Vec<Topic>,
+    /// Per link: its pressure cloud, decision image and (when asked) pressure image topics.
+    pub links: Vec<LinkTopics>,
+    /// `PREFIX/contacts`.
+    pub contacts: usize,
+    /// `PREFIX/events`.
+    pub events: usize,
+    /// `PREFIX/markers`.
+    pub markers: usize,
+}
+
+/// The topics of one link (indices into [`Topics::list`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkTopics {
+    /// `PREFIX/<link>/pressure`.
+    pub pressure: usize,
+    /// `PREFIX/<link>/tactile_image`.
+    pub tactile_image: usize,
+    /// `PREFIX/<link>/pressure_image`, when asked.
+    pub pressure_image: Option<usize>,
+}
+
+/// `sensor_msgs/msg/PointCloud2`.
+pub const POINT_CLOUD2: &str = "sensor_msgs/msg/PointCloud2";
+/// `sensor_msgs/msg/Image`.
+pub const IMAGE: &str = "sensor_msgs/msg/Image";
+/// `visualization_msgs/msg/MarkerArray`.
+pub const MARKER_ARRAY: &str = "visualization_msgs/msg/MarkerArray";
+/// `skin_msgs/msg/Contacts`.
+pub const CONTACTS: &str = "skin_msgs/msg/Contacts";
+/// `skin_msgs/msg/TouchEvent`.
+pub const TOUCH_EVENT: &str = "skin_msgs/msg/TouchEvent";
+
+impl Topics {
+    /// The topics of `links` (layout order) under `prefix` (checked with [`check_prefix`]).
+    /// Two links whose tokens coincide get `_2`, `_3` ... in layout order.
+    pub fn new(prefix: &str, links: &[&str], pressure_images: bool) -> Result<Topics, PrefixError> {
+        let prefix = check_prefix(prefix)?;
+        let mut list = Vec::new();
+        let mut tokens: Vec<String> = Vec::new();
+        let mut per_link = Vec::new();
+        let mut add = |name: String, type_name| {
+            list.push(Topic { name, type_name });
+            list.len() - 1
+        };
+        for link in links {
+            let base = topic_token(link);
+            let mut token = base.clone();
+            let mut k = 2;
+            while tokens.contains(&token) {
+                token = format!("{base}_{k}");
+                k += 1;
+            }
+            let pressure = add(format!("{prefix}/{token}/pressure"), POINT_CLOUD2);
+            let tactile_image = add(format!("{prefix}/{token}/tactile_image"), IMAGE);
+            let pressure_image =
+                pressure_images.then(|| add(format!("{prefix}/{token}/pressure_image"), IMAGE));
+            tokens.push(token);
+            per_link.push(LinkTopics {
+                pressure,
+                tactile_image,
+                pressure_image,
+            });
+        }
+        let contacts = add(format!("{prefix}/contacts"), CONTACTS);
+        let events = add(format!("{prefix}/events"), TOUCH_EVENT);
+        let markers = add(format!("{prefix}/markers"), MARKER_ARRAY);
+        Ok(Topics {
+            list,
+            links: per_link,
+            contacts,
+            events,
+            markers,
+        })
+    }
+}
+
+/// The QoS every topic is offered with: reliable (RViz's image display subscribes reliable),
+/// volatile, keep last 10.
+pub const QOS_DEPTH: u32 = 10;
+
+/// rosbag2's `offered_qos_profiles` channel metadata for that QoS (YAML, as rosbag2 of Jazzy
+/// writes it; zero durations are the defaults).
+pub fn offered_qos_yaml() -> String {
+    format!(
+        "- history: keep_last\n  depth: {QOS_DEPTH}\n  reliability: reliable\n  durability: volatile\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false\n"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn link_names_become_valid_tokens() {
+        assert_eq!(topic_token("forearm"), "forearm");
+        assert_eq!(topic_token("upper arm.L"), "upper_arm_L");
+        assert_eq!(topic_token("3rd-link"), "link_3rd_link");
+        assert_eq!(topic_token("__a__b__"), "a_b");
+        assert_eq!(topic_token("ёж"), "link");
+        assert_eq!(topic_token(""), "link");
+    }
+
+    #[test]
+    fn prefixes_are_checked() {
+        assert_eq!(check_prefix("/skin/").as_deref(), Ok("/skin"));
+        assert_eq!(check_prefix("/robot1/skin").as_deref(), Ok("/robot1/skin"));
+        for bad in ["skin", "/", "/a//b", "/a b", "/1skin", "/a__b"] {
+            assert!(check_prefix(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn colliding_tokens_are_numbered() -> Result<(), PrefixError> {
+        let t = Topics::new("/skin", &["upper arm", "upper-arm", "hand"], true)?;
+        let names: Vec<&str> = t.list.iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(names[0], "/skin/upper_arm/pressure");
+        assert_eq!(names[3], "/skin/upper_arm_2/pressure");
+        assert_eq!(
+            t.links[2].pressure_image.map(|i| names[i]),
+            Some("/skin/hand/pressure_image")
+        );
+        assert_eq!(names[t.events], "/skin/events");
+        Ok(())
+    }
+
+    proptest! {
+        #[test]
+        fn any_name_gives_a_valid_topic(name in "\\PC{0,24}") {
+            let t = Topics::new("/skin", &[name.as_str()], false);
+            prop_assert!(t.is_ok());
+            if let Ok(t) = t {
+                for topic in &t.list {
+                    prop_assert!(check_prefix(&topic.name).is_ok(), "{}", topic.name);
+                }
+            }
+        }
+    }
+}
