@@ -16,6 +16,8 @@ mod busmap_cmd;
 mod calibrate_cmd;
 #[cfg(feature = "onnx")]
 mod classify_cmd;
+#[cfg(feature = "onnx")]
+mod convert_cmd;
 mod degrade_cmd;
 #[cfg(feature = "onnx")]
 mod eval_cmd;
@@ -30,6 +32,8 @@ mod output;
 mod phri_cmd;
 mod reach_cmd;
 mod replay_cmd;
+#[cfg(feature = "onnx")]
+mod ros_out;
 #[cfg(feature = "onnx")]
 mod run_cmd;
 #[cfg(feature = "onnx")]
@@ -80,6 +84,8 @@ enum Command {
     Eval(eval_cmd::Args),
     #[cfg(feature = "onnx")]
     Run(run_cmd::Args),
+    #[cfg(feature = "onnx")]
+    Convert(convert_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -107,6 +113,8 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval_cmd::run(args),
         #[cfg(feature = "onnx")]
         Command::Run(args) => run_cmd::run(args),
+        #[cfg(feature = "onnx")]
+        Command::Convert(args) => convert_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

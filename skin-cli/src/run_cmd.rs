@@ -2,12 +2,14 @@
 //! pipeline is skin-learn's `Session`; this wires its input and its sinks.
 
 use crate::output::{Inputs, OutputDir};
+use crate::ros_out::{Outlets, RosArgs};
 use crate::shared::LiveStep;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpLog;
 use skin_can::live::Live;
 use skin_learn::session::{JsonLines, PngImages, Session, SessionConfig};
+use skin_ros::RosSink;
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufWriter, Stdout};
@@ -66,6 +68,11 @@ use std::time::Instant;
 /// on), with --frames OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary.
 /// The output folder appears whole or not at all. Live (--can): events go to standard
 /// output as they happen; Ctrl-C or --duration ends the run and prints the summary.
+///
+/// ROS 2 (no ROS needed): --mcap FILE also records the session as ROS 2 messages (pressure
+/// clouds, decision images, contacts, events, RViz markers) in an MCAP file that `ros2 bag
+/// play` and Foxglove open; --zenoh ENDPOINT publishes them live as an rmw_zenoh node does.
+/// The topics and their units are in the README, "Use it from ROS 2".
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -112,13 +119,18 @@ pub struct Args {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
+    #[command(flatten)]
+    ros: RosArgs,
 }
 
 /// Where events and images go: events.jsonl and the PNGs in the folder being built, and
 /// standard output when live.
 type Sinks = (
     Option<JsonLines<BufWriter<File>>>,
-    (Option<JsonLines<Stdout>>, Option<PngImages>),
+    (
+        Option<JsonLines<Stdout>>,
+        (Option<PngImages>, Option<RosSink<Outlets>>),
+    ),
 );
 
 pub fn run(args: Args) -> Result<()> {
@@ -135,6 +147,7 @@ pub fn run(args: Args) -> Result<()> {
     for p in config.inputs()? {
         inputs.add(&p);
     }
+    precheck_mcap(&args.ros, args.output.as_deref(), &inputs)?;
     if !args.recording.is_empty() {
         return recordings(&args, &config, &inputs);
     }
@@ -154,13 +167,17 @@ pub fn run(args: Args) -> Result<()> {
         Some(d) => Some(crate::output::open_dir(d, "skin run", args.force, &inputs)?),
         None => None,
     };
-    let result = sinks(out.as_ref(), args.log.is_none()).and_then(|mut sinks| {
+    let ros = args.ros.open(session.links(), &inputs)?;
+    let result = sinks(out.as_ref(), args.log.is_none(), ros).and_then(|mut sinks| {
         let span = match &args.log {
             Some(log) => offline(&mut session, log, &mut sinks, args.quiet)?,
             None => live(&mut session, &args, &mut sinks)?,
         };
         if let Some(events) = sinks.0.take() {
             events.into_inner().context("cannot write events.jsonl")?;
+        }
+        if let Some(ros) = sinks.1.1.1.take() {
+            ros.into_outlet().finish(args.ros.mcap_path())?;
         }
         let summary = session.summary(span).to_string();
         crate::say!("{summary}");
@@ -182,8 +199,31 @@ pub fn run(args: Args) -> Result<()> {
     result
 }
 
-/// The sinks for an output folder (being built) and, live, standard output.
-fn sinks(out: Option<&OutputDir>, live: bool) -> Result<Sinks> {
+/// Refuses, before any work, an MCAP path that is an input, a user's other file, or inside the
+/// output folder (whose next run would then find a file that is not its own).
+fn precheck_mcap(ros: &RosArgs, output: Option<&Path>, inputs: &Inputs) -> Result<()> {
+    ros.precheck(inputs)?;
+    if let (Some(file), Some(dir)) = (ros.mcap_path(), output) {
+        let parent = file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+            (Ok(a), Ok(b)) => a.starts_with(b),
+            _ => a.starts_with(b),
+        };
+        anyhow::ensure!(
+            !same(parent, dir),
+            "--mcap {} is inside the output folder {}: write it beside the folder",
+            file.display(),
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// The sinks for an output folder (being built), live standard output, and the ROS outputs.
+fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> Result<Sinks> {
     let (events, images) = match out {
         Some(out) => {
             let cannot = || format!("cannot write into {}", out.dir().display());
@@ -193,7 +233,10 @@ fn sinks(out: Option<&OutputDir>, live: bool) -> Result<Sinks> {
         }
         None => (None, None),
     };
-    Ok((events, (live.then(|| JsonLines::new(std::io::stdout())), images)))
+    Ok((
+        events,
+        (live.then(|| JsonLines::new(std::io::stdout())), (images, ros)),
+    ))
 }
 
 /// Offline: the log through the session. Returns the log's span, seconds.
@@ -241,6 +284,11 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
 fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()> {
     let names = crate::shared::output_names(&args.recording)?;
     let dir = args.output.as_deref().context("--recording needs -o DIR")?;
+    anyhow::ensure!(
+        !args.ros.any() || args.recording.len() == 1,
+        "--mcap and --zenoh take one recording at a time ({} given): a session each would restart the stamps",
+        args.recording.len()
+    );
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
     let cannot = || format!("cannot write into {}", dir.display());
     // A session per recording (each learns its own baseline); the first one's layout notes
@@ -263,9 +311,13 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         let events = JsonLines::new(BufWriter::new(
             File::create(here.join("events.jsonl")).with_context(cannot)?,
         ));
-        let mut sinks = (events, PngImages::new(&here).with_context(cannot)?);
+        let ros = args.ros.open(session.links(), inputs)?;
+        let mut sinks = (events, (PngImages::new(&here).with_context(cannot)?, ros));
         let span = session.run_recording(&rec, path, &mut sinks)?;
         sinks.0.into_inner().context("cannot write events.jsonl")?;
+        if let Some(ros) = sinks.1.1 {
+            ros.into_outlet().finish(args.ros.mcap_path())?;
+        }
         let summary = session.summary(span).to_string();
         std::fs::write(here.join("summary.txt"), &summary).with_context(cannot)?;
         if !args.quiet {

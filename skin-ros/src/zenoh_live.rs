@@ -131,6 +131,7 @@ pub struct ZenohOutlet {
     pool: Receiver<Vec<u8>>,
     thread: Option<std::thread::JoinHandle<()>>,
     session: zenoh::Session,
+    publishers: Arc<Vec<zenoh::pubsub::Publisher<'static>>>,
     waiting: Arc<AtomicUsize>,
     published: Arc<AtomicU64>,
     dropped: u64,
@@ -237,6 +238,8 @@ impl ZenohOutlet {
                     .map_err(zenoh_error)?,
             );
         }
+        let publishers = Arc::new(publishers);
+        let shared = publishers.clone();
         let (send, take) = mpsc::channel::<Outgoing>();
         let (give_back, pool) = mpsc::channel::<Vec<u8>>();
         let waiting = Arc::new(AtomicUsize::new(0));
@@ -246,7 +249,7 @@ impl ZenohOutlet {
             .name("skin-zenoh".into())
             .spawn(move || {
                 for m in take {
-                    if let Some(publisher) = publishers.get(m.topic) {
+                    if let Some(publisher) = shared.get(m.topic) {
                         // Blocking here holds only this thread; the frame path drops instead.
                         let sent = publisher
                             .put(m.payload.as_slice())
@@ -261,9 +264,6 @@ impl ZenohOutlet {
                     }
                     let _ = give_back.send(m.payload);
                 }
-                for publisher in publishers {
-                    let _ = publisher.undeclare().wait();
-                }
             })
             .map_err(|e| RosError::Zenoh(format!("cannot start the publishing thread: {e}")))?;
         Ok(ZenohOutlet {
@@ -271,6 +271,7 @@ impl ZenohOutlet {
             pool,
             thread: Some(thread),
             session,
+            publishers,
             waiting,
             published,
             dropped: 0,
@@ -314,6 +315,28 @@ impl ZenohOutlet {
         }
     }
 
+    /// Waits up to `timeout` until a subscriber somewhere matches the events topic (a ROS node
+    /// subscribed to it, a recorder of everything); true if one does. Zenoh sends a sample only
+    /// to the subscribers it knows of: a run that starts publishing the moment it connects
+    /// would lose its first messages to a subscriber still being announced.
+    pub fn wait_for_subscribers(&self, timeout: Duration) -> bool {
+        let start = Instant::now();
+        loop {
+            let matching = self
+                .publishers
+                .get(self.events)
+                .and_then(|p| p.matching_status().wait().ok())
+                .is_some_and(|m| m.matching());
+            if matching {
+                return true;
+            }
+            if start.elapsed() >= timeout {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// Messages published and dropped so far.
     pub fn stats(&self) -> ZenohStats {
         ZenohStats {
@@ -336,6 +359,11 @@ impl ZenohOutlet {
             }
         }
         let stats = self.stats();
+        if let Some(publishers) = Arc::into_inner(std::mem::take(&mut self.publishers)) {
+            for publisher in publishers {
+                let _ = publisher.undeclare().wait();
+            }
+        }
         for token in std::mem::take(&mut self._liveliness) {
             let _ = token.undeclare().wait();
         }

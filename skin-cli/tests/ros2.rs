@@ -1,0 +1,300 @@
+//! ROS 2 without ROS, end to end: `skin run --mcap` and `skin convert --mcap` read by the
+//! Python `mcap` + `mcap-ros2-support` readers and rosbags (`tests/ros2/mcap_check.py`), `skin
+//! run --zenoh` seen by an `eclipse-zenoh` peer on loopback (`tests/ros2/zenoh_peer.py`), and the
+//! data-safety and bad-input rules of both outputs. The Python checks skip (saying so) where no
+//! Python has the packages; `.ci/run` installs them in its venv and sets SKIN_PYTHON.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use std::ffi::OsStr;
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[path = "../../test-support/cli.rs"]
+mod cli_support;
+use cli_support::{root, skin};
+
+#[path = "../../skin-ros/tests/support/python.rs"]
+mod python;
+
+const PACKAGES: &str = "mcap, mcap_ros2, rosbags, numpy";
+
+fn config() -> String {
+    root().join("fixtures/session/run.toml").display().to_string()
+}
+
+fn log() -> String {
+    root()
+        .join("fixtures/session/session.candump.log")
+        .display()
+        .to_string()
+}
+
+fn ok(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "skin failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Frames after the baseline in the fixture session (620 frames, 20 learn the baseline).
+const FRAMES: &str = "600";
+
+#[test]
+fn mcap_of_the_fixture_session_reads_in_python() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mcap = dir.path().join("session.mcap");
+    let run = skin(&[
+        "run",
+        &config(),
+        "--log",
+        &log(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    ok(&run);
+    assert!(String::from_utf8_lossy(&run.stdout).contains("ROS 2 messages"));
+    // Nothing but the two outputs: no partial file left beside them.
+    assert_eq!(names(dir.path()), ["out", "session.mcap"]);
+    let Some(py) = python::python_with(PACKAGES) else {
+        return;
+    };
+    let events = out.join("events.jsonl");
+    let said = python::run(
+        &py,
+        "ros2/mcap_check.py",
+        &[
+            mcap.as_os_str(),
+            events.as_os_str(),
+            OsStr::new(FRAMES),
+            OsStr::new("forearm"),
+        ],
+    );
+    eprintln!("{said}");
+}
+
+#[test]
+fn convert_writes_frames_and_contacts_without_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = dir.path().join("converted.mcap");
+    let run = skin(&[
+        "convert",
+        &log(),
+        "--config",
+        &config(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    ok(&run);
+    assert!(mcap.is_file());
+    // Bad input: neither a log nor a recording, named with both reasons; nothing written.
+    let junk = dir.path().join("junk.txt");
+    std::fs::write(&junk, "not a recording\n").unwrap();
+    let bad = skin(&[
+        "convert",
+        junk.to_str().unwrap(),
+        "--config",
+        &config(),
+        "--mcap",
+        dir.path().join("j.mcap").to_str().unwrap(),
+    ]);
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("neither a candump log") && err.contains("junk.txt"),
+        "{err}"
+    );
+    assert!(!dir.path().join("j.mcap").exists());
+    let Some(py) = python::python_with(PACKAGES) else {
+        return;
+    };
+    let said = python::run(
+        &py,
+        "ros2/mcap_check.py",
+        &[
+            mcap.as_os_str(),
+            OsStr::new("-"),
+            OsStr::new(FRAMES),
+            OsStr::new("forearm"),
+        ],
+    );
+    eprintln!("{said}");
+}
+
+#[test]
+fn mcap_output_follows_the_data_safety_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    // A user's other file at the path: refused, kept as it was, nothing else written.
+    std::fs::write(dir.path().join("notes.mcap"), "my notes").unwrap();
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        &log(),
+        "-o",
+        &d("out"),
+        "-q",
+        "--mcap",
+        &d("notes.mcap"),
+    ]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("notes.mcap"));
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("notes.mcap")).unwrap(),
+        "my notes"
+    );
+    assert_eq!(names(dir.path()), ["notes.mcap"]);
+    // The input as the output: refused.
+    let copy = d("session.candump.log");
+    std::fs::copy(log(), &copy).unwrap();
+    let r = skin(&["convert", &copy, "--config", &config(), "--mcap", &copy]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("session.candump.log"));
+    assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(log()).unwrap());
+    // Inside the output folder: refused before any work.
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        &log(),
+        "-o",
+        &d("out"),
+        "-q",
+        "--mcap",
+        &d("out/s.mcap"),
+    ]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("inside the output folder"));
+    assert!(!dir.path().join("out").exists());
+    // An earlier MCAP is replaced (running again works).
+    for _ in 0..2 {
+        ok(&skin(&[
+            "convert",
+            &log(),
+            "--config",
+            &config(),
+            "--mcap",
+            &d("again.mcap"),
+        ]));
+    }
+    let bytes = std::fs::read(dir.path().join("again.mcap")).unwrap();
+    assert!(bytes.starts_with(b"\x89MCAP0\r\n") && bytes.ends_with(b"\x89MCAP0\r\n"));
+}
+
+#[test]
+fn bad_endpoints_and_prefixes_are_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out").display().to_string();
+    for (flag, value, says) in [
+        ("--zenoh", "127.0.0.1:7447", "only tcp/HOST:PORT"),
+        ("--zenoh", "tcp/127.0.0.1:port", "port"),
+        ("--ros-prefix", "skin", "must start with '/'"),
+    ] {
+        let r = skin(&["run", &config(), "--log", &log(), "-o", &out, "-q", flag, value]);
+        assert!(!r.status.success(), "{flag} {value}");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            err.contains(says) && err.contains(value) && err.lines().count() == 1,
+            "{err}"
+        );
+        assert!(!dir.path().join("out").exists());
+    }
+}
+
+/// A loopback port nothing listens on now.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+#[test]
+fn unreachable_endpoint_does_not_stop_the_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        &log(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--zenoh",
+        &endpoint,
+    ]);
+    ok(&r);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains(&format!("nothing answers at {endpoint}")), "{err}");
+    assert!(String::from_utf8_lossy(&r.stdout).contains("20 of 20 scripted touches found"));
+}
+
+#[test]
+fn a_zenoh_peer_sees_the_session_as_rmw_zenoh_would() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let port = free_port();
+    let script = root().join("skin-cli/tests/ros2/zenoh_peer.py");
+    let mut peer = Command::new(&py)
+        .arg(&script)
+        .arg(port.to_string())
+        .arg(out.join("events.jsonl"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(peer.stdout.take().unwrap()).lines();
+    let started = Instant::now();
+    let first = lines.next().and_then(Result::ok).unwrap_or_default();
+    assert_eq!(first, "ready", "the peer did not start");
+    assert!(started.elapsed() < Duration::from_secs(60));
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        &log(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--zenoh",
+        &endpoint,
+    ]);
+    let _ = peer.stdin.as_mut().unwrap().write_all(b"done\n");
+    ok(&r);
+    let said: Vec<String> = lines.map_while(Result::ok).collect();
+    let status = peer.wait().unwrap();
+    let mut err = String::new();
+    let _ = std::io::Read::read_to_string(&mut peer.stderr.take().unwrap(), &mut err);
+    eprintln!("{}\n{}", said.join("\n"), String::from_utf8_lossy(&r.stderr));
+    assert!(
+        status.success(),
+        "the peer's checks failed:\n{}\n{err}",
+        said.join("\n")
+    );
+}

@@ -1,0 +1,70 @@
+"""Reads an MCAP of `skin run --mcap` with the `mcap` and `mcap-ros2-support` packages
+(independent of skin) and checks it against the run's events.jsonl.
+
+Usage: mcap_check.py FILE.mcap EVENTS.jsonl FRAMES LINK...
+FRAMES: frames after the baseline (one PointCloud2 per link each). EVENTS.jsonl may be `-`
+(skin convert: no events file) to check the file and the clouds only.
+"""
+import sys
+from collections import Counter
+
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from common import events, fail, typestore
+
+
+def main():
+    path, events_path, frames, links = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4:]
+    lines, parsed = events(events_path) if events_path != '-' else ([], [])
+    store = typestore()
+    problems = []
+    with open(path, 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        header = reader.get_header()
+        if header.profile != 'ros2':
+            problems.append(f'profile {header.profile!r}, not ros2')
+        summary = reader.get_summary()
+        for channel in summary.channels.values():
+            schema = summary.schemas[channel.schema_id]
+            if channel.message_encoding != 'cdr' or schema.encoding != 'ros2msg':
+                problems.append(f'{channel.topic}: {channel.message_encoding}/{schema.encoding}')
+            qos = channel.metadata.get('offered_qos_profiles', '')
+            if 'reliability:' not in qos or 'history:' not in qos:
+                problems.append(f'{channel.topic}: no offered_qos_profiles')
+            if channel.metadata.get('topic_type_hash') != store.hash_rihs01(schema.name):
+                problems.append(f'{channel.topic}: type hash differs from rosbags')
+        counts = Counter()
+        event_json = []
+        images = Counter()
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            counts[channel.topic] += 1
+            if channel.topic == '/skin/events':
+                event_json.append(decoded.json)
+                if decoded.header.frame_id != decoded.link:
+                    problems.append(f'event frame_id {decoded.header.frame_id!r} != link {decoded.link!r}')
+            if schema.name == 'sensor_msgs/msg/Image':
+                images[channel.topic] += 1
+                if decoded.encoding == 'mono8' and len(decoded.data) != decoded.height * decoded.width:
+                    problems.append(f'{channel.topic}: image size')
+            if schema.name == 'sensor_msgs/msg/PointCloud2':
+                if decoded.width * decoded.point_step != len(decoded.data):
+                    problems.append(f'{channel.topic}: cloud size')
+            # rosbags decodes the same bytes too.
+            store.deserialize_cdr(message.data, schema.name)
+    missing = [line for line in lines if line not in event_json]
+    if missing:
+        problems.append(f'{len(missing)} events.jsonl lines have no /skin/events message, first: {missing[0]}')
+    for link in links:
+        n = counts[f'/skin/{link}/pressure']
+        if n != frames:
+            problems.append(f'/skin/{link}/pressure: {n} clouds for {frames} frames')
+    decisions = Counter(e['link'] for e in parsed if e['event'] == 'classified')
+    for link, n in decisions.items():
+        if images[f'/skin/{link}/tactile_image'] != n:
+            problems.append(f'{link}: {images[f"/skin/{link}/tactile_image"]} images for {n} decisions')
+    print(f'{sum(counts.values())} messages on {len(counts)} topics; {len(lines)} events; {sum(decisions.values())} decisions')
+    fail(problems)
+
+
+main()
