@@ -203,6 +203,24 @@ pub struct ProcessedFrame<'a> {
 }
 
 impl<'a> ProcessedFrame<'a> {
+    /// A frame that `pipeline` has just processed (for a stack that drives a
+    /// [`TouchPipeline`](crate::touch::TouchPipeline) without a session, and for benches).
+    pub fn new(
+        time_us: u64,
+        time: f64,
+        cycle: u64,
+        pressures: &'a [Vec<f32>],
+        pipeline: &'a crate::touch::TouchPipeline,
+    ) -> ProcessedFrame<'a> {
+        ProcessedFrame {
+            time_us,
+            time,
+            cycle,
+            pressures,
+            pipeline,
+        }
+    }
+
     /// The contacts of `link` in this frame (see [`TouchPipeline::contacts`](crate::touch::TouchPipeline::contacts)).
     pub fn contacts(&self, link: usize) -> &'a [skin_core::Contact] {
         self.pipeline.contacts(link)

@@ -1,0 +1,121 @@
+//! The per-frame cost of the ROS 2 outputs on the thesis' full arm: 3,495 taxels on three links
+//! (half-cylinder covers, 8 mm pitch, 1,165 taxels each) with a whole hand on the middle link,
+//! through `RosSink::frame`: a PointCloud2 per link, the frame's contacts (skin_msgs/Contacts)
+//! and their RViz arrows (MarkerArray), each encoded as CDR and handed to an outlet:
+//!
+//! - `encode`: an outlet that keeps nothing (the encoding alone);
+//! - `mcap`: an MCAP file being written (feature mcap);
+//! - `zenoh`: the live outlet with no peer (the frame path's copy into the queue; feature zenoh).
+//!
+//! The budget of the whole per-frame path is 5 ms (SPEC: 200 Hz).
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Point3, Unit, Vector3};
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::session::{ProcessedFrame, Sink};
+use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use skin_ros::{Outlet, RosOptions, RosSink};
+
+const PER_LINK: usize = 1165;
+
+/// Link `k`: a half cylinder (radius 80 mm) of taxels on an 8 mm lattice (the arm of
+/// skin-learn's touch_path bench).
+fn link(k: usize) -> LinkSkin {
+    let (radius, pitch, around) = (0.08, 0.008, 31);
+    let taxels = (0..PER_LINK)
+        .map(|i| {
+            let (row, col) = (i / around, i % around);
+            let phi = (col as f64 + 0.5 * (row % 2) as f64) * pitch / radius - 1.2;
+            let n = Vector3::new(phi.sin(), 0.0, phi.cos());
+            Taxel {
+                id: TaxelId((k * PER_LINK + i) as u32),
+                position: Point3::new(radius * n.x, row as f64 * pitch * 0.866, radius * n.z),
+                normal: Unit::new_normalize(n),
+            }
+        })
+        .collect();
+    LinkSkin::new(format!("link{k}"), taxels)
+}
+
+/// Keeps nothing.
+struct Discard(usize);
+
+impl Outlet for Discard {
+    fn publish(&mut self, _topic: usize, _stamp_ns: u64, cdr: &[u8]) -> std::io::Result<()> {
+        self.0 += cdr.len();
+        Ok(())
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let links: Vec<LinkSkin> = (0..3).map(link).collect();
+    let maps: Vec<TactileMap> = links
+        .iter()
+        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
+        .collect();
+    let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
+    let hand = (0..)
+        .map(|i| synth.sample(3, i, i))
+        .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
+        .unwrap();
+    let mut pressures: Vec<Vec<f32>> = links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
+    let index: std::collections::HashMap<TaxelId, usize> = links[1]
+        .taxels
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (t.id, i))
+        .collect();
+    for (id, p) in maps[1].ids.iter().zip(&hand.pressures) {
+        pressures[1][index[id]] = *p;
+    }
+    let mut pipeline = TouchPipeline::new(maps, None, None, TouchOptions::default()).unwrap();
+    pipeline.process(1.0, &pressures, &mut Vec::new()).unwrap();
+    let contacts = pipeline.contacts(1).len();
+    assert!(contacts > 0, "the hand makes no contact");
+    let options = RosOptions::default();
+    let topics = RosSink::<Discard>::topics(&links, &options).unwrap();
+    let frame = ProcessedFrame::new(1_700_000_000_000_000, 1.0, 20, &pressures, &pipeline);
+    eprintln!(
+        "{} taxels, {contacts} contacts on the middle link",
+        links.iter().map(|l| l.taxels.len()).sum::<usize>()
+    );
+
+    let mut group = c.benchmark_group("ros2 per frame, 3495 taxels");
+    let mut sink = RosSink::new(&links, topics.clone(), Discard(0));
+    group.bench_function("encode", |b| b.iter(|| sink.frame(&frame).unwrap()));
+
+    #[cfg(feature = "mcap")]
+    {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bench.mcap");
+        let outlet =
+            skin_ros::McapOutlet::create(&path, &topics, &skin_core::output::Inputs::default()).unwrap();
+        let mut sink = RosSink::new(&links, topics.clone(), outlet);
+        group.bench_function("mcap", |b| b.iter(|| sink.frame(&frame).unwrap()));
+    }
+    #[cfg(feature = "zenoh")]
+    {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let z = skin_ros::ZenohOptions {
+            listen: vec![format!("tcp/127.0.0.1:{port}")],
+            ..skin_ros::ZenohOptions::default()
+        };
+        let outlet = skin_ros::ZenohOutlet::open(&topics, &z).unwrap();
+        let mut sink = RosSink::new(&links, topics.clone(), outlet);
+        group.bench_function("zenoh", |b| b.iter(|| sink.frame(&frame).unwrap()));
+        let stats = sink.into_outlet().close(std::time::Duration::from_secs(5));
+        eprintln!("zenoh: {} published, {} dropped", stats.published, stats.dropped);
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
