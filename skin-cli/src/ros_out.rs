@@ -84,7 +84,7 @@ impl RosArgs {
             prefix: self.ros_prefix.clone(),
             pressure_images: self.pressure_images,
         };
-        let topics = RosSink::<Outlets>::topics(links, &options)?;
+        let topics = options.topics(links)?;
         let mut outlets = Outlets::default();
         #[cfg(feature = "mcap")]
         if let Some(p) = &self.mcap {

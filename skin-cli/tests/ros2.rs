@@ -32,6 +32,14 @@ fn log() -> String {
         .to_string()
 }
 
+/// `skin run` on the fixture session into `out`, quietly, with `extra` arguments.
+fn run_session(out: &str, extra: &[&str]) -> std::process::Output {
+    let (config, log) = (config(), log());
+    let mut args = vec!["run", &config, "--log", &log, "-o", out, "-q"];
+    args.extend_from_slice(extra);
+    skin(&args)
+}
+
 fn ok(out: &std::process::Output) {
     assert!(
         out.status.success(),
@@ -58,17 +66,7 @@ fn mcap_of_the_fixture_session_reads_in_python() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let mcap = dir.path().join("session.mcap");
-    let run = skin(&[
-        "run",
-        &config(),
-        "--log",
-        &log(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--mcap",
-        mcap.to_str().unwrap(),
-    ]);
+    let run = run_session(out.to_str().unwrap(), &["--mcap", mcap.to_str().unwrap()]);
     ok(&run);
     assert!(String::from_utf8_lossy(&run.stdout).contains("ROS 2 messages"));
     // Nothing but the two outputs: no partial file left beside them.
@@ -144,17 +142,7 @@ fn mcap_output_follows_the_data_safety_rules() {
     let d = |n: &str| dir.path().join(n).display().to_string();
     // A user's other file at the path: refused, kept as it was, nothing else written.
     std::fs::write(dir.path().join("notes.mcap"), "my notes").unwrap();
-    let r = skin(&[
-        "run",
-        &config(),
-        "--log",
-        &log(),
-        "-o",
-        &d("out"),
-        "-q",
-        "--mcap",
-        &d("notes.mcap"),
-    ]);
+    let r = run_session(&d("out"), &["--mcap", &d("notes.mcap")]);
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("notes.mcap"));
     assert_eq!(
@@ -170,17 +158,7 @@ fn mcap_output_follows_the_data_safety_rules() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("session.candump.log"));
     assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(log()).unwrap());
     // Inside the output folder: refused before any work.
-    let r = skin(&[
-        "run",
-        &config(),
-        "--log",
-        &log(),
-        "-o",
-        &d("out"),
-        "-q",
-        "--mcap",
-        &d("out/s.mcap"),
-    ]);
+    let r = run_session(&d("out"), &["--mcap", &d("out/s.mcap")]);
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("inside the output folder"));
     assert!(!dir.path().join("out").exists());
@@ -208,7 +186,7 @@ fn bad_endpoints_and_prefixes_are_one_clear_line() {
         ("--zenoh", "tcp/127.0.0.1:port", "port"),
         ("--ros-prefix", "skin", "must start with '/'"),
     ] {
-        let r = skin(&["run", &config(), "--log", &log(), "-o", &out, "-q", flag, value]);
+        let r = run_session(&out, &[flag, value]);
         assert!(!r.status.success(), "{flag} {value}");
         let err = String::from_utf8_lossy(&r.stderr);
         assert!(
@@ -233,17 +211,7 @@ fn unreachable_endpoint_does_not_stop_the_frames() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let r = skin(&[
-        "run",
-        &config(),
-        "--log",
-        &log(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--zenoh",
-        &endpoint,
-    ]);
+    let r = run_session(out.to_str().unwrap(), &["--zenoh", &endpoint]);
     ok(&r);
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(err.contains(&format!("nothing answers at {endpoint}")), "{err}");
@@ -274,17 +242,7 @@ fn a_zenoh_peer_sees_the_session_as_rmw_zenoh_would() {
     assert_eq!(first, "ready", "the peer did not start");
     assert!(started.elapsed() < Duration::from_secs(60));
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let r = skin(&[
-        "run",
-        &config(),
-        "--log",
-        &log(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--zenoh",
-        &endpoint,
-    ]);
+    let r = run_session(out.to_str().unwrap(), &["--zenoh", &endpoint]);
     let _ = peer.stdin.as_mut().unwrap().write_all(b"done\n");
     ok(&r);
     let said: Vec<String> = lines.map_while(Result::ok).collect();

@@ -14,12 +14,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Isometry3, Point3, Translation3, Unit, Vector3};
+use nalgebra::{Isometry3, Translation3};
 use skin_can::candump::CanFrame;
 use skin_can::decode::skin16::{encode_module, encode_sync};
 use skin_can::{Assembler, BusMap, WireFormat};
 use skin_core::format::poses::{Posture, Postures};
-use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_core::{LinkSkin, TaxelId};
 use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::session::{Event, Session, SessionOptions, Sink, Stitching};
@@ -28,26 +28,9 @@ use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-const PER_LINK: usize = 1165;
-
-/// Link `k`: a half cylinder (radius 80 mm) of taxels on an 8 mm lattice, ids in modules of 11.
-fn link(k: usize) -> LinkSkin {
-    let (radius, pitch, around) = (0.08, 0.008, 31);
-    let taxels = (0..PER_LINK)
-        .map(|i| {
-            let (row, col) = (i / around, i % around);
-            let phi = (col as f64 + 0.5 * (row % 2) as f64) * pitch / radius - 1.2;
-            let n = Vector3::new(phi.sin(), 0.0, phi.cos());
-            let module = (k * 110 + i / 11 + 1) as u32;
-            Taxel {
-                id: TaxelId(module << 4 | (i % 11) as u32),
-                position: Point3::new(radius * n.x, row as f64 * pitch * 0.866, radius * n.z),
-                normal: Unit::new_normalize(n),
-            }
-        })
-        .collect();
-    LinkSkin::new(format!("link{k}"), taxels)
-}
+#[path = "../../test-support/full_arm.rs"]
+mod full_arm;
+use full_arm::link;
 
 struct Arm {
     links: Vec<LinkSkin>,

@@ -12,34 +12,16 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Point3, Unit, Vector3};
-use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_core::{LinkSkin, TaxelId};
 use skin_geom::{FlattenOptions, TactileMap};
 use skin_learn::session::{ProcessedFrame, Sink};
 use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
 
-const PER_LINK: usize = 1165;
-
-/// Link `k`: a half cylinder (radius 80 mm) of taxels on an 8 mm lattice (the arm of
-/// skin-learn's touch_path bench).
-fn link(k: usize) -> LinkSkin {
-    let (radius, pitch, around) = (0.08, 0.008, 31);
-    let taxels = (0..PER_LINK)
-        .map(|i| {
-            let (row, col) = (i / around, i % around);
-            let phi = (col as f64 + 0.5 * (row % 2) as f64) * pitch / radius - 1.2;
-            let n = Vector3::new(phi.sin(), 0.0, phi.cos());
-            Taxel {
-                id: TaxelId((k * PER_LINK + i) as u32),
-                position: Point3::new(radius * n.x, row as f64 * pitch * 0.866, radius * n.z),
-                normal: Unit::new_normalize(n),
-            }
-        })
-        .collect();
-    LinkSkin::new(format!("link{k}"), taxels)
-}
+#[path = "../../test-support/full_arm.rs"]
+mod full_arm;
+use full_arm::link;
 
 /// Keeps nothing.
 struct Discard(usize);
@@ -77,7 +59,7 @@ fn bench(c: &mut Criterion) {
     let contacts = pipeline.contacts(1).len();
     assert!(contacts > 0, "the hand makes no contact");
     let options = RosOptions::default();
-    let topics = RosSink::<Discard>::topics(&links, &options).unwrap();
+    let topics = options.topics(&links).unwrap();
     let frame = ProcessedFrame::new(1_700_000_000_000_000, 1.0, 20, &pressures, &pipeline);
     eprintln!(
         "{} taxels, {contacts} contacts on the middle link",

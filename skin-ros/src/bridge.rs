@@ -41,6 +41,15 @@ pub struct RosOptions {
     pub pressure_images: bool,
 }
 
+impl RosOptions {
+    /// The topics a skin with `links` (layout order) publishes under these options (what an
+    /// outlet is opened with).
+    pub fn topics(&self, links: &[LinkSkin]) -> Result<Topics, PrefixError> {
+        let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
+        Topics::new(&self.prefix, &names, self.pressure_images)
+    }
+}
+
 impl Default for RosOptions {
     fn default() -> Self {
         RosOptions {
@@ -79,15 +88,8 @@ impl<O: Outlet> std::fmt::Debug for RosSink<O> {
 }
 
 impl<O: Outlet> RosSink<O> {
-    /// The topics a skin with `links` publishes under `options` (what the outlet is opened
-    /// with).
-    pub fn topics(links: &[LinkSkin], options: &RosOptions) -> Result<Topics, PrefixError> {
-        let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
-        Topics::new(&options.prefix, &names, options.pressure_images)
-    }
-
     /// A sink for a session over `links` (layout order, as [`Session::links`] gives them),
-    /// publishing `topics` ([`RosSink::topics`]) to `outlet`. The point clouds are written now.
+    /// publishing `topics` ([`RosOptions::topics`]) to `outlet`. The point clouds are written now.
     ///
     /// [`Session::links`]: skin_learn::session::Session::links
     pub fn new(links: &[LinkSkin], topics: Topics, outlet: O) -> RosSink<O> {

@@ -27,7 +27,7 @@
 //! use nalgebra::{Point3, Vector3, Unit};
 //! let taxel = |id, x| Taxel { id: TaxelId(id), position: Point3::new(x, 0.0, 0.0), normal: Unit::new_normalize(Vector3::z()) };
 //! let links = vec![LinkSkin::new("palm", vec![taxel(1, 0.0), taxel(2, 0.005)])];
-//! let topics = RosSink::<Vec<(usize, u64, Vec<u8>)>>::topics(&links, &RosOptions::default())?;
+//! let topics = RosOptions::default().topics(&links)?;
 //! assert_eq!(topics.list[0].name, "/skin/palm/pressure");
 //! let interfaces = skin_ros::interfaces::Interfaces::skin()?;
 //! assert!(interfaces.type_hash("sensor_msgs/msg/PointCloud2").is_some_and(|h| h.starts_with("RIHS01_")));

@@ -38,15 +38,27 @@ fn point(w: &mut CdrWriter, p: [f64; 3]) {
     w.f64(p[0]).f64(p[1]).f64(p[2]);
 }
 
-/// `sensor_msgs/msg/Image`, `mono8`: `rows * cols` grey pixels, row-major.
-pub fn image_mono8(w: &mut CdrWriter, stamp: Stamp, frame_id: &str, rows: usize, cols: usize, pixels: &[u8]) {
+/// An Image's fields before its data: header, size, encoding, little-endian, bytes a row.
+fn image_head(
+    w: &mut CdrWriter,
+    stamp: Stamp,
+    frame_id: &str,
+    (rows, cols): (usize, usize),
+    encoding: &str,
+    pixel_bytes: usize,
+) {
     w.start();
     header(w, stamp, frame_id);
     w.u32(rows as u32)
         .u32(cols as u32)
-        .string("mono8")
+        .string(encoding)
         .u8(0)
-        .u32(cols as u32);
+        .u32((cols * pixel_bytes) as u32);
+}
+
+/// `sensor_msgs/msg/Image`, `mono8`: `rows * cols` grey pixels, row-major.
+pub fn image_mono8(w: &mut CdrWriter, stamp: Stamp, frame_id: &str, rows: usize, cols: usize, pixels: &[u8]) {
+    image_head(w, stamp, frame_id, (rows, cols), "mono8", 1);
     w.bytes_seq(pixels);
 }
 
@@ -59,13 +71,7 @@ pub fn image_32fc1(
     cols: usize,
     values: &[f32],
 ) {
-    w.start();
-    header(w, stamp, frame_id);
-    w.u32(rows as u32)
-        .u32(cols as u32)
-        .string("32FC1")
-        .u8(0)
-        .u32(cols as u32 * 4);
+    image_head(w, stamp, frame_id, (rows, cols), "32FC1", 4);
     w.seq_len(values.len() * 4);
     for v in values {
         w.raw(&v.to_le_bytes());

@@ -416,12 +416,6 @@ impl Outlet for ZenohOutlet {
     }
 }
 
-impl Drop for ZenohOutlet {
-    fn drop(&mut self) {
-        self.send = None;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

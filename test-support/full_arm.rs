@@ -1,0 +1,28 @@
+//! The thesis' full arm for benches: three links of 1,165 taxels each (3,495), half-cylinder
+//! covers of radius 80 mm on an 8 mm lattice, ids in Cyskin modules of 11. Included with
+//! `#[path = "../../test-support/full_arm.rs"] mod full_arm;`.
+
+use nalgebra::{Point3, Unit, Vector3};
+use skin_core::{LinkSkin, Taxel, TaxelId};
+
+/// Taxels per link.
+pub const PER_LINK: usize = 1165;
+
+/// Link `k` (`link0`, `link1`, ...).
+pub fn link(k: usize) -> LinkSkin {
+    let (radius, pitch, around) = (0.08, 0.008, 31);
+    let taxels = (0..PER_LINK)
+        .map(|i| {
+            let (row, col) = (i / around, i % around);
+            let phi = (col as f64 + 0.5 * (row % 2) as f64) * pitch / radius - 1.2;
+            let n = Vector3::new(phi.sin(), 0.0, phi.cos());
+            let module = (k * 110 + i / 11 + 1) as u32;
+            Taxel {
+                id: TaxelId(module << 4 | (i % 11) as u32),
+                position: Point3::new(radius * n.x, row as f64 * pitch * 0.866, radius * n.z),
+                normal: Unit::new_normalize(n),
+            }
+        })
+        .collect();
+    LinkSkin::new(format!("link{k}"), taxels)
+}
