@@ -27,6 +27,13 @@ pub struct RosArgs {
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "tcp/HOST:PORT")]
     pub zenoh_listen: Vec<String>,
+    /// Before the first frame, wait up to this many seconds for a subscriber (a peer that
+    /// connects to --zenoh-listen, a node behind the --zenoh router), so that a replay is seen
+    /// from its start; then go on whatever happened. Without it a run waits up to 2 s for its
+    /// --zenoh endpoints and 1 s for their subscribers, and a run that only listens does not wait.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_wait)]
+    pub zenoh_wait: Option<f64>,
     /// ROS domain id of the Zenoh topics (ROS_DOMAIN_ID).
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -68,6 +75,10 @@ impl RosArgs {
         for e in self.zenoh.iter().chain(&self.zenoh_listen) {
             skin_ros::zenoh_live::check_endpoint(e)?;
         }
+        #[cfg(feature = "zenoh")]
+        if self.zenoh_wait.is_some() && !self.live() {
+            anyhow::bail!("--zenoh-wait needs --zenoh or --zenoh-listen: there is nothing to wait for");
+        }
         if let Some(p) = self.mcap_path() {
             inputs.check(p)?;
             skin_core::output::check_replaceable(p, "an MCAP file", skin_ros::mcap_file::is_mcap)?;
@@ -99,8 +110,16 @@ impl RosArgs {
                 ..skin_ros::ZenohOptions::default()
             };
             let outlet = skin_ros::ZenohOutlet::open(&topics, &z)?;
-            // A first look, so that a wrong address is said at once; Zenoh keeps retrying.
-            if !self.zenoh.is_empty() {
+            if let Some(s) = self.zenoh_wait {
+                let wait = std::time::Duration::from_secs_f64(s);
+                let start = std::time::Instant::now();
+                let found = outlet.wait_for_peer(wait)
+                    && outlet.wait_for_subscribers(wait.saturating_sub(start.elapsed()));
+                if !found {
+                    eprintln!("zenoh: no subscriber within {s} s; the frames go on");
+                }
+            } else if !self.zenoh.is_empty() {
+                // A first look, so that a wrong address is said at once; Zenoh keeps retrying.
                 if outlet.wait_for_peer(std::time::Duration::from_secs(2)) {
                     // Give the peers' subscriptions a moment to reach us (not an error if none).
                     outlet.wait_for_subscribers(std::time::Duration::from_secs(1));
@@ -115,6 +134,15 @@ impl RosArgs {
         }
         let _ = inputs;
         Ok(Some(RosSink::new(links, topics, outlets)))
+    }
+}
+
+/// `--zenoh-wait`: seconds, 0 to 3600.
+#[cfg(feature = "zenoh")]
+fn parse_wait(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=3600.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?} is not a number of seconds from 0 to 3600")),
     }
 }
 

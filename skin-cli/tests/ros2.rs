@@ -1,7 +1,7 @@
 //! ROS 2 without ROS, end to end: `skin run --mcap` and `skin convert --mcap` read by the
 //! Python `mcap` + `mcap-ros2-support` readers and rosbags (`tests/ros2/mcap_check.py`), `skin
-//! run --zenoh` seen by an `eclipse-zenoh` peer on loopback (`tests/ros2/zenoh_peer.py`), and the
-//! data-safety and bad-input rules of both outputs. The Python checks skip (saying so) where no
+//! run --zenoh` (and `--zenoh-listen`) seen by an `eclipse-zenoh` peer on loopback
+//! (`tests/ros2/zenoh_peer.py`), and the data-safety and bad-input rules of both outputs. The Python checks skip (saying so) where no
 //! Python has the packages; `.ci/run` installs them in its venv and sets SKIN_PYTHON.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
@@ -10,7 +10,6 @@ use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 #[path = "../../test-support/cli.rs"]
 mod cli_support;
@@ -195,6 +194,23 @@ fn bad_endpoints_and_prefixes_are_one_clear_line() {
         );
         assert!(!dir.path().join("out").exists());
     }
+    // A wait with nothing to wait for, and a wait that is not a duration.
+    let r = run_session(&out, &["--zenoh-wait", "5"]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("--zenoh-wait needs --zenoh") && err.lines().count() == 1,
+        "{err}"
+    );
+    for bad in ["soon", "-1", "inf", "NaN"] {
+        let wait = format!("--zenoh-wait={bad}");
+        let r = run_session(&out, &["--zenoh-listen", "tcp/127.0.0.1:7448", &wait]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success() && err.contains("not a number of seconds from 0 to 3600"),
+            "{err}"
+        );
+    }
+    assert!(!dir.path().join("out").exists());
 }
 
 /// A loopback port nothing listens on now.
@@ -220,32 +236,82 @@ fn unreachable_endpoint_does_not_stop_the_frames() {
 
 #[test]
 fn a_zenoh_peer_sees_the_session_as_rmw_zenoh_would() {
+    peer_sees_the_session(Side::PeerListens);
+}
+
+#[test]
+fn a_zenoh_peer_that_connects_to_a_listening_run_sees_it_all() {
+    peer_sees_the_session(Side::RunListens);
+}
+
+/// Who listens on the loopback port: the Python peer (`skin run --zenoh`, as to a router) or
+/// the run (`skin run --zenoh-listen --zenoh-wait`, a peer connecting to it).
+#[derive(Clone, Copy, PartialEq)]
+enum Side {
+    PeerListens,
+    RunListens,
+}
+
+fn peer_sees_the_session(side: Side) {
     let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let port = free_port();
-    let script = root().join("skin-cli/tests/ros2/zenoh_peer.py");
-    let mut peer = Command::new(&py)
-        .arg(&script)
-        .arg(port.to_string())
-        .arg(out.join("events.jsonl"))
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(peer.stdout.take().unwrap()).lines();
-    let started = Instant::now();
-    let first = lines.next().and_then(Result::ok).unwrap_or_default();
-    assert_eq!(first, "ready", "the peer did not start");
-    assert!(started.elapsed() < Duration::from_secs(60));
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let r = run_session(out.to_str().unwrap(), &["--zenoh", &endpoint]);
+    let script = root().join("skin-cli/tests/ros2/zenoh_peer.py");
+    let start_peer = || {
+        Command::new(&py)
+            .arg(&script)
+            .arg(if side == Side::PeerListens {
+                "listen"
+            } else {
+                "connect"
+            })
+            .arg(port.to_string())
+            .arg(out.join("events.jsonl"))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (mut peer, r) = match side {
+        Side::PeerListens => {
+            let mut peer = start_peer();
+            wait_ready(&mut peer);
+            let r = run_session(out.to_str().unwrap(), &["--zenoh", &endpoint]);
+            (peer, r)
+        }
+        Side::RunListens => {
+            // The run listens and waits (bounded) for a subscriber before its first frame.
+            let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+                .args([
+                    "run",
+                    &config(),
+                    "--log",
+                    &log(),
+                    "-o",
+                    out.to_str().unwrap(),
+                    "-q",
+                ])
+                .args(["--zenoh-listen", &endpoint, "--zenoh-wait", "60"])
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap();
+            let mut peer = start_peer();
+            wait_ready(&mut peer);
+            (peer, run.wait_with_output().unwrap())
+        }
+    };
     let _ = peer.stdin.as_mut().unwrap().write_all(b"done\n");
     ok(&r);
-    let said: Vec<String> = lines.map_while(Result::ok).collect();
+    let said: Vec<String> = BufReader::new(peer.stdout.take().unwrap())
+        .lines()
+        .map_while(Result::ok)
+        .collect();
     let status = peer.wait().unwrap();
     let mut err = String::new();
     let _ = std::io::Read::read_to_string(&mut peer.stderr.take().unwrap(), &mut err);
@@ -255,4 +321,11 @@ fn a_zenoh_peer_sees_the_session_as_rmw_zenoh_would() {
         "the peer's checks failed:\n{}\n{err}",
         said.join("\n")
     );
+}
+
+/// Reads the peer's "ready" (subscribed), within its own 120 s alarm.
+fn wait_ready(peer: &mut std::process::Child) {
+    let mut first = String::new();
+    let _ = BufReader::new(peer.stdout.as_mut().unwrap()).read_line(&mut first);
+    assert_eq!(first.trim(), "ready", "the peer did not start");
 }

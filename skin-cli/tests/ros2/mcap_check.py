@@ -8,8 +8,13 @@ FRAMES: frames after the baseline (one PointCloud2 per link each). EVENTS.jsonl 
 import sys
 from collections import Counter
 
+from pathlib import Path
+
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
 
 from common import events, fail, typestore
 
@@ -63,8 +68,29 @@ def main():
     for link, n in decisions.items():
         if images[f'/skin/{link}/tactile_image'] != n:
             problems.append(f'{link}: {images[f"/skin/{link}/tactile_image"]} images for {n} decisions')
+    problems += as_rosbag2(path, counts)
     print(f'{sum(counts.values())} messages on {len(counts)} topics; {len(lines)} events; {sum(decisions.values())} decisions')
     fail(problems)
+
+
+def as_rosbag2(path, counts):
+    """The file as a rosbag2 reader sees it (rosbags' own MCAP storage, which is what `ros2 bag
+    play FILE.mcap` does without ROS): the same topics and counts, a QoS profile on every
+    connection, and every message decoded from the definitions in the file alone (skin_msgs
+    not registered beforehand)."""
+    problems = []
+    with Reader(Path(path)) as bag:
+        seen = {c.topic: c.msgcount for c in bag.connections if c.msgcount}
+        if seen != dict(counts):
+            problems.append(f'rosbag2 reader counts {seen}, mcap reader {dict(counts)}')
+        for c in bag.connections:
+            if not c.ext.offered_qos_profiles:
+                problems.append(f'{c.topic}: rosbag2 reader finds no QoS profile')
+    with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as bag:
+        decoded = sum(1 for c, _, raw in bag.messages() if bag.deserialize(raw, c.msgtype) is not None)
+        if decoded != sum(counts.values()):
+            problems.append(f'AnyReader decoded {decoded} of {sum(counts.values())}')
+    return problems
 
 
 main()

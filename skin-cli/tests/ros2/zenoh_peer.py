@@ -1,9 +1,11 @@
-"""A Zenoh peer (eclipse-zenoh, independent of skin) that listens on loopback, records every
-sample under 0/** and every liveliness token under @ros2_lv/**, and checks them as rmw_zenoh
+"""A Zenoh peer (eclipse-zenoh, independent of skin) on loopback that records every sample
+under 0/** and every liveliness token under @ros2_lv/**, and checks them as rmw_zenoh
 subscribers would, against a run's events.jsonl.
 
-Usage: zenoh_peer.py PORT EVENTS.jsonl
-Prints "ready" once listening; the test then runs skin and writes a line to stdin when it is done.
+Usage: zenoh_peer.py listen|connect PORT EVENTS.jsonl
+listen: the peer listens on tcp/127.0.0.1:PORT (skin run --zenoh connects to it); connect: it
+connects to skin run --zenoh-listen there, retrying until skin listens.
+Prints "ready" once subscribed; the test writes a line to stdin when skin is done.
 """
 import signal
 import struct
@@ -30,11 +32,20 @@ def dds(name):
 
 
 def main():
-    port, events_path = sys.argv[1], sys.argv[2]
+    mode, port, events_path = sys.argv[1], sys.argv[2], sys.argv[3]
     signal.alarm(120)  # a bounded wait, whatever happens
     conf = zenoh.Config()
     conf.insert_json5('mode', '"peer"')
-    conf.insert_json5('listen/endpoints', f'["tcp/127.0.0.1:{port}"]')
+    if mode == 'listen':
+        conf.insert_json5('listen/endpoints', f'["tcp/127.0.0.1:{port}"]')
+    else:
+        # Late, as a subscriber started by hand would be: the run must hold its first frame
+        # for us (--zenoh-wait), or the replay is over before we connect.
+        time.sleep(3.0)
+        conf.insert_json5('connect/endpoints', f'["tcp/127.0.0.1:{port}"]')
+        conf.insert_json5('connect/timeout_ms', '60000')
+        conf.insert_json5('connect/exit_on_failure', 'false')
+        conf.insert_json5('listen/endpoints', '[]')
     conf.insert_json5('scouting/multicast/enabled', 'false')
     lock = threading.Lock()
     samples, tokens = [], []
