@@ -194,6 +194,21 @@ fn bad_endpoints_and_prefixes_are_one_clear_line() {
         );
         assert!(!dir.path().join("out").exists());
     }
+    // A port another program holds, and an address that is not this machine's.
+    let held = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let in_use = format!("tcp/{}", held.local_addr().unwrap());
+    for endpoint in [in_use.as_str(), "tcp/192.0.2.1:7447"] {
+        let r = run_session(&out, &["--zenoh-listen", endpoint]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success()
+                && err.contains(endpoint)
+                && err.contains("cannot listen there")
+                && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+    drop(held);
     // A wait with nothing to wait for, and a wait that is not a duration.
     let r = run_session(&out, &["--zenoh-wait", "5"]);
     let err = String::from_utf8_lossy(&r.stderr);

@@ -175,6 +175,17 @@ impl ZenohOutlet {
                 why: format!("ROS domain {} is past 232", options.domain),
             });
         }
+        // A listener that cannot be had (an address not of this machine, a port in use) is
+        // said plainly here; Zenoh's own error names its source files.
+        for e in &options.listen {
+            let address = e.strip_prefix("tcp/").unwrap_or(e);
+            if let Err(err) = std::net::TcpListener::bind(address) {
+                return Err(RosError::Endpoint {
+                    endpoint: e.clone(),
+                    why: format!("cannot listen there: {err}"),
+                });
+            }
+        }
         let interfaces = Interfaces::skin()?;
         let mut config = zenoh::Config::default();
         let json = |v: &[String]| serde_json::to_string(v).unwrap_or_else(|_| "[]".into());
