@@ -15,6 +15,9 @@ use std::process::{Command, Stdio};
 mod cli_support;
 use cli_support::{root, skin};
 
+#[path = "../../test-support/shared_data.rs"]
+mod shared_data;
+
 #[path = "../../skin-ros/tests/support/python.rs"]
 mod python;
 
@@ -133,6 +136,67 @@ fn convert_writes_frames_and_contacts_without_models() {
         ],
     );
     eprintln!("{said}");
+}
+
+/// Real hardware recordings (Cyskin's curved patch, 0, 1 and 2 fingers; `../shared/data`) go
+/// through `skin convert` and read back: one cloud of the patch's 642 taxels per frame after
+/// the baseline, every message decoded.
+#[test]
+fn real_recordings_convert_to_ros2() {
+    let (Some(patch), Some(recordings)) = (
+        shared_data::shared("cyskin/curved_gesture_patch.json"),
+        shared_data::shared("cyskin/recordings"),
+    ) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("real.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "layout = {:?}\n[baseline]\nframes = 5\n",
+            patch.display().to_string()
+        ),
+    )
+    .unwrap();
+    let py = python::python_with(PACKAGES);
+    for fingers in ["0_finger", "1_finger", "2_finger"] {
+        let mut files: Vec<_> = std::fs::read_dir(recordings.join(fingers))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension() == Some(OsStr::new("txt")))
+            .collect();
+        files.sort();
+        for file in files.iter().take(2) {
+            let mcap = dir.path().join(format!("{fingers}.mcap"));
+            let _ = std::fs::remove_file(&mcap);
+            let r = skin(&[
+                "convert",
+                file.to_str().unwrap(),
+                "--config",
+                config.to_str().unwrap(),
+                "--mcap",
+                mcap.to_str().unwrap(),
+            ]);
+            ok(&r);
+            // The ids line, then a frame a line; the first 5 frames are the baseline.
+            let text = std::fs::read_to_string(file).unwrap();
+            let frames = text.lines().filter(|l| !l.trim().is_empty()).count() - 1 - 5;
+            if let Some(py) = &py {
+                let said = python::run(
+                    py,
+                    "ros2/mcap_check.py",
+                    &[
+                        mcap.as_os_str(),
+                        OsStr::new("-"),
+                        OsStr::new(&frames.to_string()),
+                        OsStr::new("UR10_link1_patch3"),
+                    ],
+                );
+                eprintln!("{}: {said}", file.display());
+            }
+        }
+    }
 }
 
 #[test]
