@@ -4,6 +4,8 @@
 
 use nalgebra::{Point3, Unit, Vector3};
 use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::TactileMap;
+use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 
 /// Taxels per link.
 pub const PER_LINK: usize = 1165;
@@ -25,4 +27,25 @@ pub fn link(k: usize) -> LinkSkin {
         })
         .collect();
     LinkSkin::new(format!("link{k}"), taxels)
+}
+
+/// Each link's pressures (counts above the baseline, in layout order) with a whole hand from the
+/// synthetic-data generator on the middle link; `middle` is that link's tactile map.
+pub fn hand_on_middle_link(links: &[LinkSkin], middle: &TactileMap) -> Vec<Vec<f32>> {
+    let mut synth = Synthesizer::new(middle, SynthOptions::default()).unwrap();
+    let hand = (0..)
+        .map(|i| synth.sample(3, i, i))
+        .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
+        .unwrap();
+    let mut pressures: Vec<Vec<f32>> = links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
+    let index: std::collections::HashMap<TaxelId, usize> = links[1]
+        .taxels
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (t.id, i))
+        .collect();
+    for (id, p) in middle.ids.iter().zip(&hand.pressures) {
+        pressures[1][index[id]] = *p;
+    }
+    pressures
 }

@@ -23,14 +23,13 @@ use skin_core::{LinkSkin, TaxelId};
 use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
 use skin_learn::session::{Event, Session, SessionOptions, Sink, Stitching};
-use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 #[path = "../../test-support/full_arm.rs"]
 mod full_arm;
-use full_arm::link;
+use full_arm::{hand_on_middle_link, link};
 
 struct Arm {
     links: Vec<LinkSkin>,
@@ -124,23 +123,14 @@ fn bench(c: &mut Criterion) {
     };
     let stitching = Stitching::new(&maps, postures, Path::new("poses")).unwrap();
     // A whole hand on the middle link, from the synthetic-data generator.
-    let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
-    let hand = (0..)
-        .map(|i| synth.sample(3, i, i))
-        .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
-        .unwrap();
+    let hand = hand_on_middle_link(&arm.links, &maps[1]);
     let offset = 300u16;
     let quiet: Vec<Vec<u16>> = arm.links.iter().map(|l| vec![offset; l.taxels.len()]).collect();
-    let mut touched = quiet.clone();
-    let index: std::collections::HashMap<TaxelId, usize> = arm.links[1]
-        .taxels
+    let touched: Vec<Vec<u16>> = quiet
         .iter()
-        .enumerate()
-        .map(|(i, t)| (t.id, i))
+        .zip(&hand)
+        .map(|(q, h)| q.iter().zip(h).map(|(o, p)| o + p.round() as u16).collect())
         .collect();
-    for (id, p) in maps[1].ids.iter().zip(&hand.pressures) {
-        touched[1][index[id]] = offset + p.round() as u16;
-    }
 
     let model = root.join("fixtures/models/handsnet.onnx");
     let classifier = Classifier::load(&model, InputScale::Unit).unwrap();

@@ -12,16 +12,15 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use skin_core::{LinkSkin, TaxelId};
+use skin_core::LinkSkin;
 use skin_geom::{FlattenOptions, TactileMap};
 use skin_learn::session::{ProcessedFrame, Sink};
-use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
 
 #[path = "../../test-support/full_arm.rs"]
 mod full_arm;
-use full_arm::link;
+use full_arm::{hand_on_middle_link, link};
 
 /// Keeps nothing.
 struct Discard(usize);
@@ -39,21 +38,7 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
         .collect();
-    let mut synth = Synthesizer::new(&maps[1], SynthOptions::default()).unwrap();
-    let hand = (0..)
-        .map(|i| synth.sample(3, i, i))
-        .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
-        .unwrap();
-    let mut pressures: Vec<Vec<f32>> = links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
-    let index: std::collections::HashMap<TaxelId, usize> = links[1]
-        .taxels
-        .iter()
-        .enumerate()
-        .map(|(i, t)| (t.id, i))
-        .collect();
-    for (id, p) in maps[1].ids.iter().zip(&hand.pressures) {
-        pressures[1][index[id]] = *p;
-    }
+    let pressures = hand_on_middle_link(&links, &maps[1]);
     let mut pipeline = TouchPipeline::new(maps, None, None, TouchOptions::default()).unwrap();
     pipeline.process(1.0, &pressures, &mut Vec::new()).unwrap();
     let contacts = pipeline.contacts(1).len();
