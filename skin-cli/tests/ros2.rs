@@ -8,7 +8,7 @@
 
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 #[path = "../../test-support/cli.rs"]
@@ -61,7 +61,25 @@ fn names(dir: &Path) -> Vec<String> {
 }
 
 /// Frames after the baseline in the fixture session (620 frames, 20 learn the baseline).
-const FRAMES: &str = "600";
+const FRAMES: usize = 600;
+
+/// `skin convert INPUT --config CONFIG --mcap MCAP`.
+fn convert(input: &str, config: &str, mcap: &str) -> std::process::Output {
+    skin(&["convert", input, "--config", config, "--mcap", mcap])
+}
+
+/// `ros2/mcap_check.py` on `mcap` (fails the test on any problem): `events` is the run's
+/// events.jsonl, `None` for `skin convert`; `frames` after the baseline, one cloud of `link` each.
+fn mcap_check(py: &PathBuf, mcap: &Path, events: Option<&Path>, frames: usize, link: &str) {
+    let events = events.map_or(OsStr::new("-"), Path::as_os_str);
+    let frames = frames.to_string();
+    let said = python::run(
+        py,
+        "ros2/mcap_check.py",
+        &[mcap.as_os_str(), events, OsStr::new(&frames), OsStr::new(link)],
+    );
+    eprintln!("{}: {said}", mcap.display());
+}
 
 #[test]
 fn mcap_of_the_fixture_session_reads_in_python() {
@@ -76,45 +94,23 @@ fn mcap_of_the_fixture_session_reads_in_python() {
     let Some(py) = python::python_with(PACKAGES) else {
         return;
     };
-    let events = out.join("events.jsonl");
-    let said = python::run(
-        &py,
-        "ros2/mcap_check.py",
-        &[
-            mcap.as_os_str(),
-            events.as_os_str(),
-            OsStr::new(FRAMES),
-            OsStr::new("forearm"),
-        ],
-    );
-    eprintln!("{said}");
+    mcap_check(&py, &mcap, Some(&out.join("events.jsonl")), FRAMES, "forearm");
 }
 
 #[test]
 fn convert_writes_frames_and_contacts_without_models() {
     let dir = tempfile::tempdir().unwrap();
     let mcap = dir.path().join("converted.mcap");
-    let run = skin(&[
-        "convert",
-        &log(),
-        "--config",
-        &config(),
-        "--mcap",
-        mcap.to_str().unwrap(),
-    ]);
-    ok(&run);
+    ok(&convert(&log(), &config(), mcap.to_str().unwrap()));
     assert!(mcap.is_file());
     // Bad input: neither a log nor a recording, named with both reasons; nothing written.
     let junk = dir.path().join("junk.txt");
     std::fs::write(&junk, "not a recording\n").unwrap();
-    let bad = skin(&[
-        "convert",
+    let bad = convert(
         junk.to_str().unwrap(),
-        "--config",
         &config(),
-        "--mcap",
         dir.path().join("j.mcap").to_str().unwrap(),
-    ]);
+    );
     assert!(!bad.status.success());
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(
@@ -125,17 +121,7 @@ fn convert_writes_frames_and_contacts_without_models() {
     let Some(py) = python::python_with(PACKAGES) else {
         return;
     };
-    let said = python::run(
-        &py,
-        "ros2/mcap_check.py",
-        &[
-            mcap.as_os_str(),
-            OsStr::new("-"),
-            OsStr::new(FRAMES),
-            OsStr::new("forearm"),
-        ],
-    );
-    eprintln!("{said}");
+    mcap_check(&py, &mcap, None, FRAMES, "forearm");
 }
 
 /// Real hardware recordings (Cyskin's curved patch, 0, 1 and 2 fingers; `../shared/data`) go
@@ -170,30 +156,17 @@ fn real_recordings_convert_to_ros2() {
         for file in files.iter().take(2) {
             let mcap = dir.path().join(format!("{fingers}.mcap"));
             let _ = std::fs::remove_file(&mcap);
-            let r = skin(&[
-                "convert",
+            ok(&convert(
                 file.to_str().unwrap(),
-                "--config",
                 config.to_str().unwrap(),
-                "--mcap",
                 mcap.to_str().unwrap(),
-            ]);
-            ok(&r);
+            ));
             // The ids line, then a frame a line; the first 5 frames are the baseline.
             let text = std::fs::read_to_string(file).unwrap();
             let frames = text.lines().filter(|l| !l.trim().is_empty()).count() - 1 - 5;
             if let Some(py) = &py {
-                let said = python::run(
-                    py,
-                    "ros2/mcap_check.py",
-                    &[
-                        mcap.as_os_str(),
-                        OsStr::new("-"),
-                        OsStr::new(&frames.to_string()),
-                        OsStr::new("UR10_link1_patch3"),
-                    ],
-                );
-                eprintln!("{}: {said}", file.display());
+                eprint!("{}: ", file.display());
+                mcap_check(py, &mcap, None, frames, "UR10_link1_patch3");
             }
         }
     }
@@ -216,7 +189,7 @@ fn mcap_output_follows_the_data_safety_rules() {
     // The input as the output: refused.
     let copy = d("session.candump.log");
     std::fs::copy(log(), &copy).unwrap();
-    let r = skin(&["convert", &copy, "--config", &config(), "--mcap", &copy]);
+    let r = convert(&copy, &config(), &copy);
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("session.candump.log"));
     assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(log()).unwrap());
@@ -227,14 +200,7 @@ fn mcap_output_follows_the_data_safety_rules() {
     assert!(!dir.path().join("out").exists());
     // An earlier MCAP is replaced (running again works).
     for _ in 0..2 {
-        ok(&skin(&[
-            "convert",
-            &log(),
-            "--config",
-            &config(),
-            "--mcap",
-            &d("again.mcap"),
-        ]));
+        ok(&convert(&log(), &config(), &d("again.mcap")));
     }
     let bytes = std::fs::read(dir.path().join("again.mcap")).unwrap();
     assert!(bytes.starts_with(b"\x89MCAP0\r\n") && bytes.ends_with(b"\x89MCAP0\r\n"));
