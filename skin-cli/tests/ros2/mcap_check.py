@@ -7,7 +7,6 @@ FRAMES: frames after the baseline (one PointCloud2 per link each). EVENTS.jsonl 
 """
 import sys
 from collections import Counter
-
 from pathlib import Path
 
 from mcap.reader import make_reader
