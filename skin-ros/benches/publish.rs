@@ -57,12 +57,29 @@ fn bench(c: &mut Criterion) {
 
     #[cfg(feature = "mcap")]
     {
+        // A fresh file every 1,000 frames (opened and dropped outside the timing): one file for
+        // all of criterion's iterations would grow to gigabytes (210 kB a frame).
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bench.mcap");
-        let outlet =
-            skin_ros::McapOutlet::create(&path, &topics, &skin_core::output::Inputs::default()).unwrap();
-        let mut sink = RosSink::new(&links, topics.clone(), outlet);
-        group.bench_function("mcap", |b| b.iter(|| sink.frame(&frame).unwrap()));
+        let inputs = skin_core::output::Inputs::default();
+        group.bench_function("mcap", |b| {
+            b.iter_custom(|iters| {
+                let mut spent = std::time::Duration::ZERO;
+                let mut left = iters;
+                while left > 0 {
+                    let outlet = skin_ros::McapOutlet::create(&path, &topics, &inputs).unwrap();
+                    let mut sink = RosSink::new(&links, topics.clone(), outlet);
+                    let n = left.min(1000);
+                    let start = std::time::Instant::now();
+                    for _ in 0..n {
+                        sink.frame(&frame).unwrap();
+                    }
+                    spent += start.elapsed();
+                    left -= n;
+                }
+                spent
+            })
+        });
     }
     #[cfg(feature = "zenoh")]
     {
