@@ -10,6 +10,20 @@
 //! its offset follows the reading slowly, so drift is tracked without eating into a touch (the
 //! iCub skin manager's compensation works the same way).
 //!
+//! A session can start at any moment, someone leaning on the skin included:
+//! - Frames that are not idle are not learned from. A taxel that moved during the idle frames far
+//!   beyond the skin's noise (its deviation over [`BaselineOptions::moving_ratio`] times the
+//!   link's median taxel's) and smoothly, as pressure moves a reading and noise does not (a von
+//!   Neumann ratio under 1: successive differences small against the spread), is a touch in
+//!   progress. Its offset is its least pressed reading of those frames and its noise the link's;
+//!   it is listed in [`TaxelHealth::pressed`]. It does not set the link's noise either.
+//! - A baseline learned under pressure, or drifted under a long touch, shows when the pressure
+//!   goes: the reading falls below the offset, against the way pressure moves it, beyond the
+//!   noise. Pressure never does that, so after two such frames in a row (one could be a glitch)
+//!   the offset is reset to the reading and the taxel counted ([`Baseline::apply`] returns how
+//!   many): the taxel reads pressure right again at once, instead of being blind until the slow
+//!   drift tracking catches up.
+//!
 //! The same idle frames show taxels that cannot be trusted: no variation at all (dead), or
 //! pinned at the rail of the converter that pressure moves toward (stuck). A taxel resting at
 //! the other rail is not listed: electronics that subtract the offset themselves clip at rest
@@ -50,6 +64,12 @@ pub struct BaselineOptions {
     /// The converter's range (lowest, highest reading); a taxel whose idle readings sit on the
     /// end pressure moves toward is stuck. Default 0 to 65535 (16 bits).
     pub rails: (f32, f32),
+    /// A taxel whose idle readings deviate more than this many times the link's median taxel's
+    /// (and smoothly, not as noise) was pressed while the baseline was learned (default 10).
+    /// On the real Cyskin recordings nobody touches, 0.4 taxels a recording (at most 2 of 716)
+    /// pass both tests over 5 idle frames; a press moves a reading a hundred times the median
+    /// and more.
+    pub moving_ratio: f32,
 }
 
 impl Default for BaselineOptions {
@@ -61,6 +81,7 @@ impl Default for BaselineOptions {
             min_noise: 1.0,
             drift_per_frame: 0.01,
             rails: (0.0, 65535.0),
+            moving_ratio: 10.0,
         }
     }
 }
@@ -72,6 +93,10 @@ pub struct TaxelHealth {
     pub dead: Vec<usize>,
     /// Readings pinned at the rail pressure moves them toward.
     pub stuck: Vec<usize>,
+    /// Readings that moved as pressure moves them while the idle frames were taken: a touch in
+    /// progress. Their offsets are their least pressed readings, corrected when the pressure
+    /// goes.
+    pub pressed: Vec<usize>,
 }
 
 /// Per-taxel offsets and noise thresholds, with drift tracking.
@@ -81,7 +106,16 @@ pub struct Baseline {
     noise: Vec<f32>,
     polarity: Polarity,
     drift: f32,
+    /// Frames in a row each taxel has read below its offset beyond its noise.
+    below: Vec<u8>,
+    /// Taxels reset since [`Baseline::take_corrected`] last looked, and how many they are.
+    corrected: Vec<bool>,
+    corrected_count: usize,
 }
+
+/// Frames in a row a reading must stay below its offset (beyond the noise) before the offset is
+/// taken to be wrong: one frame could be a glitch of the converter.
+const BELOW_FRAMES: u8 = 2;
 
 impl Baseline {
     /// Learns offsets and noise from frames without contact (each a slice of one raw reading per
@@ -130,8 +164,11 @@ impl Baseline {
     }
 
     /// Pressures of one raw frame (same taxel order), and drift tracking for taxels not in
-    /// contact. Allocates nothing; a frame of the wrong length is an error and changes nothing.
-    pub fn apply(&mut self, raw: &[f32], pressures: &mut [f32]) -> Result<()> {
+    /// contact. A taxel that reads below its offset beyond its noise for a second frame in a row
+    /// (its offset was learned, or drifted, under pressure: see the [module](self)) has its offset
+    /// reset to the reading. Returns how many taxels were reset by this frame. Allocates
+    /// nothing; a frame of the wrong length is an error and changes nothing.
+    pub fn apply(&mut self, raw: &[f32], pressures: &mut [f32]) -> Result<usize> {
         for (what, got) in [
             ("readings of the frame for the baseline's taxels", raw.len()),
             ("pressures for the baseline's taxels", pressures.len()),
@@ -148,25 +185,54 @@ impl Baseline {
             Polarity::Rising => 1.0,
             Polarity::Falling => -1.0,
         };
-        for (((p, &r), o), &eps) in pressures
+        let mut reset = 0;
+        for (i, (((p, &r), o), &eps)) in pressures
             .iter_mut()
             .zip(raw)
             .zip(&mut self.offset)
             .zip(&self.noise)
+            .enumerate()
         {
             let d = sign * (r - *o);
             if d > eps {
                 *p = d;
-            } else {
-                *p = 0.0;
-                // Not in contact: follow the reading (both ways, so drift in either direction is
-                // tracked; a NaN reading leaves the offset alone).
-                if r.is_finite() {
-                    *o += self.drift * (r - *o);
+                self.below[i] = 0;
+                continue;
+            }
+            *p = 0.0;
+            if !r.is_finite() {
+                continue; // a NaN reading leaves the offset alone
+            }
+            if d < -eps {
+                // Against the way pressure moves a reading, beyond the noise: not noise, so the
+                // offset is wrong. Not followed at once: one frame could be a glitch.
+                self.below[i] = self.below[i].saturating_add(1);
+                if self.below[i] >= BELOW_FRAMES {
+                    *o = r;
+                    self.below[i] = 0;
+                    reset += 1;
+                    if !self.corrected[i] {
+                        self.corrected[i] = true;
+                        self.corrected_count += 1;
+                    }
                 }
+            } else {
+                // Not in contact: follow the reading (both ways, so drift in either direction
+                // is tracked).
+                self.below[i] = 0;
+                *o += self.drift * (r - *o);
             }
         }
-        Ok(())
+        Ok(reset)
+    }
+
+    /// How many taxels had their offset reset ([`Baseline::apply`]) since the last call, each
+    /// counted once; the count starts again from zero.
+    pub fn take_corrected(&mut self) -> usize {
+        if self.corrected_count > 0 {
+            self.corrected.fill(false);
+        }
+        std::mem::take(&mut self.corrected_count)
     }
 }
 
@@ -179,6 +245,10 @@ pub struct IdleStats {
     m2: Vec<f64>,
     lo: Vec<f32>,
     hi: Vec<f32>,
+    /// The last frame, and the sum of squared differences between successive frames (the
+    /// numerator of the von Neumann ratio, which tells a trend from noise).
+    last: Vec<f32>,
+    successive: Vec<f64>,
 }
 
 impl IdleStats {
@@ -190,6 +260,8 @@ impl IdleStats {
             m2: vec![0.0; taxels],
             lo: vec![f32::INFINITY; taxels],
             hi: vec![f32::NEG_INFINITY; taxels],
+            last: vec![0.0; taxels],
+            successive: vec![0.0; taxels],
         }
     }
 
@@ -210,6 +282,11 @@ impl IdleStats {
             self.m2[i] += d * (f64::from(v) - self.mean[i]);
             self.lo[i] = self.lo[i].min(v);
             self.hi[i] = self.hi[i].max(v);
+            if self.n > 1 {
+                let step = f64::from(v) - f64::from(self.last[i]);
+                self.successive[i] += step * step;
+            }
+            self.last[i] = v;
         }
         Ok(())
     }
@@ -250,10 +327,17 @@ impl IdleStats {
             .iter()
             .map(|m2| (m2 / (n - 1) as f64).sqrt() as f32)
             .collect();
+        let pressed = self.pressed(&sds, options);
         // The link's own noise level: its taxels' deviations at the quantile (a dead taxel's
-        // zero counts among them; the quantile keeps a few noisy ones from setting it).
+        // zero counts among them; the quantile keeps a few noisy ones from setting it). A taxel
+        // pressed meanwhile measured the touch, not the noise: left out.
         let floor = {
-            let mut sorted = sds.clone();
+            let mut sorted: Vec<f32> = sds
+                .iter()
+                .zip(&pressed)
+                .filter(|&(_, &p)| !p)
+                .map(|(&sd, _)| sd)
+                .collect();
             sorted.sort_by(f32::total_cmp);
             let q = options.noise_floor_quantile.clamp(0.0, 1.0);
             sorted
@@ -262,9 +346,21 @@ impl IdleStats {
                 .unwrap_or(0.0)
         };
         let mut noise = Vec::with_capacity(self.mean.len());
+        let mut offset: Vec<f32> = self.mean.iter().map(|&m| m as f32).collect();
         for (i, &sd) in sds.iter().enumerate() {
-            noise.push((options.noise_sigmas * sd.max(floor)).max(options.min_noise));
             let (lo, hi) = (self.lo[i], self.hi[i]);
+            if pressed[i] {
+                // Its least pressed reading is the nearest to its rest; the pressure going
+                // corrects the rest (Baseline::apply).
+                offset[i] = match options.polarity {
+                    Polarity::Rising => lo,
+                    Polarity::Falling => hi,
+                };
+                noise.push((options.noise_sigmas * floor).max(options.min_noise));
+                health.pressed.push(i);
+                continue;
+            }
+            noise.push((options.noise_sigmas * sd.max(floor)).max(options.min_noise));
             // Pinned at the rail pressure moves the reading toward, it cannot read pressure:
             // stuck. Pinned at the other rail is a stream whose electronics subtract the offset
             // and clip (Cyskin sends 0 at rest): quiet, not broken, whatever the idle frames say.
@@ -278,15 +374,41 @@ impl IdleStats {
                 health.dead.push(i);
             }
         }
+        let taxels = offset.len();
         Ok((
             Baseline {
-                offset: self.mean.iter().map(|&m| m as f32).collect(),
+                offset,
                 noise,
                 polarity: options.polarity,
                 drift: options.drift_per_frame.clamp(0.0, 1.0),
+                below: vec![0; taxels],
+                corrected: vec![false; taxels],
+                corrected_count: 0,
             },
             health,
         ))
+    }
+
+    /// Which taxels moved during the idle frames as a touch moves a reading: far beyond the
+    /// link's typical noise (the median taxel's deviation, robust to the few taxels a touch
+    /// covers) and smoothly. The von Neumann ratio (mean squared successive difference over the
+    /// variance) is about 2 for noise and near 0 for a trend or a step; a taxel must be under 1.
+    fn pressed(&self, sds: &[f32], options: &BaselineOptions) -> Vec<bool> {
+        let mut sorted = sds.to_vec();
+        sorted.sort_by(f32::total_cmp);
+        let typical = sorted
+            .get(sorted.len() / 2)
+            .copied()
+            .unwrap_or(0.0)
+            .max(options.min_noise);
+        let limit = options.moving_ratio * typical;
+        sds.iter()
+            .zip(self.m2.iter().zip(&self.successive))
+            .map(|(&sd, (&m2, &successive))| {
+                // successive / (n - 1) over m2 / (n - 1): the counts cancel.
+                sd > limit && m2 > 0.0 && successive < m2
+            })
+            .collect()
     }
 }
 
