@@ -260,6 +260,17 @@ impl<O: Outlet> Sink for RosSink<O> {
                 m.footprint.centroid = *centroid;
             }
             Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
+            Event::BaselineCorrected {
+                time,
+                since,
+                link,
+                taxels,
+            } => {
+                m.kind = EventKind::BaselineCorrected;
+                m.link = link;
+                m.footprint.taxels = *taxels as u32;
+                m.duration = time - since;
+            }
         }
         messages::touch_event(&mut self.w, stamp, &m);
         let events = self.topics.events;

@@ -322,6 +322,8 @@ pub enum EventKind {
     AcrossJoint = 6,
     /// `ACROSS_JOINT_END`.
     AcrossJointEnd = 7,
+    /// `BASELINE_CORRECTED`.
+    BaselineCorrected = 8,
 }
 
 /// A `skin_msgs/msg/TouchEvent` (fields a kind does not use stay empty or zero).

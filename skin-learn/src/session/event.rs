@@ -140,6 +140,22 @@ pub enum Event {
         #[serde(serialize_with = "ms")]
         time: f64,
     },
+    /// Taxels of a link read below their baseline, against the way pressure moves a reading and
+    /// beyond their noise, for two frames in a row: their no-contact offsets had been learned
+    /// (or had drifted) under pressure, and were reset to the readings when the pressure went.
+    /// They read pressure right from then on. One event per correction, when it is over.
+    BaselineCorrected {
+        /// The frame the correction was over, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// The frame of its first reset, s.
+        #[serde(serialize_with = "ms")]
+        since: f64,
+        /// The link's name.
+        link: String,
+        /// Taxels whose offset was reset.
+        taxels: usize,
+    },
 }
 
 impl Event {
@@ -153,7 +169,8 @@ impl Event {
             | Event::Released { time, .. }
             | Event::Gate { time, .. }
             | Event::AcrossJoint { time, .. }
-            | Event::AcrossJointEnd { time } => *time,
+            | Event::AcrossJointEnd { time }
+            | Event::BaselineCorrected { time, .. } => *time,
         }
     }
 

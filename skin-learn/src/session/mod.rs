@@ -284,6 +284,22 @@ pub struct FinishedTouch {
     pub decision: Option<Decision>,
 }
 
+/// A link's baseline corrections: the one going on, and all so far.
+#[derive(Debug, Default, Clone, Copy)]
+struct Correcting {
+    /// When the offsets being reset now began to be (none: no correction going on).
+    since: Option<f64>,
+    /// Frames since the last reset.
+    quiet: u32,
+    /// Corrections (events) and taxel resets so far.
+    events: u64,
+    taxels: u64,
+}
+
+/// Frames without a reset that end a baseline correction: a release takes a few frames, and its
+/// taxels are reset as their readings come down, not all in one frame.
+const CORRECTION_QUIET_FRAMES: u32 = 5;
+
 /// Frames from CAN: the bus map's interfaces and the placement of its slots into links.
 #[derive(Debug)]
 struct CanInput {
@@ -317,6 +333,10 @@ pub struct Session {
     learner: BaselineLearner,
     baselines: Vec<Baseline>,
     health: Vec<TaxelHealth>,
+    /// Per link: offsets being reset now ([`Event::BaselineCorrected`]).
+    correcting: Vec<Correcting>,
+    /// The time the baseline was learned (its last frame), s.
+    learned_at: f64,
     touch_events: Vec<TouchEvent>,
     /// Open touches' start times.
     open: std::collections::HashMap<u64, f64>,
@@ -383,6 +403,8 @@ impl Session {
             source: PathBuf::from("frames"),
             baselines: Vec::new(),
             health: Vec::new(),
+            correcting: vec![Correcting::default(); sizes.len()],
+            learned_at: 0.0,
             touch_events: Vec::new(),
             open: std::collections::HashMap::new(),
             done: Vec::new(),
@@ -882,15 +904,31 @@ impl Session {
                     self.baselines.push(b);
                     self.health.push(health);
                 }
+                self.learned_at = time;
             }
             self.stage.baseline += started.elapsed();
             return Ok(());
         }
-        for ((b, raw), p) in self.baselines.iter_mut().zip(&self.raw).zip(&mut self.pressures) {
-            b.apply(raw, p)
+        for (l, ((b, raw), p)) in self
+            .baselines
+            .iter_mut()
+            .zip(&self.raw)
+            .zip(&mut self.pressures)
+            .enumerate()
+        {
+            let reset = b
+                .apply(raw, p)
                 .map_err(|source| SessionError::Frame { time, source })?;
+            let c = &mut self.correcting[l];
+            if reset > 0 {
+                c.since.get_or_insert(time);
+                c.quiet = 0;
+            } else if c.since.is_some() {
+                c.quiet += 1;
+            }
         }
         self.stage.baseline += started.elapsed();
+        self.end_corrections(time, CORRECTION_QUIET_FRAMES, sink)?;
         self.touch_events.clear();
         self.pipeline
             .process(time, &self.pressures, &mut self.touch_events)?;
@@ -948,6 +986,27 @@ impl Session {
             fill(&mut self.image, grey, rows, cols);
             sink.frame_image(FrameView::Stitched, cycle, &self.image)
                 .map_err(SessionError::Sink)?;
+        }
+        Ok(())
+    }
+
+    /// Baseline corrections quiet for `quiet` frames are over: an event each.
+    fn end_corrections(&mut self, time: f64, quiet: u32, sink: &mut dyn Sink) -> Result<(), SessionError> {
+        for (l, (c, b)) in self.correcting.iter_mut().zip(&mut self.baselines).enumerate() {
+            let Some(since) = c.since.filter(|_| c.quiet >= quiet) else {
+                continue;
+            };
+            let taxels = b.take_corrected();
+            c.since = None;
+            c.events += 1;
+            c.taxels += taxels as u64;
+            let event = Event::BaselineCorrected {
+                time,
+                since,
+                link: self.links[l].name.clone(),
+                taxels,
+            };
+            sink.event(&event).map_err(SessionError::Sink)?;
         }
         Ok(())
     }
@@ -1076,6 +1135,7 @@ impl Session {
                 needed: self.options.baseline_frames,
             });
         }
+        self.end_corrections(self.last_time, 0, sink)?;
         self.touch_events.clear();
         self.pipeline.finish(self.last_time, &mut self.touch_events)?;
         self.emit(sink)

@@ -80,6 +80,25 @@ impl Display for Summary<'_> {
                 )?;
             }
         }
+        for (l, h) in s.health.iter().enumerate() {
+            if !h.pressed.is_empty() {
+                writeln!(
+                    out,
+                    "link {}: {} taxel(s) were pressed while the baseline was learned (a touch in progress): their offsets are their least pressed readings until the pressure goes",
+                    s.links[l].name,
+                    h.pressed.len()
+                )?;
+            }
+        }
+        for (l, c) in s.correcting.iter().enumerate() {
+            if c.events > 0 {
+                writeln!(
+                    out,
+                    "link {}: baseline corrected {} time(s), {} taxel offset(s) reset: readings fell below offsets learned or drifted under pressure, beyond the noise (baseline_corrected events)",
+                    s.links[l].name, c.events, c.taxels
+                )?;
+            }
+        }
         if s.stitching.is_some() {
             writeln!(out, "contacts across joints (stitched maps): {}", s.across)?;
         }
