@@ -395,3 +395,24 @@ fn a_long_touch_does_not_fade_and_the_drift_under_it_is_corrected_at_release() {
     b.apply(&raw, &mut p).unwrap();
     assert!((p[0] - 40.0).abs() <= 2.0, "{}", p[0]);
 }
+
+#[test]
+fn an_icub_baseline_learned_under_a_press_is_corrected_too() {
+    // iCub: 255 at no load, pressure lowers the reading. Taxel 0 is pressed to 180 while the
+    // baseline is learned; the press goes and it reads 250 again.
+    let options = BaselineOptions {
+        polarity: Polarity::Falling,
+        rails: (0.0, 255.0),
+        ..BaselineOptions::default()
+    };
+    let frames: Vec<Vec<f32>> = (0..10)
+        .map(|k| vec![180.0 + (k % 2) as f32, 250.0 - (k % 2) as f32])
+        .collect();
+    let (mut b, _) = learn(&frames, &options);
+    let mut p = [0.0f32; 2];
+    assert_eq!(b.apply(&[250.0, 250.0], &mut p).unwrap(), 0);
+    assert_eq!(b.apply(&[250.0, 250.0], &mut p).unwrap(), 1);
+    assert_eq!(p, [0.0, 0.0]);
+    b.apply(&[230.0, 250.0], &mut p).unwrap();
+    assert!((p[0] - 20.0).abs() < 1e-3, "{p:?}");
+}
