@@ -357,6 +357,12 @@ fn is_same(path: &Path, id: Option<(u64, u64)>) -> bool {
     }
 }
 
+/// The device and inode of the folder a user named: through a symbolic link (an output folder
+/// given as a link is written through it).
+fn folder_id(path: &Path) -> Option<(u64, u64)> {
+    std::fs::metadata(path).ok().map(|m| file_id(&m))
+}
+
 fn id_of(path: &Path) -> Option<(u64, u64)> {
     std::fs::symlink_metadata(path).ok().map(|m| file_id(&m))
 }
@@ -972,7 +978,7 @@ impl OutputDir {
                 true
             }
         };
-        let dir_id = std::fs::metadata(dir).ok().map(|m| file_id(&m));
+        let dir_id = folder_id(dir);
         let undo = |lock_new: bool| {
             if lock_new {
                 let _ = std::fs::remove_file(dir.join(LOCK));
@@ -1114,7 +1120,7 @@ impl OutputDir {
     /// files move, none of `files` moves either; they move after the folder's files and before
     /// its manifest, so a failure between leaves the folder marked `INCOMPLETE`.
     pub fn commit_with(mut self, mut files: Vec<Staged>) -> Result<()> {
-        if id_of(&self.dir) != self.ids.0 || id_of(&self.staging) != self.ids.1 {
+        if folder_id(&self.dir) != self.ids.0 || id_of(&self.staging) != self.ids.1 {
             return Err(OutputError::Vanished {
                 dir: self.dir.clone(),
             });
@@ -1275,7 +1281,7 @@ impl Drop for OutputDir {
             return;
         }
         remove_ours(&self.staging, self.ids.1);
-        if !is_same(&self.dir, self.ids.0) {
+        if folder_id(&self.dir) != self.ids.0 {
             return; // not the folder we opened any more: nothing of ours to remove there
         }
         if self.created || self.lock_new {
@@ -1554,6 +1560,25 @@ mod tests {
         let e = o.commit().unwrap_err();
         assert!(matches!(e, OutputError::Vanished { .. }), "{e}");
         assert!(!out.join(MANIFEST).exists() && !out.join("touches").exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_folder_given_as_a_link_is_written_through_it() {
+        let d = tempfile::tempdir().unwrap();
+        let (real, link) = (d.path().join("real"), d.path().join("link"));
+        std::fs::create_dir(&real).unwrap();
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        for run in ["1", "2"] {
+            let o = OutputDir::create(&link, "skin run", false, &Inputs::default()).unwrap();
+            std::fs::write(o.path().join("a.png"), run).unwrap();
+            o.commit().unwrap();
+        }
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read_to_string(real.join("a.png")).unwrap(), "2");
+        // Abandoned: the link and the earlier output stay, the lock it found too.
+        drop(OutputDir::create(&link, "skin run", false, &Inputs::default()).unwrap());
+        assert_eq!(names(&real), [".skin-lock", ".skin-output", "a.png"]);
     }
 
     #[test]
