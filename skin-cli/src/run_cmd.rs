@@ -197,6 +197,7 @@ pub fn run(args: Args) -> Result<()> {
         match out.take() {
             Some(dir) => {
                 let path = dir.dir().to_owned();
+                still_there(dir.path(), &path)?;
                 std::fs::write(dir.path().join("summary.txt"), summary)
                     .with_context(|| format!("cannot write summary.txt in {}", path.display()))?;
                 dir.commit_with(staged.into_iter().collect())?;
@@ -216,6 +217,17 @@ pub fn run(args: Args) -> Result<()> {
     // A failed run leaves the previous output as it was: the half-built folder goes with `out`.
     drop(out);
     result
+}
+
+/// Refuses to write on once the folder being built (`staging`, shown as `shown`) is gone: the
+/// user deleted or moved the output folder, and it must not come back half made.
+fn still_there(staging: &Path, shown: &Path) -> Result<(), skin_core::output::OutputError> {
+    match staging.is_dir() {
+        true => Ok(()),
+        false => Err(skin_core::output::OutputError::Vanished {
+            dir: shown.to_owned(),
+        }),
+    }
 }
 
 /// Finishes the MCAP file of `outlets` (if any) without putting it in place; its messages.
@@ -393,6 +405,13 @@ impl Images {
         })
     }
 
+    /// Each image is a new file: none is made once the folder is gone (its folders would be
+    /// made again).
+    fn check(&self) -> std::io::Result<()> {
+        still_there(Path::new(&self.staging), &self.shown)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::NotFound, e))
+    }
+
     fn named(&self, e: std::io::Error) -> std::io::Error {
         let shown = self.shown.display().to_string();
         let text = e.to_string().replace(&self.staging, &shown);
@@ -411,11 +430,13 @@ impl Sink for Images {
             return Ok(());
         }
         let _creating = writing();
+        self.check()?;
         self.png.event(event).map_err(|e| self.named(e))
     }
 
     fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
         let _creating = writing();
+        self.check()?;
         self.png
             .frame_image(view, cycle, image)
             .map_err(|e| self.named(e))
@@ -517,6 +538,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         let shown = dir.join(name);
         {
             let _creating = writing();
+            still_there(out.path(), dir)?;
             std::fs::create_dir_all(&here).with_context(cannot)?;
         }
         let events = JsonLines::new(BufWriter::new(Named::create(
@@ -535,6 +557,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         let summary = session.summary(span).to_string();
         {
             let _creating = writing();
+            still_there(out.path(), dir)?;
             std::fs::write(here.join("summary.txt"), &summary).with_context(cannot)?;
         }
         if !args.quiet {
