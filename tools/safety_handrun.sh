@@ -181,6 +181,28 @@ if [[ $(id -u) == 0 ]] && mkdir -p tfs && mount -t tmpfs -o size=4k tmpfs tfs 2>
     elif grep -q '\.skin-partial' tfs.err; then bad=$((bad+1)); seen+="${kb}k: names staging; "; fi
   done
   row L1 "disk full at every size while a new folder is made (tmpfs 4k..160k)" "$( [[ $bad == 0 ]] && echo pass || echo FAIL)" "$n sizes: $whole complete, $refused failed and left no folder; $bad bad ${seen}"
+  # Out of inodes: the new files of the commit itself (marker, manifest) are what fails.
+  umount tfs; bad=0; n=0; seen=""; whole=0; refused=0
+  for inodes in $(seq 20 1 34); do
+    mount -t tmpfs -o size=1m,nr_inodes=$inodes tmpfs tfs; n=$((n+1))
+    $R -o tfs/out >/dev/null 2>tfs.err; rc=$?
+    [[ $rc == 0 ]] && whole=$((whole+1)) || refused=$((refused+1))
+    if [[ $rc == 0 ]]; then complete tfs/out || { bad=$((bad+1)); seen+="$inodes: exit 0, not complete; "; }
+    elif [[ -e tfs/out ]]; then bad=$((bad+1)); seen+="$inodes inodes: exit $rc left $(ls -A tfs/out | tr '\n' ' '); "; fi
+    umount tfs
+  done
+  bad=0; m=0; kept=0; whole2=0
+  for inodes in $(seq 30 1 60); do
+    mount -t tmpfs -o size=1m,nr_inodes=$inodes tmpfs tfs; m=$((m+1))
+    $R -o tfs/out >/dev/null 2>&1 && h=$(snap tfs/out) || { umount tfs; continue; }
+    $R -o tfs/out >/dev/null 2>tfs.err; rc=$?
+    if [[ $rc == 0 ]]; then whole2=$((whole2+1)); complete tfs/out || { bad=$((bad+1)); seen+="$inodes again: not complete; "; }
+    elif [[ "$(snap tfs/out)" != "$h" ]] && ! marked tfs/out; then bad=$((bad+1)); seen+="$inodes again: earlier output changed; "
+    else kept=$((kept+1)); fi
+    umount tfs
+  done
+  mount -t tmpfs -o size=4k tmpfs tfs
+  row L1b "no inode left at every step of a run (tmpfs 20..60 inodes), new folder and over an earlier output" "$( [[ $bad == 0 ]] && echo pass || echo FAIL)" "new folder, $n sizes: $whole complete, $refused failed and left no folder; over an earlier output, $m sizes: $whole2 complete, $kept failed with the earlier output kept; $bad bad ${seen}"
   mount -o remount,size=400k tfs; rm -rf tfs/*; $R -o tfs/out >/dev/null 2>&1; h=$(snap tfs/out)
   bad=0; n=0; seen=""; whole=0; marks=0; kept=0
   for left in $(seq 0 4 200); do

@@ -216,6 +216,9 @@ fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -
 
 type Result<T, E = OutputError> = std::result::Result<T, E>;
 
+/// A file's device and inode: what it is, whatever its name.
+type FileId = (u64, u64);
+
 // ---------------------------------------------------------------------------------------------
 // The file operations of a commit
 
@@ -275,9 +278,9 @@ mod fsop {
 /// place.
 enum Unfinished {
     /// A temporary file or folder of skin's own making: removed whole.
-    Temporary(PathBuf, Option<(u64, u64)>),
+    Temporary(PathBuf, Option<FileId>),
     /// An output folder this process created: removed only if nothing else is in it.
-    CreatedFolder(PathBuf, Option<(u64, u64)>),
+    CreatedFolder(PathBuf, Option<FileId>),
 }
 
 /// Every unfinished output of the process. Held while files move into place, so that
@@ -350,7 +353,7 @@ pub fn abandon_unfinished() -> usize {
 }
 
 /// Whether `path` is still the file or folder `id` (unknown ids match).
-fn is_same(path: &Path, id: Option<(u64, u64)>) -> bool {
+fn is_same(path: &Path, id: Option<FileId>) -> bool {
     match id {
         Some(id) => std::fs::symlink_metadata(path).is_ok_and(|m| file_id(&m) == id),
         None => true,
@@ -359,16 +362,16 @@ fn is_same(path: &Path, id: Option<(u64, u64)>) -> bool {
 
 /// The device and inode of the folder a user named: through a symbolic link (an output folder
 /// given as a link is written through it).
-fn folder_id(path: &Path) -> Option<(u64, u64)> {
+fn folder_id(path: &Path) -> Option<FileId> {
     std::fs::metadata(path).ok().map(|m| file_id(&m))
 }
 
-fn id_of(path: &Path) -> Option<(u64, u64)> {
+fn id_of(path: &Path) -> Option<FileId> {
     std::fs::symlink_metadata(path).ok().map(|m| file_id(&m))
 }
 
 /// Removes a temporary file or folder of skin's own making (if it is still that one).
-fn remove_ours(path: &Path, id: Option<(u64, u64)>) {
+fn remove_ours(path: &Path, id: Option<FileId>) {
     match std::fs::symlink_metadata(path) {
         Ok(m) if id.is_some_and(|id| file_id(&m) != id) => {}
         Ok(m) if m.is_dir() => {
@@ -395,7 +398,7 @@ pub struct Inputs {
 struct Input {
     given: PathBuf,
     canonical: PathBuf,
-    id: Option<(u64, u64)>,
+    id: Option<FileId>,
 }
 
 impl Inputs {
@@ -642,7 +645,7 @@ enum Target {
     Replace {
         path: PathBuf,
         tmp: PathBuf,
-        id: Option<(u64, u64)>,
+        id: Option<FileId>,
     },
     /// A device, FIFO or socket: written in place.
     Through,
@@ -945,7 +948,7 @@ pub struct OutputDir {
     lock_new: bool,
     /// The folder's and the staging folder's device and inode: a folder deleted or replaced
     /// while the command ran is not written into (nor removed).
-    ids: (Option<(u64, u64)>, Option<(u64, u64)>),
+    ids: (Option<FileId>, Option<FileId>),
     committed: bool,
     _lock: File,
 }
@@ -1324,7 +1327,7 @@ fn is_relative_plain(name: &str) -> bool {
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used)]
+    #![allow(clippy::unwrap_used, clippy::panic)]
     use super::*;
 
     /// The names in `dir`, sorted.
