@@ -12,20 +12,35 @@ use std::sync::atomic::{AtomicBool, Ordering};
 static STOP: AtomicBool = AtomicBool::new(false);
 /// Whether the running command stops by itself on an interrupt (else the handler ends it).
 static GRACEFUL: AtomicBool = AtomicBool::new(false);
+/// Set once the command's files are in place (what remains is the network's).
+static WRITTEN: AtomicBool = AtomicBool::new(false);
 
 /// Catches Ctrl-C, SIGTERM and SIGHUP for the whole process: a command that stops by itself is
 /// told so (see [`stop_flag`]); any other is ended at once with status 130, after its half-built
-/// outputs are removed (the previous outputs stay as they were).
+/// outputs are removed (the previous outputs stay as they were). Outputs being moved into
+/// place, or whose frames were all processed (see [`skin_core::output::writing`]), are finished
+/// first and kept.
 pub fn install_interrupt_handler() {
     // Without a handler an interrupt still ends the program; temporary names then stay hidden.
     let _ = ctrlc::set_handler(|| {
         if GRACEFUL.load(Ordering::SeqCst) && !STOP.swap(true, Ordering::SeqCst) {
             return; // the command finishes its outputs and stops; a second interrupt ends it
         }
-        skin_core::output::abandon_unfinished();
-        eprintln!("interrupted: nothing was written");
+        let abandoned = skin_core::output::abandon_unfinished();
+        if WRITTEN.load(Ordering::SeqCst) && abandoned == 0 {
+            eprintln!(
+                "interrupted: the outputs were written; what was still queued for the network is not sent"
+            );
+        } else {
+            eprintln!("interrupted: nothing was written");
+        }
         std::process::exit(130);
     });
+}
+
+/// Says that the command's files are in place, for the interrupt handler's last line.
+pub fn outputs_written() {
+    WRITTEN.store(true, Ordering::SeqCst);
 }
 
 /// Marks the running command as one that stops by itself on Ctrl-C (it polls [`stop_flag`]).

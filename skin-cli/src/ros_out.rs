@@ -11,8 +11,9 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RosArgs {
     /// Also record the session as ROS 2 messages in an MCAP file (rosbag2's format: `ros2 bag
-    /// play FILE`, Foxglove). It appears only when complete; an existing file there is
-    /// replaced only if it is an MCAP file.
+    /// play FILE`, Foxglove). It appears only when complete (with the output folder, when
+    /// there is one); an existing file there is replaced only if skin wrote it; one run at a
+    /// time writes a path.
     #[cfg(feature = "mcap")]
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
@@ -81,7 +82,15 @@ impl RosArgs {
         }
         if let Some(p) = self.mcap_path() {
             inputs.check(p)?;
-            skin_core::output::check_replaceable(p, "an MCAP file", skin_ros::mcap_file::is_mcap)?;
+            if p.is_dir() {
+                return Err(skin_core::output::OutputError::IsFolder { path: p.to_owned() }.into());
+            }
+            skin_core::output::check_replaceable(
+                p,
+                "an MCAP file that skin wrote",
+                skin_ros::mcap_file::written_by_skin,
+            )?;
+            skin_core::output::check_free(p)?;
         }
         Ok(())
     }
@@ -171,9 +180,29 @@ impl Outlet for Outlets {
 }
 
 impl Outlets {
-    /// Puts the MCAP file in place and closes the Zenoh session (sending what is queued, for
-    /// up to 10 s), saying what each did.
+    /// Finishes the MCAP file without putting it in place (it moves with the output folder),
+    /// and says how many messages it holds; none without --mcap. The Zenoh session goes on.
+    #[cfg(feature = "mcap")]
+    pub fn stage_mcap(&mut self) -> Result<Option<(skin_core::output::Staged, u64)>> {
+        self.mcap.take().map(|m| Ok(m.stage()?)).transpose()
+    }
+
+    /// Puts the MCAP file in place (files first: an interrupt during the network's drain keeps
+    /// them) and closes the Zenoh session (sending what is queued, for up to 10 s), saying
+    /// what each did.
     pub fn finish(self, mcap_path: Option<&Path>) -> Result<()> {
+        #[cfg(feature = "mcap")]
+        if let Some(m) = self.mcap {
+            let n = m.finish().with_context(|| {
+                format!(
+                    "cannot finish {}",
+                    mcap_path.map_or(String::new(), |p| p.display().to_string())
+                )
+            })?;
+            if let Some(p) = mcap_path {
+                crate::say!("wrote {} ({n} ROS 2 messages)", p.display());
+            }
+        }
         #[cfg(feature = "zenoh")]
         if let Some(z) = self.zenoh {
             let peers = z.peers();
@@ -187,18 +216,6 @@ impl Outlets {
                 "zenoh: {} messages published{dropped}; {peers} peer(s) connected at the end",
                 s.published
             );
-        }
-        #[cfg(feature = "mcap")]
-        if let Some(m) = self.mcap {
-            let n = m.finish().with_context(|| {
-                format!(
-                    "cannot finish {}",
-                    mcap_path.map_or(String::new(), |p| p.display().to_string())
-                )
-            })?;
-            if let Some(p) = mcap_path {
-                crate::say!("wrote {} ({n} ROS 2 messages)", p.display());
-            }
         }
         let _ = mcap_path;
         Ok(())

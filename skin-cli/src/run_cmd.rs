@@ -8,7 +8,10 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpLog;
 use skin_can::live::Live;
-use skin_learn::session::{JsonLines, PngImages, Session, SessionConfig};
+use skin_core::output::{Staged, writing};
+use skin_learn::session::{
+    Event, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, Session, SessionConfig, Sink,
+};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
 use std::fs::File;
@@ -126,10 +129,10 @@ pub struct Args {
 /// Where events and images go: events.jsonl and the PNGs in the folder being built, and
 /// standard output when live.
 type Sinks = (
-    Option<JsonLines<BufWriter<File>>>,
+    Option<JsonLines<BufWriter<Named>>>,
     (
         Option<JsonLines<Stdout>>,
-        (Option<PngImages>, Option<RosSink<Outlets>>),
+        (Option<Images>, Option<RosSink<Outlets>>),
     ),
 );
 
@@ -138,6 +141,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(dir) = &args.output {
         crate::output::precheck_dir(dir, "skin run", args.force)?;
     }
+    check_inputs(args.log.iter().chain(&args.recording))?;
     let config = SessionConfig::read(&args.config)?;
     let mut inputs = Inputs::new(
         std::iter::once(&args.config)
@@ -148,6 +152,7 @@ pub fn run(args: Args) -> Result<()> {
         inputs.add(&p);
     }
     precheck_mcap(&args.ros, args.output.as_deref(), &inputs)?;
+    check_cache(&config, args.output.as_deref(), args.force)?;
     if !args.recording.is_empty() {
         return recordings(&args, &config, &inputs);
     }
@@ -173,24 +178,39 @@ pub fn run(args: Args) -> Result<()> {
             Some(log) => offline(&mut session, log, &mut sinks, args.quiet)?,
             None => live(&mut session, &args, &mut sinks)?,
         };
+        // Every frame is processed: an interrupt from here on waits until the outputs are in
+        // place, and keeps them.
+        let finishing = writing();
         if let Some(events) = sinks.0.take() {
-            events.into_inner().context("cannot write events.jsonl")?;
+            events.into_inner()?;
         }
-        if let Some(ros) = sinks.1.1.1.take() {
-            ros.into_outlet().finish(args.ros.mcap_path())?;
-        }
+        let mut outlets = sinks.1.1.1.take().map(RosSink::into_outlet);
+        let mcap = stage_mcap(outlets.as_mut())?;
         let summary = session.summary(span).to_string();
         crate::say!("{summary}");
         if args.timings {
             crate::say!("{}", session.timings(span));
         }
-        // The folder moves into place whole (only skin run's own files are replaced).
-        if let Some(dir) = out.take() {
-            let path = dir.dir().to_owned();
-            std::fs::write(dir.path().join("summary.txt"), summary)
-                .with_context(|| format!("cannot write summary.txt in {}", path.display()))?;
-            dir.commit()?;
-            crate::say!("wrote {}", path.display());
+        // The folder moves into place whole (only skin run's own files are replaced), and the
+        // MCAP file with it.
+        let (staged, messages) = mcap.unzip();
+        match out.take() {
+            Some(dir) => {
+                let path = dir.dir().to_owned();
+                still_there(dir.path(), &path)?;
+                std::fs::write(dir.path().join("summary.txt"), summary)
+                    .with_context(|| format!("cannot write summary.txt in {}", path.display()))?;
+                dir.commit_with(staged.into_iter().collect())?;
+                crate::say!("wrote {}", path.display());
+            }
+            None => staged.map(Staged::commit).transpose().map(drop)?,
+        }
+        say_mcap(&args.ros, messages);
+        crate::output::outputs_written();
+        drop(finishing);
+        // The network last: its drain may take seconds, and an interrupt during it loses no file.
+        if let Some(rest) = outlets {
+            rest.finish(args.ros.mcap_path())?;
         }
         Ok(())
     });
@@ -199,36 +219,244 @@ pub fn run(args: Args) -> Result<()> {
     result
 }
 
-/// Refuses, before any work, an MCAP path that is an input, a user's other file, or inside the
-/// output folder (whose next run would then find a file that is not its own).
+/// Refuses to write on once the folder being built (`staging`, shown as `shown`) is gone: the
+/// user deleted or moved the output folder, and it must not come back half made.
+fn still_there(staging: &Path, shown: &Path) -> Result<(), skin_core::output::OutputError> {
+    match staging.is_dir() {
+        true => Ok(()),
+        false => Err(skin_core::output::OutputError::Vanished {
+            dir: shown.to_owned(),
+        }),
+    }
+}
+
+/// Finishes the MCAP file of `outlets` (if any) without putting it in place; its messages.
+fn stage_mcap(outlets: Option<&mut Outlets>) -> Result<Option<(Staged, u64)>> {
+    #[cfg(feature = "mcap")]
+    if let Some(o) = outlets {
+        return o.stage_mcap();
+    }
+    let _ = outlets;
+    Ok(None)
+}
+
+/// "wrote FILE.mcap (N ROS 2 messages)", once it is in place.
+fn say_mcap(ros: &RosArgs, messages: Option<u64>) {
+    if let (Some(p), Some(n)) = (ros.mcap_path(), messages) {
+        crate::say!("wrote {} ({n} ROS 2 messages)", p.display());
+    }
+}
+
+/// Refuses, before any work, every input that cannot be read (missing, a folder, no
+/// permission), all of them in one line.
+fn check_inputs<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) -> Result<()> {
+    let paths: Vec<&PathBuf> = paths.into_iter().collect();
+    let bad: Vec<String> = paths
+        .iter()
+        .filter_map(|p| unreadable(p).map(|why| format!("{} ({why})", p.display())))
+        .collect();
+    const SHOWN: usize = 10;
+    let mut list = bad.iter().take(SHOWN).cloned().collect::<Vec<_>>().join(", ");
+    if bad.len() > SHOWN {
+        let _ = write!(list, " and {} more", bad.len() - SHOWN);
+    }
+    match bad.len() {
+        0 => Ok(()),
+        1 if paths.len() == 1 => anyhow::bail!("cannot read {list}"),
+        n => anyhow::bail!(
+            "cannot read {n} of the {} inputs: {list}; nothing was run",
+            paths.len()
+        ),
+    }
+}
+
+/// Why `path` cannot be read as an input, if it cannot. A FIFO or a device is read as it comes.
+fn unreadable(path: &Path) -> Option<String> {
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Some("no such file".into()),
+        Err(e) => Some(e.to_string()),
+        Ok(m) if m.is_dir() => Some("a folder, not a file".into()),
+        Ok(m) if m.is_file() => File::open(path).err().map(|e| e.to_string()),
+        Ok(_) => None,
+    }
+}
+
+/// `path` made absolute, through the links of the part that exists, so that two names of one
+/// place compare equal whether or not the place exists yet.
+fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+    let mut rest = Vec::new();
+    let mut head = abs.as_path();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            return rest.iter().rev().fold(c, |p: PathBuf, part| p.join(part));
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_owned());
+                head = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Refuses, before any work, an MCAP path that is an input, a user's other file, the output
+/// folder itself, or inside it (whose next run would then find a file that is not its own).
 fn precheck_mcap(ros: &RosArgs, output: Option<&Path>, inputs: &Inputs) -> Result<()> {
-    ros.precheck(inputs)?;
     if let (Some(file), Some(dir)) = (ros.mcap_path(), output) {
-        let parent = file
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-            (Ok(a), Ok(b)) => a.starts_with(b),
-            _ => a.starts_with(b),
-        };
+        let (f, d) = (resolved(file), resolved(dir));
+        if f == d {
+            let beside = match d.file_name() {
+                Some(_) => dir.with_extension("mcap"),
+                None => PathBuf::from("session.mcap"),
+            };
+            anyhow::bail!(
+                "--mcap {} is the output folder: give the MCAP file a name beside it, e.g. --mcap {}",
+                file.display(),
+                beside.display()
+            );
+        }
         anyhow::ensure!(
-            !same(parent, dir),
+            !f.starts_with(&d),
             "--mcap {} is inside the output folder {}: write it beside the folder",
             file.display(),
             dir.display()
         );
     }
+    ros.precheck(inputs)
+}
+
+/// The map cache: refused inside the output folder (its next run would find files that are not
+/// its own), and said once when it cannot be written (the maps are then made again each run).
+fn check_cache(config: &SessionConfig, output: Option<&Path>, force: bool) -> Result<()> {
+    let cache = config.cache_dir();
+    if let Some(dir) = output
+        && !force
+        && resolved(&cache).starts_with(resolved(dir))
+    {
+        anyhow::bail!(
+            "{}: the map cache {} is inside the output folder {}; set `cache =` to a folder outside it",
+            config.path.display(),
+            cache.display(),
+            dir.display()
+        );
+    }
+    if let Err(e) = skin_geom::MapCache::new(&cache).check_writable() {
+        eprintln!(
+            "warning: cannot keep tactile maps in {} ({e}): they are made again on every run; set `cache =` in {} to a folder skin can write",
+            cache.display(),
+            config.path.display()
+        );
+    }
     Ok(())
+}
+
+/// A file of the folder being built, whose errors name it as the user will know it (never the
+/// staging folder).
+pub struct Named {
+    file: File,
+    shown: PathBuf,
+}
+
+impl Named {
+    /// Creates `path` (in the folder being built), shown as `shown`.
+    fn create(path: &Path, shown: &Path) -> Result<Named> {
+        let _creating = writing();
+        let file = File::create(path).with_context(|| format!("cannot write {}", shown.display()))?;
+        Ok(Named {
+            file,
+            shown: shown.to_owned(),
+        })
+    }
+
+    fn named(&self, e: std::io::Error) -> std::io::Error {
+        std::io::Error::new(e.kind(), format!("{}: {e}", self.shown.display()))
+    }
+}
+
+impl std::io::Write for Named {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.write(buf).map_err(|e| self.named(e))
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush().map_err(|e| self.named(e))
+    }
+}
+
+/// The PNG images of the folder being built: each made while [`writing`] is held (an interrupt
+/// waits for it, and none is made once the folder is abandoned), errors naming the user's
+/// folder.
+pub struct Images {
+    png: PngImages,
+    staging: String,
+    shown: PathBuf,
+}
+
+impl Images {
+    /// Images in `dir` (in the folder being built), shown as `shown`.
+    fn new(dir: &Path, shown: &Path) -> Result<Images> {
+        let _creating = writing();
+        let png = PngImages::new(dir).with_context(|| format!("cannot write into {}", shown.display()))?;
+        Ok(Images {
+            png,
+            staging: dir.display().to_string(),
+            shown: shown.to_owned(),
+        })
+    }
+
+    /// Each image is a new file: none is made once the folder is gone (its folders would be
+    /// made again).
+    fn check(&self) -> std::io::Result<()> {
+        still_there(Path::new(&self.staging), &self.shown)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::NotFound, e))
+    }
+
+    fn named(&self, e: std::io::Error) -> std::io::Error {
+        let shown = self.shown.display().to_string();
+        let text = e.to_string().replace(&self.staging, &shown);
+        let text = if text.contains(&shown) {
+            text
+        } else {
+            format!("{shown}: {text}")
+        };
+        std::io::Error::new(e.kind(), text)
+    }
+}
+
+impl Sink for Images {
+    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+        if !matches!(event, Event::Classified { .. }) {
+            return Ok(());
+        }
+        let _creating = writing();
+        self.check()?;
+        self.png.event(event).map_err(|e| self.named(e))
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
+        let _creating = writing();
+        self.check()?;
+        self.png
+            .frame_image(view, cycle, image)
+            .map_err(|e| self.named(e))
+    }
+
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
+        self.png.origin(origin_us)
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+        self.png.frame(frame)
+    }
 }
 
 /// The sinks for an output folder (being built), live standard output, and the ROS outputs.
 fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> Result<Sinks> {
     let (events, images) = match out {
         Some(out) => {
-            let cannot = || format!("cannot write into {}", out.dir().display());
-            let file = File::create(out.path().join("events.jsonl")).with_context(cannot)?;
-            let images = PngImages::new(out.path()).with_context(cannot)?;
+            let file = Named::create(&out.path().join("events.jsonl"), &out.dir().join("events.jsonl"))?;
+            let images = Images::new(out.path(), out.dir())?;
             (Some(JsonLines::new(BufWriter::new(file))), Some(images))
         }
         None => (None, None),
@@ -279,8 +507,10 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
     Ok(started.elapsed().as_secs_f64())
 }
 
-/// Offline, raw recordings: a session each, into OUT/<recording>/, and a line each in
-/// OUT/recordings.tsv (frames, touches, the most separate contacts a touch had at its fullest).
+/// Offline, raw recordings: one session, built once (the layout, maps and models read once for
+/// the whole batch) and started again for each recording, into OUT/<recording>/, and a line
+/// each in OUT/recordings.tsv (frames, touches, the most separate contacts a touch had at its
+/// fullest).
 fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()> {
     let names = crate::shared::output_names(&args.recording)?;
     let dir = args.output.as_deref().context("--recording needs -o DIR")?;
@@ -289,37 +519,47 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         "--mcap and --zenoh take one recording at a time ({} given): a session each would restart the stamps",
         args.recording.len()
     );
+    let mut session = Session::from_config(config)?;
+    session.set_frame_images(args.frames);
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
     let cannot = || format!("cannot write into {}", dir.display());
-    // A session per recording (each learns its own baseline); the first one's layout notes
-    // are said once, before the table.
-    let mut first = Some(Session::from_config(config)?);
-    for note in first.iter().flat_map(Session::layout_notes) {
+    for note in session.layout_notes() {
         crate::say!("{note}");
     }
     let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
     crate::say!("recording                       frames  touches  most contacts in a touch");
-    for (path, name) in args.recording.iter().zip(&names) {
+    let (mut staged, mut rest) = (None, None);
+    for (k, (path, name)) in args.recording.iter().zip(&names).enumerate() {
         let rec = skin_core::format::recording::read(path)?;
-        let mut session = match first.take() {
-            Some(s) => s,
-            None => Session::from_config(config)?,
-        };
-        session.set_frame_images(args.frames);
+        if k > 0 {
+            session = session.restarted()?;
+        }
         let here = out.path().join(name);
-        std::fs::create_dir_all(&here).with_context(cannot)?;
-        let events = JsonLines::new(BufWriter::new(
-            File::create(here.join("events.jsonl")).with_context(cannot)?,
-        ));
+        let shown = dir.join(name);
+        {
+            let _creating = writing();
+            still_there(out.path(), dir)?;
+            std::fs::create_dir_all(&here).with_context(cannot)?;
+        }
+        let events = JsonLines::new(BufWriter::new(Named::create(
+            &here.join("events.jsonl"),
+            &shown.join("events.jsonl"),
+        )?));
         let ros = args.ros.open(session.links(), inputs)?;
-        let mut sinks = (events, (PngImages::new(&here).with_context(cannot)?, ros));
+        let mut sinks = (events, (Images::new(&here, &shown)?, ros));
         let span = session.run_recording(&rec, path, &mut sinks)?;
-        sinks.0.into_inner().context("cannot write events.jsonl")?;
+        sinks.0.into_inner()?;
         if let Some(ros) = sinks.1.1 {
-            ros.into_outlet().finish(args.ros.mcap_path())?;
+            let mut outlets = ros.into_outlet();
+            staged = stage_mcap(Some(&mut outlets))?;
+            rest = Some(outlets);
         }
         let summary = session.summary(span).to_string();
-        std::fs::write(here.join("summary.txt"), &summary).with_context(cannot)?;
+        {
+            let _creating = writing();
+            still_there(out.path(), dir)?;
+            std::fs::write(here.join("summary.txt"), &summary).with_context(cannot)?;
+        }
         if !args.quiet {
             crate::say!("{summary}");
         }
@@ -329,8 +569,17 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
         crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }
+    // Every recording is processed: an interrupt from here on keeps the outputs.
+    let finishing = writing();
     std::fs::write(out.path().join("recordings.tsv"), table).with_context(cannot)?;
-    out.commit()?;
+    let (staged, messages) = staged.unzip();
+    out.commit_with(staged.into_iter().collect())?;
     crate::say!("wrote {}", dir.display());
+    say_mcap(&args.ros, messages);
+    crate::output::outputs_written();
+    drop(finishing);
+    if let Some(rest) = rest {
+        rest.finish(args.ros.mcap_path())?;
+    }
     Ok(())
 }

@@ -322,3 +322,159 @@ fn two_sessions_joined_keep_every_frame_and_report_the_counter_restart() {
         "the second session's touches are found"
     );
 }
+
+/// A configuration of the forearm's layout alone (a copy in `dir`, so that a test can change
+/// it), for raw recordings; its cache in `dir/cache`.
+fn recording_config(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let layout = dir.join("layout.json");
+    std::fs::copy(root().join("fixtures/forearm/layout.json"), &layout).unwrap();
+    let config = dir.join("rec.toml");
+    std::fs::write(
+        &config,
+        "layout = \"layout.json\"\ncache = \"cache\"\n[baseline]\nframes = 5\n",
+    )
+    .unwrap();
+    (config, layout)
+}
+
+#[test]
+fn a_batch_reads_its_layout_once_and_each_recording_as_if_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let (config, layout) = recording_config(dir.path());
+    let fixture = root().join("fixtures/forearm/touches.txt");
+    let recs: Vec<String> = (0..24)
+        .map(|k| {
+            let p = dir.path().join(format!("rec{k:02}.txt"));
+            std::fs::copy(&fixture, &p).unwrap();
+            p.display().to_string()
+        })
+        .collect();
+    // One recording alone: what every recording of the batch must give.
+    let alone = dir.path().join("alone");
+    let o = skin(&[
+        "run",
+        config.to_str().unwrap(),
+        "--recording",
+        &recs[0],
+        "-o",
+        alone.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let want = std::fs::read(alone.join("rec00/events.jsonl")).unwrap();
+    // The batch: once its first recording is under way, the layout file is replaced by one
+    // that does not read. A batch that reads it again fails there.
+    let out = dir.path().join("out");
+    let mut args = vec!["run", config.to_str().unwrap(), "-o", out.to_str().unwrap(), "-q"];
+    args.push("--recording");
+    args.extend(recs.iter().map(String::as_str));
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(&args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = out.join(".skin-partial/rec00");
+    let t0 = std::time::Instant::now();
+    while !started.exists() && t0.elapsed() < std::time::Duration::from_secs(120) {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    std::fs::write(&layout, "{ not a layout").unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for k in 0..recs.len() {
+        let got = std::fs::read(out.join(format!("rec{k:02}/events.jsonl"))).unwrap();
+        assert!(got == want, "recording {k} differs from the recording run alone");
+    }
+}
+
+#[test]
+fn a_batch_names_every_input_it_cannot_read_before_any_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec_config, _) = recording_config(dir.path());
+    let recs: Vec<String> = ["a.txt", "b.txt"]
+        .iter()
+        .map(|n| {
+            let p = dir.path().join(n);
+            std::fs::copy(root().join("fixtures/forearm/touches.txt"), &p).unwrap();
+            p.display().to_string()
+        })
+        .collect();
+    let folder = dir.path().join("recordings");
+    std::fs::create_dir(&folder).unwrap();
+    let missing = dir.path().join("missing.txt").display().to_string();
+    let out = dir.path().join("out");
+    let o = skin(&[
+        "run",
+        rec_config.to_str().unwrap(),
+        "--recording",
+        &recs[0],
+        &missing,
+        folder.to_str().unwrap(),
+        &recs[1],
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let (stdout, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("2 of the 4 inputs")
+            && err.contains("missing.txt (no such file)")
+            && err.contains("recordings (a folder, not a file)"),
+        "{err}"
+    );
+    assert!(stdout.is_empty(), "a recording ran first: {stdout}");
+    assert!(!out.exists() && !dir.path().join("cache").exists());
+    // A log alone, missing: one line naming it.
+    let cfg = config(dir.path(), &[], "");
+    let o = skin(&["run", &cfg, "--log", &missing, "-o", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("missing.txt (no such file)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_layout_that_is_a_folder_is_named_as_one() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("forearm")).unwrap();
+    let cfg = config(dir.path(), &[("layout", "layout = \"forearm\"")], "");
+    refused(&cfg, &log(), &["layout = \"forearm\"", "this is a folder"]);
+}
+
+#[test]
+fn a_map_cache_that_cannot_be_written_costs_time_not_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    // A file where the cache folder should be: no one can write there, not even root.
+    std::fs::write(dir.path().join("blocked"), "a file").unwrap();
+    let cfg = config(dir.path(), &[("cache", "cache = \"blocked/maps\"")], "");
+    let out = dir.path().join("out");
+    let o = skin(&["run", &cfg, "--log", &log(), "-o", out.to_str().unwrap(), "-q"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("blocked/maps")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(warnings[0].starts_with("warning: cannot keep tactile maps") && warnings[0].contains("cache ="));
+    assert!(out.join("summary.txt").is_file());
+}
+
+#[test]
+fn a_map_cache_inside_the_output_folder_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), &[("cache", "cache = \"out/cache\"")], "");
+    let out = dir.path().join("out");
+    let o = skin(&["run", &cfg, "--log", &log(), "-o", out.to_str().unwrap(), "-q"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("the map cache") && err.contains("inside the output folder") && err.contains("cache ="),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing made");
+}

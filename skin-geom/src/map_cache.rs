@@ -4,7 +4,9 @@
 //! A map is kept in a folder under a name made of the link's name and a 64-bit FNV-1a hash of
 //! the layout file's bytes, the link's name and the flattening options: any change to the
 //! layout gives new names, so a stale map is never read. A kept map that does not read, or
-//! does not list the link's taxels in layout order, is made again.
+//! does not list the link's taxels in layout order, is made again. A map that cannot be kept (a
+//! read-only folder, a full disk) is still made and used: the cache only saves time
+//! ([`MapCache::check_writable`] says so up front).
 
 use crate::{FlattenOptions, Result, TactileMap};
 use skin_core::LinkSkin;
@@ -71,8 +73,20 @@ impl MapCache {
         self.dir.join(format!("{safe}-{h:016x}.map.json"))
     }
 
+    /// Whether maps can be kept in the folder (made if missing): an error says why not, for a
+    /// warning that every run will flatten its maps again. Nothing is left behind.
+    pub fn check_writable(&self) -> std::io::Result<()> {
+        let probe = self.dir.join(".skin-write-check");
+        match skin_core::output::OutputFile::create(&probe, &Inputs::default()) {
+            Ok(_dropped_unfinished) => Ok(()),
+            Err(skin_core::output::OutputError::Io { source, .. }) => Err(source),
+            Err(e) => Err(std::io::Error::other(e.to_string())),
+        }
+    }
+
     /// The map of `link`: read from the cache when kept there for this `layout` (the layout
-    /// file's bytes) and these options, else flattened and kept. Also says whether it came from
+    /// file's bytes) and these options, else flattened and kept (if it can be: a folder that
+    /// cannot be written only costs the time to flatten again). Also says whether it came from
     /// the cache.
     pub fn map(
         &self,
@@ -87,12 +101,8 @@ impl MapCache {
             return Ok((map, true));
         }
         let map = TactileMap::flatten(link, options)?;
-        write_file(&path, map.to_json().as_bytes(), &Inputs::default()).map_err(|e| {
-            crate::Error::Output {
-                path: path.display().to_string(),
-                message: e.to_string(),
-            }
-        })?;
+        // Not kept: the map is as good, only the next run flattens it again.
+        let _ = write_file(&path, map.to_json().as_bytes(), &Inputs::default());
         Ok((map, false))
     }
 }
@@ -155,6 +165,24 @@ mod tests {
         std::fs::write(&path, "{").unwrap();
         assert!(!cache.map(b"v1", &link("fore arm", 4), &o).unwrap().1);
         assert!(cache.map(b"v1", &link("fore arm", 4), &o).unwrap().1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_folder_that_cannot_be_written_still_gives_maps() {
+        // A file where the folder should be: nothing can be kept there, whoever runs this.
+        let dir = tempfile::tempdir().unwrap();
+        let blocked = dir.path().join("cache");
+        std::fs::write(&blocked, "a file, not a folder").unwrap();
+        let cache = MapCache::new(blocked.join("maps"));
+        assert!(cache.check_writable().is_err());
+        let o = FlattenOptions::default();
+        let (map, cached) = cache.map(b"v1", &link("fore arm", 4), &o).unwrap();
+        assert!(!cached && map.ids == link("fore arm", 4).ids());
+        // A folder that can be written: checked, and nothing left behind.
+        let ok = MapCache::new(dir.path().join("ok"));
+        ok.check_writable().unwrap();
+        assert_eq!(std::fs::read_dir(ok.dir()).unwrap().count(), 0);
     }
 
     fn link_map(n: u32) -> String {

@@ -364,6 +364,25 @@ impl TouchPipeline {
         Ok(())
     }
 
+    /// The same pipeline (maps, models, options, dead taxels) with no touch seen and no time
+    /// spent: for the next input of a batch, built from what it holds (no file is read).
+    pub fn restarted(self) -> Result<TouchPipeline, TouchError> {
+        let TouchPipeline {
+            links,
+            classifier,
+            segmenter,
+            options,
+            ..
+        } = self;
+        let dead: Vec<Vec<usize>> = links.iter().map(|l| l.dead.clone()).collect();
+        let maps = links.into_iter().map(|l| l.map).collect();
+        let mut fresh = TouchPipeline::new(maps, classifier, segmenter, options)?;
+        for (k, d) in dead.iter().enumerate() {
+            fresh.set_dead(k, d)?;
+        }
+        Ok(fresh)
+    }
+
     /// Link names, in the order frames give their pressures.
     pub fn link_names(&self) -> impl Iterator<Item = &str> {
         self.links.iter().map(|l| l.name.as_str())

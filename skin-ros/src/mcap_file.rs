@@ -4,8 +4,10 @@
 //! `topic_type_hash` metadata), uncompressed.
 //!
 //! The file follows the rules of [`skin_core::output`]: it is built aside and appears only when
-//! [`McapOutlet::finish`] succeeds; an existing file at the path is replaced only if it is an
-//! MCAP file; an input is never written.
+//! [`McapOutlet::finish`] succeeds (or moves into place with an output folder, see
+//! [`McapOutlet::stage`]); one process at a time writes a path (a second is refused at once);
+//! an existing file at the path is replaced only if skin wrote it ([`written_by_skin`]); an
+//! input is never written.
 
 use crate::RosError;
 use crate::bridge::Outlet;
@@ -13,7 +15,7 @@ use crate::interfaces::Interfaces;
 use crate::topics::{Topics, offered_qos_yaml};
 use mcap::records::{MessageHeader, Metadata};
 use mcap::write::NoSeek;
-use skin_core::output::{Inputs, OutputFile};
+use skin_core::output::{Inputs, OutputFile, Staged};
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -27,6 +29,35 @@ pub fn is_mcap(path: &Path) -> bool {
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
         .is_ok_and(|()| &head == MAGIC)
+}
+
+/// What [`McapOutlet`] writes in the header's `library` field, before its version.
+const LIBRARY: &str = "skin ";
+
+/// The longest header record read: a profile and a library name, a few dozen bytes in any
+/// MCAP writer; a file that claims more is not read further.
+const MAX_HEADER: u64 = 64 * 1024;
+
+/// Whether the file at `path` is an MCAP file that skin wrote: its header record (read with
+/// the `mcap` crate, at most 64 KiB of it) names skin as the library. A bag another tool
+/// recorded is not, and is never replaced.
+pub fn written_by_skin(path: &Path) -> bool {
+    let read = || -> std::io::Result<bool> {
+        let mut f = std::fs::File::open(path)?;
+        let mut head = [0u8; 8 + 1 + 8];
+        f.read_exact(&mut head)?;
+        let len = u64::from_le_bytes(head[9..].try_into().unwrap_or_default());
+        if &head[..8] != MAGIC || head[8] != mcap::records::op::HEADER || len > MAX_HEADER {
+            return Ok(false);
+        }
+        let mut body = Vec::new();
+        f.take(len).read_to_end(&mut body)?;
+        Ok(matches!(
+            mcap::parse_record(mcap::records::op::HEADER, &body),
+            Ok(mcap::records::Record::Header(h)) if h.library.starts_with(LIBRARY)
+        ))
+    };
+    read().unwrap_or(false)
 }
 
 /// An MCAP file being written; [`McapOutlet::finish`] puts it in place.
@@ -50,7 +81,17 @@ impl std::fmt::Debug for McapOutlet {
 fn mcap_error(path: &Path) -> impl Fn(mcap::McapError) -> RosError + '_ {
     move |e| RosError::Mcap {
         path: path.to_owned(),
-        why: e.to_string(),
+        why: why(&e),
+    }
+}
+
+/// What went wrong, in the operating system's words when it was the operating system (the
+/// crate's own text for I/O says only "I/O error from writing, or reading a compression
+/// stream").
+fn why(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => io.to_string(),
+        e => e.to_string(),
     }
 }
 
@@ -58,12 +99,12 @@ impl McapOutlet {
     /// Starts the file at `path` with a channel for each of `topics`.
     pub fn create(path: &Path, topics: &Topics, inputs: &Inputs) -> Result<McapOutlet, RosError> {
         inputs.check(path)?;
-        skin_core::output::check_replaceable(path, "an MCAP file", is_mcap)?;
+        skin_core::output::check_replaceable(path, "an MCAP file that skin wrote", written_by_skin)?;
         let interfaces = Interfaces::skin()?;
-        let file = OutputFile::create(path, inputs)?;
+        let file = OutputFile::create_exclusive(path, inputs)?;
         let options = mcap::WriteOptions::new()
             .profile("ros2")
-            .library(concat!("skin ", env!("CARGO_PKG_VERSION")))
+            .library(format!("{LIBRARY}{}", env!("CARGO_PKG_VERSION")))
             .compression(None)
             .disable_seeking(true);
         let err = mcap_error(path);
@@ -113,12 +154,20 @@ impl McapOutlet {
     }
 
     /// Writes the summary and puts the file in place.
-    pub fn finish(mut self) -> Result<u64, RosError> {
+    pub fn finish(self) -> Result<u64, RosError> {
+        let (file, messages) = self.stage()?;
+        file.commit()?;
+        Ok(messages)
+    }
+
+    /// Writes the summary, every byte checked, and leaves the file to be moved into place
+    /// (with an output folder: [`skin_core::output::OutputDir::commit_with`]). Also says how
+    /// many messages it holds.
+    pub fn stage(mut self) -> Result<(Staged, u64), RosError> {
         let err = mcap_error(&self.path);
         self.writer.finish().map_err(&err)?;
         let file = self.writer.into_inner().into_inner();
-        file.commit()?;
-        Ok(self.messages)
+        Ok((file.stage()?, self.messages))
     }
 }
 
@@ -136,7 +185,7 @@ impl Outlet for McapOutlet {
         };
         self.writer
             .write_to_known_channel(&header, cdr)
-            .map_err(|e| std::io::Error::other(format!("{}: {e}", self.path.display())))?;
+            .map_err(|e| std::io::Error::other(format!("{}: {}", self.path.display(), why(&e))))?;
         self.messages += 1;
         Ok(())
     }

@@ -318,6 +318,14 @@ impl SessionConfig {
     /// is missing.
     pub fn resolve(&self, field: &'static str, p: &Path) -> Result<PathBuf, SessionError> {
         let full = self.path.parent().unwrap_or(Path::new(".")).join(p);
+        if full.is_dir() {
+            return Err(SessionError::Value {
+                file: self.path.clone(),
+                field,
+                value: format!("\"{}\" ({})", p.display(), full.display()),
+                expected: "a file, and this is a folder: name the file in it",
+            });
+        }
         if !full.is_file() {
             return Err(SessionError::NoFile {
                 config: self.path.clone(),

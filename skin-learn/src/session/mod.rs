@@ -23,6 +23,7 @@
 
 mod config;
 mod event;
+mod restart;
 mod sink;
 mod stitching;
 mod summary;

@@ -1,0 +1,30 @@
+//! A session started again on the same skin, for the next input of a batch.
+
+use super::{Session, SessionError};
+
+impl Session {
+    /// This session's skin, maps, models, bus map, stitching and script, with nothing seen yet
+    /// (no baseline, no touch, no count): what [`Session::from_config`] gave, without reading a
+    /// file again. A batch builds its session once and restarts it for each input, so every
+    /// input meets the same layout and models even if their files change meanwhile.
+    pub fn restarted(self) -> Result<Session, SessionError> {
+        let Session {
+            links,
+            pipeline,
+            options,
+            can,
+            stitching,
+            script,
+            source,
+            layout_notes,
+            ..
+        } = self;
+        let mut fresh = Session::new(links, pipeline.restarted()?, options)?;
+        fresh.can = can;
+        fresh.stitching = stitching;
+        fresh.script = script;
+        fresh.source = source;
+        fresh.layout_notes = layout_notes;
+        Ok(fresh)
+    }
+}
