@@ -4,8 +4,19 @@
 use crate::output::Inputs;
 use anyhow::{Context, Result};
 use skin_core::LinkSkin;
-use skin_ros::{Outlet, RosOptions, RosSink};
+use skin_ros::{Outlet, RosOptions, RosSink, RosTime};
 use std::path::{Path, PathBuf};
+
+/// What the ROS stamps count from (`--ros-time`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum RosTimeArg {
+    /// The input's clock (a candump log's time since 1970); refused past 2038-01-19, where
+    /// ROS 2 time ends.
+    #[default]
+    Input,
+    /// From 0 at the first frame: the same input always gives the same stamps.
+    Rebase,
+}
 
 /// ROS 2 outputs (see "Use it from ROS 2" in the README for the topics and messages).
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -38,6 +49,10 @@ pub struct RosArgs {
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub ros_domain: u32,
+    /// What the message stamps count from: the input's clock (refused past 2038-01-19, where
+    /// ROS 2 time ends), or 0 at the first frame.
+    #[arg(long, value_name = "CLOCK", value_enum, default_value_t = RosTimeArg::Input)]
+    pub ros_time: RosTimeArg,
     /// Prefix of every topic: PREFIX/<link>/pressure, PREFIX/events ...
     #[arg(long, value_name = "PREFIX", default_value = "/skin")]
     pub ros_prefix: String,
@@ -133,7 +148,11 @@ impl RosArgs {
             outlets.zenoh = Some(outlet);
         }
         let _ = inputs;
-        Ok(Some(RosSink::new(links, topics, outlets)))
+        let time = match self.ros_time {
+            RosTimeArg::Input => RosTime::Input,
+            RosTimeArg::Rebase => RosTime::Rebase,
+        };
+        Ok(Some(RosSink::new(links, topics, outlets).ros_time(time)))
     }
 }
 

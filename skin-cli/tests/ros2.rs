@@ -374,3 +374,161 @@ fn wait_ready(peer: &mut std::process::Child) {
     let _ = BufReader::new(peer.stdout.as_mut().unwrap()).read_line(&mut first);
     assert_eq!(first.trim(), "ready", "the peer did not start");
 }
+
+/// The fixture log with every timestamp moved by `shift_us` and, `copies` times over, each
+/// copy after the last (31 s of traffic each, then 1 s): a longer session, or one stamped in
+/// another year. Written into `dir`.
+fn shifted_log(dir: &Path, name: &str, copies: u64, shift_us: u64) -> PathBuf {
+    let text = std::fs::read_to_string(log()).unwrap();
+    let us = |line: &str| -> (u64, usize) {
+        let end = line.find(')').unwrap();
+        let (s, frac) = line[1..end].split_once('.').unwrap();
+        (
+            s.parse::<u64>().unwrap() * 1_000_000 + frac.parse::<u64>().unwrap(),
+            end,
+        )
+    };
+    let first = us(text.lines().next().unwrap()).0;
+    let last = us(text.lines().last().unwrap()).0;
+    let period = last - first + 1_000_000;
+    let path = dir.join(name);
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    for k in 0..copies {
+        for line in text.lines() {
+            let (t, end) = us(line);
+            let t = t + shift_us + k * period;
+            writeln!(out, "({}.{:06}{}", t / 1_000_000, t % 1_000_000, &line[end..]).unwrap();
+        }
+    }
+    out.flush().unwrap();
+    path
+}
+
+/// One topic of an MCAP as `ros2/stamps.py` reads it.
+#[derive(Debug)]
+struct Headers {
+    topic: String,
+    first_ns: u64,
+    last_ns: u64,
+    /// Every header stamp equals its message's log time.
+    equal: bool,
+    frame_ids: Vec<String>,
+}
+
+/// `ros2/stamps.py` on an MCAP: its topics' headers.
+fn stamps(py: &PathBuf, mcap: &Path) -> Vec<Headers> {
+    python::run(py, "ros2/stamps.py", &[mcap.as_os_str()])
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.splitn(6, ' ').collect();
+            Headers {
+                topic: f[0].to_owned(),
+                first_ns: f[1].parse().unwrap(),
+                last_ns: f[2].parse().unwrap(),
+                equal: f[4] == "1",
+                frame_ids: serde_json::from_str(f[5]).unwrap(),
+            }
+        })
+        .collect()
+}
+
+/// A log stamped after 2038 (where ROS 2 time, int32 seconds, ends) or near 1.8e10 s (where
+/// nanoseconds pass u64) is refused with one line naming its date and the fix; with
+/// `--ros-time rebase` it is stamped from 0 at the first frame, exactly. A log of today keeps
+/// its clock. Stamps were clamped at 2038 (seconds frozen, nanoseconds moving) or wrapped.
+#[test]
+fn stamps_past_2038_are_refused_or_rebased() {
+    let dir = tempfile::tempdir().unwrap();
+    let py = python::python_with("mcap, mcap_ros2, rosbags");
+    // 2039, and 2554 (past 1.8e10 s, where nanoseconds since 1970 overflow a u64).
+    for (name, shift_s, date) in [
+        ("2039.log", 500_000_000, "2039-09-18 23:06:40 UTC"),
+        ("2554.log", 16_747_000_000, "2554-07-24 22:40:00 UTC"),
+    ] {
+        let late = shifted_log(dir.path(), name, 1, shift_s * 1_000_000);
+        let late = late.to_str().unwrap();
+        let mcap = dir.path().join(format!("{name}.mcap"));
+        let r = convert(late, &config(), mcap.to_str().unwrap());
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success()
+                && err.lines().count() == 1
+                && err.contains(date)
+                && err.contains("past the end of ROS 2 time")
+                && err.contains("--ros-time rebase"),
+            "{name}: {err}"
+        );
+        assert!(!mcap.exists(), "{name}: an MCAP of a refused run");
+        let r = skin(&[
+            "convert",
+            late,
+            "--config",
+            &config(),
+            "--mcap",
+            mcap.to_str().unwrap(),
+            "--ros-time",
+            "rebase",
+        ]);
+        ok(&r);
+        if let Some(py) = &py {
+            let s = stamps(py, &mcap);
+            let cloud = s.iter().find(|t| t.topic == "/skin/forearm/pressure").unwrap();
+            // The first cloud follows the 20 baseline frames (1 s); the last, 31 s in.
+            assert!(
+                cloud.first_ns > 900_000_000 && cloud.first_ns < 1_100_000_000,
+                "{s:?}"
+            );
+            assert!(
+                cloud.last_ns > 30_000_000_000 && cloud.last_ns < 31_000_000_000,
+                "{s:?}"
+            );
+            assert!(s.iter().all(|t| t.equal), "stamps differ from log times: {s:?}");
+        }
+    }
+    // Today's log keeps its clock (2023-11-14), with or without the flag's default.
+    let mcap = dir.path().join("today.mcap");
+    ok(&convert(&log(), &config(), mcap.to_str().unwrap()));
+    if let Some(py) = &py {
+        let s = stamps(py, &mcap);
+        let cloud = s.iter().find(|t| t.topic == "/skin/forearm/pressure").unwrap();
+        assert_eq!(cloud.first_ns / 1_000_000_000, 1_700_000_001, "{s:?}");
+        assert!(s.iter().all(|t| t.equal), "{s:?}");
+    }
+}
+
+/// A link named " " (a layout written by hand, a CAD export): its topics and frame ids are
+/// `link`, which tf2 accepts; the name reached every header's frame id as it was.
+#[test]
+fn a_blank_link_name_gets_a_frame_id_tf2_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = root().join("fixtures");
+    let layout = std::fs::read_to_string(fixtures.join("forearm/layout.json")).unwrap();
+    let layout = layout.replacen("\"name\": \"forearm\"", "\"name\": \" \"", 1);
+    assert!(layout.contains("\"name\": \" \""));
+    std::fs::write(dir.path().join("layout.json"), layout).unwrap();
+    let config = dir.path().join("blank.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "layout = \"layout.json\"\nbusmap = {:?}\n[baseline]\nframes = 20\n",
+            fixtures.join("forearm/busmap.toml").display().to_string()
+        ),
+    )
+    .unwrap();
+    let mcap = dir.path().join("blank.mcap");
+    ok(&convert(&log(), config.to_str().unwrap(), mcap.to_str().unwrap()));
+    let Some(py) = python::python_with("mcap, mcap_ros2, rosbags") else {
+        return;
+    };
+    let s = stamps(&py, &mcap);
+    let cloud = s.iter().find(|t| t.topic == "/skin/link/pressure");
+    assert!(cloud.is_some_and(|c| c.frame_ids == ["link"]), "{s:?}");
+    for t in &s {
+        assert!(
+            t.frame_ids.iter().all(|f| f.is_empty() || f == "link"),
+            "{}: frame ids {:?}",
+            t.topic,
+            t.frame_ids
+        );
+    }
+}

@@ -12,7 +12,8 @@
 //!   `skin_msgs/Contacts` and `skin_msgs/TouchEvent` encoded with it.
 //! - [`interfaces`]: the `.msg` definitions (standard ones, and the repository's `skin_msgs`
 //!   package), their `ros2msg` schemas; [`type_hash`]: their RIHS01 hashes (REP-2016).
-//! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens.
+//! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens
+//!   and frame ids; [`clock`]: the stamps, checked against the end of ROS 2 time.
 //! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait.
 //!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
@@ -36,6 +37,7 @@
 
 pub mod bridge;
 pub mod cdr;
+pub mod clock;
 pub mod interfaces;
 #[cfg(feature = "mcap")]
 pub mod mcap_file;
@@ -46,6 +48,7 @@ pub mod type_hash;
 pub mod zenoh_live;
 
 pub use bridge::{Outlet, RosOptions, RosSink};
+pub use clock::RosTime;
 #[cfg(feature = "mcap")]
 pub use mcap_file::McapOutlet;
 #[cfg(feature = "zenoh")]
