@@ -532,3 +532,242 @@ fn a_blank_link_name_gets_a_frame_id_tf2_accepts() {
         );
     }
 }
+
+/// Live options: each wrong use is refused before any work, in one line that names the value
+/// and the fix, never a path inside Zenoh's sources.
+#[test]
+fn live_options_are_checked_in_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out").display().to_string();
+    let port = free_port();
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let any = format!("tcp/0.0.0.0:{port}");
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["--zenoh-listen", &listen, "--ros-domain", "233"],
+            &["--ros-domain 233", "0 to 232"],
+        ),
+        (&["--ros-domain", "5"], &["--ros-domain needs --zenoh"]),
+        (&["--zenoh-drain", "5"], &["--zenoh-drain needs --zenoh"]),
+        (
+            &["--zenoh-listen", &listen, "--zenoh-listen", &listen],
+            &[&listen, "given twice"],
+        ),
+        (
+            &["--zenoh-listen", &listen, "--zenoh-listen", &any],
+            &[&any, "already listens on that port"],
+        ),
+        (
+            &["--zenoh", &listen, "--zenoh-listen", &listen],
+            &[&listen, "connect to itself"],
+        ),
+    ];
+    for (args, says) in cases {
+        let r = run_session(&out, args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success()
+                && err.lines().count() == 1
+                && says.iter().all(|s| err.contains(s))
+                && !err.contains(".rs:")
+                && !err.contains(".cargo"),
+            "{args:?}: {err}"
+        );
+        assert!(!dir.path().join("out").exists());
+    }
+}
+
+/// Starts `ros2/slow_peer.py` (see there): `mode` listen or connect on `port`, subscribed to
+/// `key`, `delay` seconds a sample, checking against `events` at the end. Returns once it is
+/// subscribed.
+fn slow_peer(
+    py: &PathBuf,
+    mode: &str,
+    port: u16,
+    key: &str,
+    delay: &str,
+    events: &Path,
+) -> std::process::Child {
+    let mut peer = Command::new(py)
+        .arg(root().join("skin-cli/tests/ros2/slow_peer.py"))
+        .args([mode, &port.to_string(), key, delay])
+        .arg(events)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    if mode == "listen" {
+        wait_ready(&mut peer);
+    }
+    peer
+}
+
+/// Tells the peer the run is over and returns its verdict: (passed, what it said).
+fn peer_verdict(mut peer: std::process::Child) -> (bool, String) {
+    let _ = peer.stdin.as_mut().unwrap().write_all(b"done\n");
+    let out = peer.wait_with_output().unwrap();
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), said)
+}
+
+/// The run's line about the events topic: "zenoh: /skin/events: N event(s): ...".
+fn events_line(stderr: &str) -> String {
+    stderr
+        .lines()
+        .find(|l| l.starts_with("zenoh: /skin/events:"))
+        .unwrap_or_else(|| panic!("no line about /skin/events:\n{stderr}"))
+        .to_owned()
+}
+
+/// A subscriber that takes 50 ms a sample in Zenoh's receiving thread, on every topic: the
+/// run's clouds, contacts and markers fill the connection, yet every event of the session
+/// reaches it (they were lost: 33-40 of 100, while the run said "published"), and the run's
+/// counts say what was handed over and acknowledged.
+#[test]
+fn a_slow_subscriber_receives_every_event() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let port = free_port();
+    let peer = slow_peer(&py, "listen", port, "0/**", "0.05", &out.join("events.jsonl"));
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let r = run_session(
+        out.to_str().unwrap(),
+        &["--zenoh", &endpoint, "--zenoh-drain", "300"],
+    );
+    let (passed, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!("{said}\n{err}");
+    ok(&r);
+    assert!(passed, "the slow peer missed events:\n{said}");
+    let events = std::fs::read_to_string(out.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .count();
+    let line = events_line(&err);
+    assert!(
+        line.contains(&format!("{events} event(s): {events} handed to the network"))
+            && !line.contains("undelivered"),
+        "{line}"
+    );
+    assert!(
+        err.contains("every byte written was read by the receiving process (on this machine)"),
+        "{err}"
+    );
+    assert!(!err.contains("published"), "{err}");
+}
+
+/// The same subscriber, on the events only, through a log 40 times the fixture's (4,000 events,
+/// 20 minutes of traffic): every event arrives.
+#[test]
+fn a_slow_subscriber_receives_every_event_of_a_long_log() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let long = shifted_log(dir.path(), "long.candump.log", 40, 0);
+    let out = dir.path().join("out");
+    let port = free_port();
+    let peer = slow_peer(
+        &py,
+        "listen",
+        port,
+        "0/skin/events/**",
+        "0.05",
+        &out.join("events.jsonl"),
+    );
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let started = std::time::Instant::now();
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        long.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--zenoh",
+        &endpoint,
+        "--zenoh-drain",
+        "600",
+    ]);
+    let (passed, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!(
+        "{said}\n{err}\n(run and peer: {:.0} s)",
+        started.elapsed().as_secs_f64()
+    );
+    ok(&r);
+    assert!(passed, "the slow peer missed events:\n{said}");
+    let events = std::fs::read_to_string(out.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(events > 3_000, "{events} events");
+    let line = events_line(&err);
+    assert!(
+        line.contains(&format!("{events} event(s): {events} handed to the network")),
+        "{line}"
+    );
+}
+
+/// `--zenoh-wait` with a subscriber to one topic only (a cloud, not the events): the run starts
+/// once that subscriber is there and says which topics have none (it waited the whole time in
+/// silence).
+#[test]
+fn zenoh_wait_names_the_topics_without_a_subscriber() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args([
+            "run",
+            &config(),
+            "--log",
+            &log(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ])
+        .args(["--zenoh-listen", &endpoint, "--zenoh-wait", "600"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let peer = slow_peer(
+        &py,
+        "connect",
+        port,
+        "0/skin/forearm/pressure/**",
+        "0",
+        Path::new("-"),
+    );
+    let r = run.wait_with_output().unwrap();
+    let (_, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!("{said}\n{err}");
+    ok(&r);
+    assert!(
+        err.contains("waiting up to 600 s for a subscriber to any of the 5 topics"),
+        "{err}"
+    );
+    let none = err
+        .lines()
+        .find(|l| l.contains("a subscriber is there; none yet on"))
+        .unwrap_or_else(|| panic!("no line about the topics without a subscriber:\n{err}"));
+    assert!(
+        none.contains("/skin/events") && !none.contains("/skin/forearm/pressure"),
+        "{none}"
+    );
+}

@@ -52,7 +52,7 @@ pub use clock::RosTime;
 #[cfg(feature = "mcap")]
 pub use mcap_file::McapOutlet;
 #[cfg(feature = "zenoh")]
-pub use zenoh_live::{ZenohOptions, ZenohOutlet, ZenohStats};
+pub use zenoh_live::{InFlight, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport};
 
 /// What can go wrong publishing a skin to ROS 2.
 #[derive(Debug, thiserror::Error)]
@@ -85,6 +85,9 @@ pub enum RosError {
         /// What is wrong.
         why: String,
     },
+    /// A ROS domain id past 232.
+    #[error("ROS domain {0}: a domain id (ROS_DOMAIN_ID) is 0 to 232")]
+    Domain(u32),
     /// The Zenoh session.
     #[error("zenoh: {0}")]
     Zenoh(String),
