@@ -374,3 +374,400 @@ fn wait_ready(peer: &mut std::process::Child) {
     let _ = BufReader::new(peer.stdout.as_mut().unwrap()).read_line(&mut first);
     assert_eq!(first.trim(), "ready", "the peer did not start");
 }
+
+/// The fixture log with every timestamp moved by `shift_us` and, `copies` times over, each
+/// copy after the last (31 s of traffic each, then 1 s): a longer session, or one stamped in
+/// another year. Written into `dir`.
+fn shifted_log(dir: &Path, name: &str, copies: u64, shift_us: u64) -> PathBuf {
+    let text = std::fs::read_to_string(log()).unwrap();
+    let us = |line: &str| -> (u64, usize) {
+        let end = line.find(')').unwrap();
+        let (s, frac) = line[1..end].split_once('.').unwrap();
+        (
+            s.parse::<u64>().unwrap() * 1_000_000 + frac.parse::<u64>().unwrap(),
+            end,
+        )
+    };
+    let first = us(text.lines().next().unwrap()).0;
+    let last = us(text.lines().last().unwrap()).0;
+    let period = last - first + 1_000_000;
+    let path = dir.join(name);
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    for k in 0..copies {
+        for line in text.lines() {
+            let (t, end) = us(line);
+            let t = t + shift_us + k * period;
+            writeln!(out, "({}.{:06}{}", t / 1_000_000, t % 1_000_000, &line[end..]).unwrap();
+        }
+    }
+    out.flush().unwrap();
+    path
+}
+
+/// One topic of an MCAP as `ros2/stamps.py` reads it.
+#[derive(Debug)]
+struct Headers {
+    topic: String,
+    first_ns: u64,
+    last_ns: u64,
+    /// Every header stamp equals its message's log time.
+    equal: bool,
+    frame_ids: Vec<String>,
+}
+
+/// `ros2/stamps.py` on an MCAP: its topics' headers.
+fn stamps(py: &PathBuf, mcap: &Path) -> Vec<Headers> {
+    python::run(py, "ros2/stamps.py", &[mcap.as_os_str()])
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.splitn(6, ' ').collect();
+            Headers {
+                topic: f[0].to_owned(),
+                first_ns: f[1].parse().unwrap(),
+                last_ns: f[2].parse().unwrap(),
+                equal: f[4] == "1",
+                frame_ids: serde_json::from_str(f[5]).unwrap(),
+            }
+        })
+        .collect()
+}
+
+/// A log stamped after 2038 (where ROS 2 time, int32 seconds, ends) or near 1.8e10 s (where
+/// nanoseconds pass u64) is refused with one line naming its date and the fix; with
+/// `--ros-time rebase` it is stamped from 0 at the first frame, exactly. A log of today keeps
+/// its clock. Stamps were clamped at 2038 (seconds frozen, nanoseconds moving) or wrapped.
+#[test]
+fn stamps_past_2038_are_refused_or_rebased() {
+    let dir = tempfile::tempdir().unwrap();
+    let py = python::python_with("mcap, mcap_ros2, rosbags");
+    // 2039, and 2554 (past 1.8e10 s, where nanoseconds since 1970 overflow a u64).
+    for (name, shift_s, date) in [
+        ("2039.log", 500_000_000, "2039-09-18 23:06:40 UTC"),
+        ("2554.log", 16_747_000_000, "2554-07-24 22:40:00 UTC"),
+    ] {
+        let late = shifted_log(dir.path(), name, 1, shift_s * 1_000_000);
+        let late = late.to_str().unwrap();
+        let mcap = dir.path().join(format!("{name}.mcap"));
+        let r = convert(late, &config(), mcap.to_str().unwrap());
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success()
+                && err.lines().count() == 1
+                && err.contains(date)
+                && err.contains("past the end of ROS 2 time")
+                && err.contains("--ros-time rebase"),
+            "{name}: {err}"
+        );
+        assert!(!mcap.exists(), "{name}: an MCAP of a refused run");
+        let r = skin(&[
+            "convert",
+            late,
+            "--config",
+            &config(),
+            "--mcap",
+            mcap.to_str().unwrap(),
+            "--ros-time",
+            "rebase",
+        ]);
+        ok(&r);
+        if let Some(py) = &py {
+            let s = stamps(py, &mcap);
+            let cloud = s.iter().find(|t| t.topic == "/skin/forearm/pressure").unwrap();
+            // The first cloud follows the 20 baseline frames (1 s); the last, 31 s in.
+            assert!(
+                cloud.first_ns > 900_000_000 && cloud.first_ns < 1_100_000_000,
+                "{s:?}"
+            );
+            assert!(
+                cloud.last_ns > 30_000_000_000 && cloud.last_ns < 31_000_000_000,
+                "{s:?}"
+            );
+            assert!(s.iter().all(|t| t.equal), "stamps differ from log times: {s:?}");
+        }
+    }
+    // Today's log keeps its clock (2023-11-14), with or without the flag's default.
+    let mcap = dir.path().join("today.mcap");
+    ok(&convert(&log(), &config(), mcap.to_str().unwrap()));
+    if let Some(py) = &py {
+        let s = stamps(py, &mcap);
+        let cloud = s.iter().find(|t| t.topic == "/skin/forearm/pressure").unwrap();
+        assert_eq!(cloud.first_ns / 1_000_000_000, 1_700_000_001, "{s:?}");
+        assert!(s.iter().all(|t| t.equal), "{s:?}");
+    }
+}
+
+/// A link named " " (a layout written by hand, a CAD export): its topics and frame ids are
+/// `link`, which tf2 accepts; the name reached every header's frame id as it was.
+#[test]
+fn a_blank_link_name_gets_a_frame_id_tf2_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = root().join("fixtures");
+    let layout = std::fs::read_to_string(fixtures.join("forearm/layout.json")).unwrap();
+    let layout = layout.replacen("\"name\": \"forearm\"", "\"name\": \" \"", 1);
+    assert!(layout.contains("\"name\": \" \""));
+    std::fs::write(dir.path().join("layout.json"), layout).unwrap();
+    let config = dir.path().join("blank.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "layout = \"layout.json\"\nbusmap = {:?}\n[baseline]\nframes = 20\n",
+            fixtures.join("forearm/busmap.toml").display().to_string()
+        ),
+    )
+    .unwrap();
+    let mcap = dir.path().join("blank.mcap");
+    ok(&convert(&log(), config.to_str().unwrap(), mcap.to_str().unwrap()));
+    let Some(py) = python::python_with("mcap, mcap_ros2, rosbags") else {
+        return;
+    };
+    let s = stamps(&py, &mcap);
+    let cloud = s.iter().find(|t| t.topic == "/skin/link/pressure");
+    assert!(cloud.is_some_and(|c| c.frame_ids == ["link"]), "{s:?}");
+    for t in &s {
+        assert!(
+            t.frame_ids.iter().all(|f| f.is_empty() || f == "link"),
+            "{}: frame ids {:?}",
+            t.topic,
+            t.frame_ids
+        );
+    }
+}
+
+/// Live options: each wrong use is refused before any work, in one line that names the value
+/// and the fix, never a path inside Zenoh's sources.
+#[test]
+fn live_options_are_checked_in_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out").display().to_string();
+    let port = free_port();
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let any = format!("tcp/0.0.0.0:{port}");
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["--zenoh-listen", &listen, "--ros-domain", "233"],
+            &["--ros-domain 233", "0 to 232"],
+        ),
+        (&["--ros-domain", "5"], &["--ros-domain needs --zenoh"]),
+        (&["--zenoh-drain", "5"], &["--zenoh-drain needs --zenoh"]),
+        (
+            &["--zenoh-listen", &listen, "--zenoh-listen", &listen],
+            &[&listen, "given twice"],
+        ),
+        (
+            &["--zenoh-listen", &listen, "--zenoh-listen", &any],
+            &[&any, "already listens on that port"],
+        ),
+        (
+            &["--zenoh", &listen, "--zenoh-listen", &listen],
+            &[&listen, "connect to itself"],
+        ),
+    ];
+    for (args, says) in cases {
+        let r = run_session(&out, args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success()
+                && err.lines().count() == 1
+                && says.iter().all(|s| err.contains(s))
+                && !err.contains(".rs:")
+                && !err.contains(".cargo"),
+            "{args:?}: {err}"
+        );
+        assert!(!dir.path().join("out").exists());
+    }
+}
+
+/// Starts `ros2/slow_peer.py` (see there): `mode` listen or connect on `port`, subscribed to
+/// `key`, `delay` seconds a sample, checking against `events` at the end. Returns once it is
+/// subscribed.
+fn slow_peer(
+    py: &PathBuf,
+    mode: &str,
+    port: u16,
+    key: &str,
+    delay: &str,
+    events: &Path,
+) -> std::process::Child {
+    let mut peer = Command::new(py)
+        .arg(root().join("skin-cli/tests/ros2/slow_peer.py"))
+        .args([mode, &port.to_string(), key, delay])
+        .arg(events)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    if mode == "listen" {
+        wait_ready(&mut peer);
+    }
+    peer
+}
+
+/// Tells the peer the run is over and returns its verdict: (passed, what it said).
+fn peer_verdict(mut peer: std::process::Child) -> (bool, String) {
+    let _ = peer.stdin.as_mut().unwrap().write_all(b"done\n");
+    let out = peer.wait_with_output().unwrap();
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), said)
+}
+
+/// The run's line about the events topic: "zenoh: /skin/events: N event(s): ...".
+fn events_line(stderr: &str) -> String {
+    stderr
+        .lines()
+        .find(|l| l.starts_with("zenoh: /skin/events:"))
+        .unwrap_or_else(|| panic!("no line about /skin/events:\n{stderr}"))
+        .to_owned()
+}
+
+/// A subscriber that takes 50 ms a sample in Zenoh's receiving thread, on every topic: the
+/// run's clouds, contacts and markers fill the connection, yet every event of the session
+/// reaches it (they were lost: 33-40 of 100, while the run said "published"), and the run's
+/// counts say what was handed over and acknowledged.
+#[test]
+fn a_slow_subscriber_receives_every_event() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let port = free_port();
+    let peer = slow_peer(&py, "listen", port, "0/**", "0.05", &out.join("events.jsonl"));
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let r = run_session(
+        out.to_str().unwrap(),
+        &["--zenoh", &endpoint, "--zenoh-drain", "300"],
+    );
+    let (passed, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!("{said}\n{err}");
+    ok(&r);
+    assert!(passed, "the slow peer missed events:\n{said}");
+    let events = std::fs::read_to_string(out.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .count();
+    let line = events_line(&err);
+    assert!(
+        line.contains(&format!("{events} event(s): {events} handed to the network"))
+            && !line.contains("undelivered"),
+        "{line}"
+    );
+    assert!(
+        err.contains("every byte written was read by the receiving process (on this machine)"),
+        "{err}"
+    );
+    assert!(!err.contains("published"), "{err}");
+}
+
+/// The same subscriber, on the events only, through a log 40 times the fixture's (4,000 events,
+/// 20 minutes of traffic): every event arrives.
+#[test]
+fn a_slow_subscriber_receives_every_event_of_a_long_log() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let long = shifted_log(dir.path(), "long.candump.log", 40, 0);
+    let out = dir.path().join("out");
+    let port = free_port();
+    let peer = slow_peer(
+        &py,
+        "listen",
+        port,
+        "0/skin/events/**",
+        "0.05",
+        &out.join("events.jsonl"),
+    );
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let started = std::time::Instant::now();
+    let r = skin(&[
+        "run",
+        &config(),
+        "--log",
+        long.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--zenoh",
+        &endpoint,
+        "--zenoh-drain",
+        "600",
+    ]);
+    let (passed, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!(
+        "{said}\n{err}\n(run and peer: {:.0} s)",
+        started.elapsed().as_secs_f64()
+    );
+    ok(&r);
+    assert!(passed, "the slow peer missed events:\n{said}");
+    let events = std::fs::read_to_string(out.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(events > 3_000, "{events} events");
+    let line = events_line(&err);
+    assert!(
+        line.contains(&format!("{events} event(s): {events} handed to the network")),
+        "{line}"
+    );
+}
+
+/// `--zenoh-wait` with a subscriber to one topic only (a cloud, not the events): the run starts
+/// once that subscriber is there and says which topics have none (it waited the whole time in
+/// silence).
+#[test]
+fn zenoh_wait_names_the_topics_without_a_subscriber() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args([
+            "run",
+            &config(),
+            "--log",
+            &log(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ])
+        .args(["--zenoh-listen", &endpoint, "--zenoh-wait", "600"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let peer = slow_peer(
+        &py,
+        "connect",
+        port,
+        "0/skin/forearm/pressure/**",
+        "0",
+        Path::new("-"),
+    );
+    let r = run.wait_with_output().unwrap();
+    let (_, said) = peer_verdict(peer);
+    let err = String::from_utf8_lossy(&r.stderr).into_owned();
+    eprintln!("{said}\n{err}");
+    ok(&r);
+    assert!(
+        err.contains("waiting up to 600 s for a subscriber to any of the 5 topics"),
+        "{err}"
+    );
+    let none = err
+        .lines()
+        .find(|l| l.contains("a subscriber is there; none yet on"))
+        .unwrap_or_else(|| panic!("no line about the topics without a subscriber:\n{err}"));
+    assert!(
+        none.contains("/skin/events") && !none.contains("/skin/forearm/pressure"),
+        "{none}"
+    );
+}

@@ -3,13 +3,16 @@
 //! MCAP file ([`crate::McapOutlet`], feature `mcap`), a live Zenoh session
 //! ([`crate::ZenohOutlet`], feature `zenoh`), or anything a robot stack writes.
 //!
-//! Stamps: a frame's is its time on the input's clock (a candump log's or the live bus's time
-//! since the epoch; a recording's time since its first frame), an event's is the session's
-//! first frame plus the event's time.
+//! Stamps ([`crate::clock`]): a frame's is its time on the input's clock (a candump log's or
+//! the live bus's time since the epoch; a recording's time since its first frame), an event's
+//! is the session's first frame plus the event's time; with [`RosTime::Rebase`] both count from
+//! 0 at the first frame. A time ROS 2 cannot hold (past 2038 on the input's clock) is an error
+//! of the sink, never a clamped stamp. Frame ids are [`Topics::frame_ids`].
 
 use crate::cdr::CdrWriter;
+use crate::clock::{Clock, RosTime};
 use crate::messages::{
-    self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, Stamp, TouchEventMsg,
+    self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, TouchEventMsg,
 };
 use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
@@ -72,7 +75,7 @@ pub struct RosSink<O: Outlet> {
     clouds: Vec<PointCloud>,
     w: CdrWriter,
     json: Vec<u8>,
-    origin_ns: u64,
+    clock: Clock,
     /// Links whose decision's pressure image is still to publish.
     pending_images: Vec<bool>,
     /// Arrows are on screen (a frame without contacts clears them once).
@@ -105,13 +108,15 @@ impl<O: Outlet> RosSink<O> {
         let clouds = links
             .iter()
             .zip(&ids)
-            .map(|(l, ids)| {
+            .enumerate()
+            .map(|(k, (l, ids))| {
                 let p: Vec<[f32; 3]> = l
                     .taxels
                     .iter()
                     .map(|t| [t.position.x as f32, t.position.y as f32, t.position.z as f32])
                     .collect();
-                PointCloud::new(&l.name, &p, ids)
+                let frame_id = topics.frame_ids.get(k).map_or(l.name.as_str(), String::as_str);
+                PointCloud::new(frame_id, &p, ids)
             })
             .collect();
         RosSink {
@@ -124,9 +129,16 @@ impl<O: Outlet> RosSink<O> {
             clouds,
             w: CdrWriter::new(),
             json: Vec::with_capacity(512),
-            origin_ns: 0,
+            clock: Clock::new(RosTime::Input),
             arrows_shown: false,
         }
+    }
+
+    /// Stamps counted as `time` says (the input's clock unless told otherwise). Set before the
+    /// first frame.
+    pub fn ros_time(mut self, time: RosTime) -> RosSink<O> {
+        self.clock = Clock::new(time);
+        self
     }
 
     /// The outlet (its counts, its file).
@@ -153,6 +165,11 @@ impl<O: Outlet> RosSink<O> {
     }
 }
 
+/// The frame id of link `l` (empty for a link the topics do not know).
+fn frame_id(ids: &[String], l: usize) -> &str {
+    ids.get(l).map_or("", String::as_str)
+}
+
 fn footprint(f: &Footprint) -> FootprintMsg {
     FootprintMsg {
         contacts: f.contacts as u32,
@@ -165,13 +182,20 @@ fn footprint(f: &Footprint) -> FootprintMsg {
 
 impl<O: Outlet> Sink for RosSink<O> {
     fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
-        self.origin_ns = origin_us.saturating_mul(1000);
-        Ok(())
+        self.clock.set_origin(origin_us).map_err(std::io::Error::other)
     }
 
     fn event(&mut self, event: &Event) -> std::io::Result<()> {
-        let stamp_ns = self.origin_ns + (event.time().max(0.0) * 1e9).round() as u64;
-        let stamp = Stamp::from_ns(stamp_ns);
+        let (stamp_ns, stamp) = self.clock.event(event.time()).map_err(std::io::Error::other)?;
+        let names = &self.names;
+        let frame_ids = &self.topics.frame_ids;
+        let frame_of = |link: &str| {
+            names
+                .iter()
+                .position(|n| n == link)
+                .and_then(|l| frame_ids.get(l))
+                .map_or("", String::as_str)
+        };
         self.json.clear();
         event.write_json(&mut self.json).map_err(std::io::Error::other)?;
         let json = std::str::from_utf8(&self.json).map_err(std::io::Error::other)?;
@@ -197,6 +221,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             } => {
                 m.kind = EventKind::Appeared;
                 m.link = link;
+                m.frame_id = frame_of(link);
                 m.touch = *touch;
                 m.footprint = footprint(f);
             }
@@ -211,6 +236,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             } => {
                 m.kind = EventKind::Classified;
                 m.link = link;
+                m.frame_id = frame_of(link);
                 m.touch = *touch;
                 m.revised = *revised;
                 m.touch_class = class;
@@ -237,6 +263,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             } => {
                 m.kind = EventKind::Released;
                 m.link = link;
+                m.frame_id = frame_of(link);
                 m.touch = *touch;
                 m.duration = *duration;
                 m.frames = *frames as u32;
@@ -278,7 +305,15 @@ impl<O: Outlet> Sink for RosSink<O> {
         if let Event::Classified { link, image, .. } = event
             && let Some(l) = self.link(link)
         {
-            messages::image_mono8(&mut self.w, stamp, link, image.rows, image.cols, &image.pixels);
+            let frame_id = frame_of(link);
+            messages::image_mono8(
+                &mut self.w,
+                stamp,
+                frame_id,
+                image.rows,
+                image.cols,
+                &image.pixels,
+            );
             let topic = self.topics.links[l].tactile_image;
             self.publish(topic, stamp_ns)?;
             self.pending_images[l] = self.topics.links[l].pressure_image.is_some();
@@ -287,8 +322,7 @@ impl<O: Outlet> Sink for RosSink<O> {
     }
 
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
-        let stamp_ns = frame.time_us.saturating_mul(1000);
-        let stamp = Stamp::from_ns(stamp_ns);
+        let (stamp_ns, stamp) = self.clock.frame(frame.time_us).map_err(std::io::Error::other)?;
         for (l, pressures) in frame.pressures.iter().enumerate().take(self.clouds.len()) {
             let topic = self.topics.links[l].pressure;
             let bytes = self.clouds[l].fill(stamp, pressures);
@@ -300,7 +334,8 @@ impl<O: Outlet> Sink for RosSink<O> {
                 )
             {
                 self.pending_images[l] = false;
-                messages::image_32fc1(&mut self.w, stamp, &self.names[l], rows, cols, values);
+                let frame_id = frame_id(&self.topics.frame_ids, l);
+                messages::image_32fc1(&mut self.w, stamp, frame_id, rows, cols, values);
                 self.publish(topic, stamp_ns)?;
             }
         }
@@ -329,7 +364,7 @@ impl<O: Outlet> Sink for RosSink<O> {
         };
         let all = || (0..links).flat_map(move |l| frame.contacts(l).iter().map(move |c| (l, c)));
         let msgs = all().map(|(l, c)| ContactMsg {
-            link: &self.names[l],
+            link: frame_id(&self.topics.frame_ids, l),
             position: c.centroid.coords.into(),
             normal: normal(l, &c.taxels),
             mean_pressure: c.mean_pressure,
@@ -346,7 +381,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             let n = if n == [0.0; 3] { [0.0, 0.0, 1.0] } else { n };
             let end: [f64; 3] = c.centroid.coords.into();
             Arrow {
-                frame_id: &self.names[l],
+                frame_id: frame_id(&self.topics.frame_ids, l),
                 id: k as i32,
                 start: [0, 1, 2].map(|i| end[i] + ARROW_M * n[i]),
                 end,

@@ -12,7 +12,8 @@
 //!   `skin_msgs/Contacts` and `skin_msgs/TouchEvent` encoded with it.
 //! - [`interfaces`]: the `.msg` definitions (standard ones, and the repository's `skin_msgs`
 //!   package), their `ros2msg` schemas; [`type_hash`]: their RIHS01 hashes (REP-2016).
-//! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens.
+//! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens
+//!   and frame ids; [`clock`]: the stamps, checked against the end of ROS 2 time.
 //! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait.
 //!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
@@ -36,6 +37,7 @@
 
 pub mod bridge;
 pub mod cdr;
+pub mod clock;
 pub mod interfaces;
 #[cfg(feature = "mcap")]
 pub mod mcap_file;
@@ -46,10 +48,11 @@ pub mod type_hash;
 pub mod zenoh_live;
 
 pub use bridge::{Outlet, RosOptions, RosSink};
+pub use clock::RosTime;
 #[cfg(feature = "mcap")]
 pub use mcap_file::McapOutlet;
 #[cfg(feature = "zenoh")]
-pub use zenoh_live::{ZenohOptions, ZenohOutlet, ZenohStats};
+pub use zenoh_live::{InFlight, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport};
 
 /// What can go wrong publishing a skin to ROS 2.
 #[derive(Debug, thiserror::Error)]
@@ -82,6 +85,9 @@ pub enum RosError {
         /// What is wrong.
         why: String,
     },
+    /// A ROS domain id past 232.
+    #[error("ROS domain {0}: a domain id (ROS_DOMAIN_ID) is 0 to 232")]
+    Domain(u32),
     /// The Zenoh session.
     #[error("zenoh: {0}")]
     Zenoh(String),

@@ -21,12 +21,13 @@ pub struct Stamp {
 }
 
 impl Stamp {
-    /// From nanoseconds (saturating at `i32::MAX` seconds, in 2038).
-    pub fn from_ns(ns: u64) -> Stamp {
-        Stamp {
-            sec: i32::try_from(ns / 1_000_000_000).unwrap_or(i32::MAX),
+    /// From nanoseconds, exactly; `None` past the end of ROS 2 time (`i32::MAX` seconds, in
+    /// 2038). [`crate::clock`] stamps a session's messages with it.
+    pub fn from_ns(ns: u64) -> Option<Stamp> {
+        Some(Stamp {
+            sec: i32::try_from(ns / 1_000_000_000).ok()?,
             nanosec: (ns % 1_000_000_000) as u32,
-        }
+        })
     }
 }
 
@@ -160,7 +161,7 @@ impl PointCloud {
 /// One `skin_msgs/msg/Contact`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactMsg<'a> {
-    /// The link (frame id).
+    /// The link's frame id.
     pub link: &'a str,
     /// Pressure-weighted centroid, m, link frame.
     pub position: [f64; 3],
@@ -333,8 +334,11 @@ pub struct TouchEventMsg<'a> {
     pub kind: EventKind,
     /// Touch number.
     pub touch: u64,
-    /// The link (also the header's frame id).
+    /// The link, as events.jsonl names it.
     pub link: &'a str,
+    /// The header's frame id: the link's ([`crate::topics::Topics::frame_ids`]), empty for an
+    /// event of no link.
+    pub frame_id: &'a str,
     /// Class name.
     pub touch_class: &'a str,
     /// Class probability, NaN when none.
@@ -369,6 +373,7 @@ impl Default for TouchEventMsg<'_> {
             kind: EventKind::Appeared,
             touch: 0,
             link: "",
+            frame_id: "",
             touch_class: "",
             probability: f32::NAN,
             revised: false,
@@ -389,7 +394,7 @@ impl Default for TouchEventMsg<'_> {
 /// `skin_msgs/msg/TouchEvent`.
 pub fn touch_event(w: &mut CdrWriter, stamp: Stamp, e: &TouchEventMsg<'_>) {
     w.start();
-    header(w, stamp, e.link);
+    header(w, stamp, e.frame_id);
     w.u8(e.kind as u8)
         .u64(e.touch)
         .string(e.link)

@@ -10,7 +10,9 @@
 //! | `PREFIX/markers` | `visualization_msgs/msg/MarkerArray` | every frame with a contact, and the frame after the last |
 //!
 //! A link name is used as a topic token once mapped to ROS's rules ([`topic_token`]): letters,
-//! digits and `_`, not starting with a digit, no `__`; the frame ids keep the name as it is.
+//! digits and `_`, not starting with a digit, no `__`. The frame ids keep the name as it is
+//! when tf2 can use it ([`is_frame_id`]); an empty or blank name, or one with a space, a
+//! control character or a leading `/`, takes its topic token instead.
 
 /// A topic: its full name and message type.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,6 +43,13 @@ pub fn topic_token(name: &str) -> String {
         out.insert_str(0, if out.is_empty() { "link" } else { "link_" });
     }
     out
+}
+
+/// A link name tf2 can use as a frame id as it is: not empty, no leading `/` (tf2 refuses
+/// both), and no white space or control character (a frame `" "` or `"upper arm"` cannot be
+/// typed to `ros2 run tf2_ros tf2_echo` and looks like no frame at all).
+pub fn is_frame_id(name: &str) -> bool {
+    !name.is_empty() && !name.starts_with('/') && !name.chars().any(|c| c.is_whitespace() || c.is_control())
 }
 
 /// A topic prefix that is not a valid ROS name.
@@ -100,6 +109,10 @@ pub struct Topics {
     pub events: usize,
     /// `PREFIX/markers`.
     pub markers: usize,
+    /// Per link: the frame id of its messages, the link name itself when [`is_frame_id`],
+    /// else [`topic_token`] of it (with `_2`, `_3` ... where that is another link's name or
+    /// frame id).
+    pub frame_ids: Vec<String>,
 }
 
 /// The topics of one link (indices into [`Topics::list`]).
@@ -155,6 +168,20 @@ impl Topics {
                 pressure_image,
             });
         }
+        let mut frame_ids: Vec<String> = Vec::with_capacity(links.len());
+        for link in links {
+            let mut id = link.to_string();
+            let mut k = 2;
+            if !is_frame_id(link) {
+                let token = topic_token(link);
+                id.clone_from(&token);
+                while links.contains(&id.as_str()) || frame_ids.contains(&id) {
+                    id = format!("{token}_{k}");
+                    k += 1;
+                }
+            }
+            frame_ids.push(id);
+        }
         let contacts = add(format!("{prefix}/contacts"), CONTACTS);
         let events = add(format!("{prefix}/events"), TOUCH_EVENT);
         let markers = add(format!("{prefix}/markers"), MARKER_ARRAY);
@@ -164,6 +191,7 @@ impl Topics {
             contacts,
             events,
             markers,
+            frame_ids,
         })
     }
 }
@@ -193,6 +221,23 @@ mod tests {
         assert_eq!(topic_token("__a__b__"), "a_b");
         assert_eq!(topic_token("ёж"), "link");
         assert_eq!(topic_token(""), "link");
+    }
+
+    #[test]
+    fn blank_link_names_get_frame_ids_tf2_accepts() -> Result<(), PrefixError> {
+        let t = Topics::new(
+            "/skin",
+            &["", " ", "forearm", "upper arm.L", "/abs", "link"],
+            false,
+        )?;
+        assert_eq!(
+            t.frame_ids,
+            ["link_2", "link_3", "forearm", "upper_arm_L", "abs", "link"]
+        );
+        for id in &t.frame_ids {
+            assert!(is_frame_id(id), "{id:?}");
+        }
+        Ok(())
     }
 
     #[test]
@@ -227,6 +272,7 @@ mod tests {
                 for topic in &t.list {
                     prop_assert!(check_prefix(&topic.name).is_ok(), "{}", topic.name);
                 }
+                prop_assert!(is_frame_id(&t.frame_ids[0]), "{:?}", t.frame_ids[0]);
             }
         }
     }

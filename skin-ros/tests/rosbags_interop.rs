@@ -177,6 +177,7 @@ fn cases() -> Value {
         kind: EventKind::Classified,
         touch: 7,
         link: "forearm",
+        frame_id: "forearm",
         touch_class: "hand",
         probability: 0.875,
         revised: true,
