@@ -262,7 +262,6 @@ impl Outlets {
         self.mcap.take().map(|m| Ok(m.stage()?)).transpose()
     }
 
-
     /// Puts the MCAP file in place, then waits (bounded by --zenoh-drain) for the events to
     /// reach the network and closes the Zenoh session, saying what each did. A caller that
     /// commits other files calls [`Outlets::finish_mcap`], commits, then
