@@ -53,6 +53,9 @@ pub const MAX_DOCUMENT_BYTES: u64 = 64 << 20;
 /// How much of a file's start is looked at for a binary or UTF-16 signature.
 const SNIFF_BYTES: usize = 8 << 10;
 
+/// The UTF-8 byte-order mark.
+const UTF8_BOM: &[u8] = b"\xef\xbb\xbf";
+
 /// The buffer of a file being read line by line.
 const BUFFER_BYTES: usize = 64 << 10;
 
@@ -204,8 +207,9 @@ impl BufRead for Input {
     }
 }
 
-/// Opens `path` for reading, refusing a folder by name.
+/// Opens `path` for reading, refusing a folder by name, and a pipe read before.
 fn open_file(path: &Path) -> Result<File> {
+    once_per_pipe(path)?;
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     if file.metadata().is_ok_and(|m| m.is_dir()) {
         return Err(Error::invalid(
@@ -215,6 +219,37 @@ fn open_file(path: &Path) -> Result<File> {
         ));
     }
     Ok(file)
+}
+
+/// Refuses a named pipe (FIFO) this process has opened before. A command may read a file more
+/// than once (a layout: once to tell its format, once to read it); a pipe's writer is gone after
+/// the first read, and opening it again would wait for another writer forever. One clear line
+/// instead, before the open that would hang.
+#[cfg(unix)]
+fn once_per_pipe(path: &Path) -> Result<()> {
+    use std::os::unix::fs::{FileTypeExt, MetadataExt};
+    static OPENED: std::sync::Mutex<Vec<(u64, u64)>> = std::sync::Mutex::new(Vec::new());
+    let Ok(m) = std::fs::metadata(path) else {
+        return Ok(());
+    };
+    if !m.file_type().is_fifo() {
+        return Ok(());
+    }
+    let mut opened = OPENED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if opened.contains(&(m.dev(), m.ino())) {
+        return Err(Error::invalid(
+            path,
+            "file",
+            "a pipe, already read to its end: this file is read more than once, so give a regular file",
+        ));
+    }
+    opened.push((m.dev(), m.ino()));
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn once_per_pipe(_: &Path) -> Result<()> {
+    Ok(())
 }
 
 fn refuse_compressed(path: &Path, name: &str, command: &str) -> Error {
@@ -309,7 +344,11 @@ fn check_start(path: &Path, head: &[u8]) -> Result<usize> {
     if let Some(at) = memchr::memchr(0, sniff) {
         return Err(binary_error(path, line_at(sniff, at)));
     }
-    Ok(if head.starts_with(b"\xef\xbb\xbf") { 3 } else { 0 })
+    Ok(if head.starts_with(UTF8_BOM) {
+        UTF8_BOM.len()
+    } else {
+        0
+    })
 }
 
 /// The 1-based line (LF, CRLF or CR ends) that byte `at` of `text` is on.
@@ -404,9 +443,11 @@ impl<R: BufRead> Lines<R> {
         let number = self.number + 1;
         if !self.started {
             self.started = true;
+            // The first read is usually the buffer's size: enough to tell a compressed, UTF-16
+            // or binary file. A byte-order mark is taken off the first line, which a short
+            // first read (a pipe) may split.
             let head = fill(&mut self.reader, &self.path, number)?;
-            let skip = check_start(&self.path, head)?;
-            self.consume(skip);
+            check_start(&self.path, head)?;
         }
         if self.after_cr {
             self.after_cr = false;
@@ -415,6 +456,7 @@ impl<R: BufRead> Lines<R> {
             }
         }
         self.line.clear();
+        let mut terminated = false;
         loop {
             let available = fill(&mut self.reader, &self.path, number)?;
             if available.is_empty() {
@@ -443,12 +485,25 @@ impl<R: BufRead> Lines<R> {
                 Some(t) => {
                     self.consume(take + 1);
                     self.after_cr = t == b'\r';
+                    terminated = true;
                     break;
                 }
                 None => self.consume(take),
             }
         }
         self.number = number;
+        if number == 1 {
+            if self.line.starts_with(UTF8_BOM) {
+                self.line.drain(..UTF8_BOM.len());
+                // A file of a byte-order mark alone is an empty file.
+                if self.line.is_empty() && !terminated {
+                    self.done = true;
+                    return Ok(None);
+                }
+            } else if let Some(variant) = utf16(&self.line) {
+                return Err(utf16_error(&self.path, variant));
+            }
+        }
         match std::str::from_utf8(&self.line) {
             Ok(text) => Ok(Some(Line {
                 text,
@@ -604,18 +659,17 @@ fn size(n: u64) -> String {
 }
 
 fn too_large(path: &Path, got: Option<u64>, limit: u64) -> Error {
-    let got = match got {
-        Some(n) => size(n),
-        None => format!("more than {}", size(limit)),
-    };
-    Error::invalid(
-        path,
-        "size",
-        format!(
-            "{got}, more than the {} a file of this kind may have (it is read whole into memory): is it the file meant?",
-            size(limit)
+    let limit = size(limit);
+    let message = match got {
+        Some(n) => format!(
+            "{}, more than the {limit} a file of this kind may have (it is read whole into memory): is it the file meant?",
+            size(n)
         ),
-    )
+        None => format!(
+            "more than the {limit} a file of this kind may have (it is read whole into memory; a device or a pipe has no size, so {limit} were read): is it the file meant?"
+        ),
+    };
+    Error::invalid(path, "size", message)
 }
 
 #[cfg(test)]
@@ -638,6 +692,8 @@ mod tests {
         assert_eq!(all(b"a\r\r\nb\r").unwrap(), ["a", "", "b"]);
         assert!(all(b"").unwrap().is_empty());
         assert_eq!(all(b"\xef\xbb\xbfa \t\n").unwrap(), ["a \t"]);
+        assert!(all(b"\xef\xbb\xbf").unwrap().is_empty());
+        assert_eq!(all(b"\xef\xbb\xbf\n").unwrap(), [""]);
     }
 
     #[test]

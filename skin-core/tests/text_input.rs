@@ -358,9 +358,35 @@ fn an_endless_input_without_line_ends_fails_after_a_bounded_read() {
 fn a_device_past_the_size_read_whole_is_refused_after_a_bounded_read() {
     // /dev/zero has no size: it is read up to the limit, then refused.
     let e = message(read_document(Path::new("/dev/zero"), 1 << 20));
-    assert!(e.contains("/dev/zero: size: more than 1.0 MiB"), "{e}");
+    assert!(e.contains("/dev/zero: size: more than the 1.0 MiB"), "{e}");
+    assert!(
+        e.contains("a device or a pipe has no size, so 1.0 MiB were read"),
+        "{e}"
+    );
     let e = message(native::read_layout(Path::new("/dev/zero")));
-    assert!(e.contains("more than 64.0 MiB"), "{e}");
+    assert!(e.contains("more than the 64.0 MiB"), "{e}");
+}
+
+#[cfg(unix)]
+#[test]
+fn a_pipe_read_twice_is_refused_instead_of_waiting_forever() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("layout.json");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let writer = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::write(fifo, fixture("forearm/layout.json")).unwrap())
+    };
+    // Read once, as any file.
+    assert_eq!(native::read_layout(&fifo).unwrap().links.len(), 1);
+    writer.join().unwrap();
+    // Again: the writer is gone, and opening it would wait for another forever.
+    let e = message(native::read_layout(&fifo));
+    assert!(
+        e.contains("layout.json: file: a pipe, already read to its end"),
+        "{e}"
+    );
 }
 
 #[test]
