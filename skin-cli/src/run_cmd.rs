@@ -6,8 +6,9 @@ use crate::ros_out::{Outlets, RosArgs};
 use crate::shared::LiveStep;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use skin_can::candump::CandumpLog;
+use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
+use skin_core::text::{Gzip, Input};
 use skin_learn::session::{JsonLines, PngImages, Session, SessionConfig};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
@@ -239,18 +240,22 @@ fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> 
     ))
 }
 
-/// Offline: the log through the session. Returns the log's span, seconds.
+/// Offline: the log through the session, read one frame at a time (gzip-compressed logs too);
+/// the progress bar follows the bytes of the file read. Returns the log's span, seconds.
 fn offline(session: &mut Session, log_path: &Path, sinks: &mut Sinks, quiet: bool) -> Result<f64> {
-    let log = CandumpLog::read(log_path)?;
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(log.frames.len() as u64).with_style(
-            ProgressStyle::with_template("{bar:40} {percent}% of the CAN frames, eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        )
+    let input = Input::open(log_path, Gzip::Read)?;
+    let meter = input.meter();
+    let style = |template: &str| {
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar())
     };
-    let span = session.run_log(&log, log_path, sinks, &mut |k, _| bar.set_position(k as u64));
+    let bar = match meter.len() {
+        _ if quiet => ProgressBar::hidden(),
+        Some(len) => ProgressBar::new(len).with_style(style("{bar:40} {percent}% of the log, eta {eta}")),
+        // A pipe or a device: no length to go by.
+        None => ProgressBar::new_spinner().with_style(style("{spinner} {bytes} of the log read")),
+    };
+    let log = CandumpReader::new(input, log_path);
+    let span = session.run_log(log, log_path, sinks, &mut |_, _| bar.set_position(meter.read()));
     bar.finish_and_clear();
     Ok(span?)
 }
@@ -300,7 +305,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
     let mut table = String::from("recording\tframes\ttouches\tmost_contacts\n");
     crate::say!("recording                       frames  touches  most contacts in a touch");
     for (path, name) in args.recording.iter().zip(&names) {
-        let rec = skin_core::format::recording::read(path)?;
+        let mut rec = skin_core::format::recording::RecordingReader::open(path)?;
         let mut session = match first.take() {
             Some(s) => s,
             None => Session::from_config(config)?,
@@ -313,7 +318,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         ));
         let ros = args.ros.open(session.links(), inputs)?;
         let mut sinks = (events, (PngImages::new(&here).with_context(cannot)?, ros));
-        let span = session.run_recording(&rec, path, &mut sinks)?;
+        let span = session.run_recording(&mut rec, path, &mut sinks)?;
         sinks.0.into_inner().context("cannot write events.jsonl")?;
         if let Some(ros) = sinks.1.1 {
             ros.into_outlet().finish(args.ros.mcap_path())?;
@@ -325,7 +330,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         }
         let touches = session.touches();
         let most = touches.iter().map(|t| t.peak.contacts).max().unwrap_or(0);
-        let row = [rec.frames.len(), touches.len(), most];
+        let row = [rec.frames_read() as usize, touches.len(), most];
         let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
         crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }
