@@ -674,6 +674,7 @@ fn too_large(path: &Path, got: Option<u64>, limit: u64) -> Error {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
     use super::*;
 
     fn all(text: &[u8]) -> Result<Vec<String>> {
