@@ -373,6 +373,9 @@ pub struct Lines<R> {
     started: bool,
     /// The last line ended with a CR: a LF right after it belongs to that line end.
     after_cr: bool,
+    /// Bytes of the reader's buffer the line last returned (and its end) took, lent to the
+    /// caller until the next call.
+    lent: usize,
     done: bool,
     consumed: u64,
 }
@@ -397,6 +400,7 @@ impl<R: BufRead> Lines<R> {
             max: MAX_LINE_BYTES,
             started: false,
             after_cr: false,
+            lent: 0,
             done: false,
             consumed: 0,
         }
@@ -418,9 +422,10 @@ impl<R: BufRead> Lines<R> {
         self.number
     }
 
-    /// Bytes taken from the reader so far (after decompression).
+    /// Bytes taken from the reader so far (after decompression), the line last returned
+    /// included.
     pub fn consumed(&self) -> u64 {
-        self.consumed
+        self.consumed + self.lent as u64
     }
 
     /// The reader.
@@ -437,6 +442,11 @@ impl<R: BufRead> Lines<R> {
     /// file and the line: a line longer than the bound, binary data, UTF-16, text that is not
     /// UTF-8, a compressed file, a read that failed.
     pub fn next_line(&mut self) -> Result<Option<Line<'_>>> {
+        // The line last returned was lent from the reader's buffer: it is taken now.
+        if self.lent > 0 {
+            let n = std::mem::take(&mut self.lent);
+            self.consume(n);
+        }
         if self.done {
             return Ok(None);
         }
@@ -455,6 +465,41 @@ impl<R: BufRead> Lines<R> {
                 self.consume(1);
             }
         }
+        // Nearly every line lies whole in the reader's buffer: it is lent from there, not copied.
+        let found = {
+            let available = fill(&mut self.reader, &self.path, number)?;
+            memchr::memchr3(b'\n', b'\r', 0, available)
+                .filter(|&end| end <= self.max)
+                .map(|end| (end, available[end]))
+        };
+        if let Some((end, terminator)) = found
+            && terminator != 0
+        {
+            let available = fill(&mut self.reader, &self.path, number)?;
+            let mut bytes = &available[..end];
+            self.lent = end + 1;
+            self.after_cr = terminator == b'\r';
+            self.number = number;
+            if number == 1 {
+                if let Some(rest) = bytes.strip_prefix(UTF8_BOM) {
+                    bytes = rest;
+                } else if let Some(variant) = utf16(bytes) {
+                    return Err(utf16_error(&self.path, variant));
+                }
+            }
+            return match std::str::from_utf8(bytes) {
+                Ok(text) => Ok(Some(Line {
+                    text,
+                    number,
+                    path: &self.path,
+                })),
+                Err(e) => {
+                    let at = e.valid_up_to();
+                    Err(not_utf8(&self.path, number, at + 1, bytes[at]))
+                }
+            };
+        }
+        // A line across the buffer's end (or a bad one): gathered in a copy.
         self.line.clear();
         let mut terminated = false;
         loop {
@@ -557,24 +602,14 @@ impl std::ops::Deref for Line<'_> {
 /// with the line, rather than an operating-system message without one.
 fn fill<'a, R: BufRead>(reader: &'a mut R, path: &Path, line: usize) -> Result<&'a [u8]> {
     use std::io::ErrorKind;
-    // A read cut by a signal is tried again (as `BufRead::read_until` does); the retry needs a
-    // second call because a borrow returned from a loop cannot be taken again in it.
-    let mut interrupted = 0;
-    while let Err(e) = reader.fill_buf() {
-        interrupted += 1;
-        if e.kind() == ErrorKind::Interrupted && interrupted < 100 {
-            continue;
-        }
-        return Err(match e.kind() {
-            ErrorKind::UnexpectedEof | ErrorKind::InvalidInput | ErrorKind::InvalidData => Error::invalid(
-                path,
-                format!("line {line}"),
-                format!("the compressed data ends early or is damaged ({e}): is the file whole?"),
-            ),
-            _ => Error::io(path, e),
-        });
-    }
-    reader.fill_buf().map_err(|e| Error::io(path, e))
+    reader.fill_buf().map_err(|e| match e.kind() {
+        ErrorKind::UnexpectedEof | ErrorKind::InvalidInput | ErrorKind::InvalidData => Error::invalid(
+            path,
+            format!("line {line}"),
+            format!("the compressed data ends early or is damaged ({e}): is the file whole?"),
+        ),
+        _ => Error::io(path, e),
+    })
 }
 
 /// Reads the whole file at `path` as text, refusing it past `limit` bytes before reading it (or

@@ -780,31 +780,31 @@ impl Session {
     /// frames are read: a fault further down the log fails the run after them. A log that is
     /// empty, that has none of the bus map's interfaces or that gives no frame of this skin is
     /// an error naming it, found when the log ends. Returns the log's span, seconds.
-    pub fn run_log(
+    pub fn run_log<L: IntoCanSource>(
         &mut self,
-        log: impl IntoCanSource,
+        log: L,
         path: &Path,
         sink: &mut dyn Sink,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<f64, SessionError> {
         let mut log = log.into_can_source();
-        // The first frame comes first: an empty log is named as such, before the bus map's
-        // absence.
-        let first = log.next_frame()?;
-        if first.is_none() {
+        let empty = |log: &<L as IntoCanSource>::Source| {
             let message = match log.error_frames() {
                 0 => "no CAN frames in it (an empty log)".to_string(),
                 n => {
                     format!("no CAN frames but {n} error frame(s): a log of bus errors, without skin traffic")
                 }
             };
-            return Err(skin_can::Error::Invalid {
+            SessionError::from(skin_can::Error::Invalid {
                 path: path.to_owned(),
                 message,
-            }
-            .into());
-        }
+            })
+        };
         let Some(can) = &self.can else {
+            // An empty log is named as such, before the bus map's absence.
+            if log.next_frame()?.is_none() {
+                return Err(empty(&log));
+            }
             let whose = if self.source == Path::new("frames") {
                 "the session has none (Session::with_can)".to_string()
             } else {
@@ -828,40 +828,59 @@ impl Session {
         let mut error = None;
         let started = Instant::now();
         let mut inside = Duration::ZERO;
-        let (mut count, mut span) = (0usize, None::<(u64, u64)>);
-        let mut next = first;
-        while let Some(frame) = next {
+        let (mut count, mut first_us, mut last_us) = (0usize, 0u64, 0u64);
+        // Frames are read a batch at a time, then assembled: reading and assembling each keep
+        // their own code and data hot (bounded: BATCH frames).
+        const BATCH: usize = 256;
+        let mut batch: Vec<skin_can::candump::CanFrame> = Vec::with_capacity(BATCH);
+        let mut ended = false;
+        while !ended && error.is_none() {
+            batch.clear();
+            while batch.len() < BATCH {
+                match log.next_frame() {
+                    Ok(Some(frame)) => batch.push(frame),
+                    Ok(None) => {
+                        ended = true;
+                        break;
+                    }
+                    Err(e) => {
+                        error = Some(e.into());
+                        ended = true;
+                        break;
+                    }
+                }
+            }
             let named = log.interfaces();
             if named.len() > assembler.interfaces() {
                 for name in &named[assembler.interfaces()..] {
                     assembler.add_interface(name);
                 }
             }
-            span = Some(span.map_or((frame.time_us, frame.time_us), |(a, _)| (a, frame.time_us)));
-            assembler.push(&frame, &mut |a| {
+            let read_error = error.take();
+            for frame in &batch {
+                if count == 0 {
+                    first_us = frame.time_us;
+                }
+                last_us = frame.time_us;
+                assembler.push(frame, &mut |a| {
+                    if error.is_none() {
+                        let t = Instant::now();
+                        error = self.push_can(a, sink).err();
+                        inside += t.elapsed();
+                    }
+                });
                 if error.is_none() {
-                    let t = Instant::now();
-                    error = self.push_can(a, sink).err();
-                    inside += t.elapsed();
+                    error = self.note_resets(assembler.stats(), sink).err();
                 }
-            });
-            if error.is_none() {
-                error = self.note_resets(assembler.stats(), sink).err();
-            }
-            if error.is_some() {
-                break;
-            }
-            if count % 4096 == 0 {
-                progress(count as u64, log.bytes_read());
-            }
-            count += 1;
-            next = match log.next_frame() {
-                Ok(f) => f,
-                Err(e) => {
-                    error = Some(e.into());
-                    None
+                if error.is_some() {
+                    break;
                 }
-            };
+                if count % 4096 == 0 {
+                    progress(count as u64, log.bytes_read());
+                }
+                count += 1;
+            }
+            error = error.or(read_error);
         }
         if error.is_none() {
             assembler.finish(&mut |a| {
@@ -873,6 +892,9 @@ impl Session {
         self.stage.assemble += started.elapsed().saturating_sub(inside);
         if let Some(e) = error {
             return Err(e);
+        }
+        if count == 0 {
+            return Err(empty(&log));
         }
         let in_log = log.interfaces();
         if !on_map.iter().any(|i| in_log.contains(i)) {
@@ -909,7 +931,7 @@ impl Session {
             });
         }
         self.finish(sink)?;
-        Ok(span.map_or(0.0, |(a, b)| b.saturating_sub(a) as f64 * 1e-6))
+        Ok(last_us.saturating_sub(first_us) as f64 * 1e-6)
     }
 
     /// Seconds from the first frame (whose stamp the sink is told).
