@@ -137,6 +137,28 @@ fn dev_zero_is_binary_after_a_bounded_read() {
 }
 
 #[test]
+fn a_log_cut_short_by_a_crash_names_the_lines_to_keep() {
+    // A power loss while a log is written leaves NULs after the last line written.
+    let mut bytes = session_log().into_bytes()[..10_000].to_vec();
+    let end = bytes.iter().rposition(|&b| b == b'\n').unwrap() + 1;
+    bytes.truncate(end);
+    let lines = bytes.iter().filter(|&&b| b == b'\n').count();
+    bytes.extend_from_slice(&[0; 4096]);
+    let e = CandumpReader::new(&bytes[..], Path::new("crashed.log"))
+        .into_log()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with(&format!("crashed.log: line {}: a NUL byte", lines + 1)),
+        "{e}"
+    );
+    assert!(
+        e.contains(&format!("head -n {lines} 'crashed.log' > 'crashed.head.log'")),
+        "{e}"
+    );
+}
+
+#[test]
 fn a_long_log_is_read_one_frame_at_a_time() {
     // 40 copies of the session: 220 MB that is never made whole.
     let long = long_log::RepeatedLog::new(&session_log(), 40);

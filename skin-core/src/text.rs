@@ -265,10 +265,15 @@ fn refuse_compressed(path: &Path, name: &str, command: &str) -> Error {
 
 /// The name `iconv` should write a converted copy of `path` to: `name.utf8.ext` beside it.
 fn converted(path: &Path) -> PathBuf {
+    converted_as(path, "utf8")
+}
+
+/// `name.TAG.ext` beside `path`: where a command that repairs it writes the repaired copy.
+fn converted_as(path: &Path, tag: &str) -> PathBuf {
     let stem = path.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default();
     let name = match path.extension() {
-        Some(ext) => format!("{stem}.utf8.{}", ext.to_string_lossy()),
-        None => format!("{stem}.utf8"),
+        Some(ext) => format!("{stem}.{tag}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.{tag}"),
     };
     path.with_file_name(name)
 }
@@ -308,12 +313,23 @@ fn utf16_error(path: &Path, variant: &str) -> Error {
     )
 }
 
-fn binary_error(path: &Path, line: usize) -> Error {
-    Error::invalid(
-        path,
-        format!("line {line}"),
-        "a NUL byte: binary data, not a text file (is it the file meant?)",
-    )
+/// A NUL byte at `line`. One near the start of a file (`in_head`) makes it a binary file; one
+/// after lines of text, a file cut short.
+fn binary_error(path: &Path, line: usize, in_head: bool) -> Error {
+    let message = if in_head || line <= 1 {
+        "a NUL byte: binary data, not a text file (is it the file meant?)".to_string()
+    } else {
+        // Text, then NULs: how a file ends when the machine lost power or the disk filled
+        // while it was written.
+        format!(
+            "a NUL byte: binary data after {} line(s) of text, as a file cut short by a crash or a full disk ends; keep the lines before it (head -n {} '{}' > '{}')",
+            line - 1,
+            line - 1,
+            path.display(),
+            converted_as(path, "head").display()
+        )
+    };
+    Error::invalid(path, format!("line {line}"), message)
 }
 
 /// The error of a line that is not UTF-8 at `column` (1-based, bytes), whose first bad byte is
@@ -342,7 +358,7 @@ fn check_start(path: &Path, head: &[u8]) -> Result<usize> {
     }
     let sniff = &head[..head.len().min(SNIFF_BYTES)];
     if let Some(at) = memchr::memchr(0, sniff) {
-        return Err(binary_error(path, line_at(sniff, at)));
+        return Err(binary_error(path, line_at(sniff, at), true));
     }
     Ok(if head.starts_with(UTF8_BOM) {
         UTF8_BOM.len()
@@ -526,7 +542,7 @@ impl<R: BufRead> Lines<R> {
             let terminator = end.map(|i| available[i]);
             self.line.extend_from_slice(&available[..take]);
             match terminator {
-                Some(0) => return Err(binary_error(&self.path, number)),
+                Some(0) => return Err(binary_error(&self.path, number, false)),
                 Some(t) => {
                     self.consume(take + 1);
                     self.after_cr = t == b'\r';
@@ -622,7 +638,7 @@ pub fn read_document(path: &Path, limit: u64) -> Result<String> {
     let mut bytes = bytes;
     bytes.drain(..skip);
     if let Some(at) = memchr::memchr(0, &bytes) {
-        return Err(binary_error(path, line_at(&bytes, at)));
+        return Err(binary_error(path, line_at(&bytes, at), false));
     }
     let text = match String::from_utf8(bytes) {
         Ok(text) => text,
