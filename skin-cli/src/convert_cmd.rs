@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// A candump log of the skin's CAN traffic, or a raw recording (Cyskin's ids line, then
-    /// index, time, counts).
+    /// index, time, counts); of any length, gzip-compressed or not, read as it goes.
     #[arg(value_name = "LOG|RECORDING")]
     input: PathBuf,
     /// The session's configuration (as for `skin run`).
