@@ -31,7 +31,8 @@ fn mesh_error(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
-/// Reads an OBJ (`.obj`) or glTF (`.gltf`, `.glb`) file; all its meshes are merged.
+/// Reads an OBJ (`.obj`) or glTF (`.gltf`, `.glb`) file; all its meshes are merged. A file (or
+/// a glTF buffer) past [`MAX_MESH_BYTES`] is refused before it is read.
 pub fn load_mesh_file(path: &Path) -> Result<MeshFileLink> {
     let ext = path
         .extension()
