@@ -172,6 +172,8 @@ pub struct Assembler<D: Decoder> {
     window: Option<Window>,
     /// For each log interface, its bus in the map (if any).
     bus_of_interface: Vec<Option<u16>>,
+    /// The map's interface names, by bus.
+    map_interfaces: Vec<String>,
     /// Per map bus, address -> module slots.
     modules: Vec<Vec<Option<Slots>>>,
     module_refs: Vec<ModuleRef>,
@@ -274,6 +276,7 @@ impl<D: Decoder> Assembler<D> {
             decoder,
             window,
             bus_of_interface,
+            map_interfaces: map.buses.iter().map(|b| b.interface.clone()).collect(),
             modules,
             module_refs,
             expected,
@@ -287,6 +290,20 @@ impl<D: Decoder> Assembler<D> {
             delivered_up_to: None,
             stats: AssemblyStats::default(),
         }
+    }
+
+    /// Names one more interface of the log after those the assembler was made with: frames whose
+    /// `bus` is the next index come from it. A log read as a stream names its interfaces as they
+    /// appear ([`crate::candump::CanSource::interfaces`]).
+    pub fn add_interface(&mut self, name: &str) {
+        let bus = self.map_interfaces.iter().position(|b| b == name);
+        self.bus_of_interface.push(bus.map(|b| b as u16));
+        self.last_time.push(0);
+    }
+
+    /// How many of the log's interfaces the assembler knows (made with, and added).
+    pub fn interfaces(&self) -> usize {
+        self.bus_of_interface.len()
     }
 
     /// Counts so far.

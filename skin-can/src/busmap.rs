@@ -113,13 +113,10 @@ pub struct BusMap {
 }
 
 impl BusMap {
-    /// Reads a bus map file.
+    /// Reads a bus map file (refused past
+    /// [`MAX_DOCUMENT_BYTES`](skin_core::text::MAX_DOCUMENT_BYTES), as every file read whole).
     pub fn read(path: &Path) -> Result<BusMap> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
-        Self::parse(&text, path)
+        Self::parse(&skin_core::format::read_text(path)?, path)
     }
 
     /// Parses bus-map TOML and checks it; `path` is used in error messages.

@@ -11,11 +11,16 @@
 //! hex (or `R` for a remote request), and optionally ` R` or ` T` (received / transmitted, as
 //! python-can writes). Blank lines are skipped. CAN FD lines (`##`) are rejected with the line
 //! number: skin traffic is classic CAN.
+//!
+//! [`CandumpReader`] reads a log of any length one frame at a time (gzip-compressed too: robots
+//! keep their logs that way); [`CandumpLog`] holds a small one whole.
 
 use crate::busmap::MAX_BUSES;
 use crate::{Error, Result};
 use skin_core::format::excerpt;
+use skin_core::text::{Gzip, Input, Lines};
 use std::fmt::Write as _;
+use std::io::BufRead;
 use std::path::Path;
 
 /// Received or transmitted, when the log says.
@@ -69,35 +74,15 @@ pub struct CandumpLog {
 }
 
 impl CandumpLog {
-    /// Reads a log file.
+    /// Reads a whole log file into memory (small logs and tests; [`CandumpReader`] reads one
+    /// frame at a time). A gzip-compressed log is decompressed as it is read.
     pub fn read(path: &Path) -> Result<CandumpLog> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
-        Self::parse(&text, path)
+        CandumpReader::open(path)?.into_log()
     }
 
     /// Parses log text; `path` is used in error messages.
     pub fn parse(text: &str, path: &Path) -> Result<CandumpLog> {
-        let mut log = CandumpLog::default();
-        for (i, line) in text.lines().enumerate() {
-            if line.trim().is_empty() {
-                continue;
-            }
-            match parse_line(line, &mut log.interfaces) {
-                Ok(frame) => log.frames.push(frame),
-                Err(Bad::ErrorFrame) => log.error_frames += 1,
-                Err(Bad::Line(message)) => {
-                    return Err(Error::Line {
-                        path: path.to_owned(),
-                        line: i + 1,
-                        message,
-                    });
-                }
-            }
-        }
-        Ok(log)
+        CandumpReader::new(text.as_bytes(), path).into_log()
     }
 
     /// The log as text, one line per frame, in the form can-utils writes.
@@ -125,6 +110,234 @@ impl CandumpLog {
     /// [`MAX_BUSES`] interfaces.
     pub fn bus(&mut self, name: &str) -> Option<u16> {
         intern(&mut self.interfaces, name)
+    }
+
+    /// Its frames as a [`CanSource`], every interface known from the start.
+    pub fn source(&self) -> LogFrames<'_> {
+        LogFrames {
+            log: self,
+            next: 0,
+            error_frames: 0,
+        }
+    }
+}
+
+/// CAN frames one at a time, with the interfaces their `bus` indexes: a [`CandumpReader`] on a
+/// file or any text input, or [`CandumpLog::source`] on a log in memory. What `skin_learn`'s
+/// session runs.
+pub trait CanSource {
+    /// The next frame; `None` at the end.
+    fn next_frame(&mut self) -> Result<Option<CanFrame>>;
+    /// The interfaces named so far, in order of first appearance: a frame's `bus` indexes this
+    /// list, which grows as the frames come.
+    fn interfaces(&self) -> &[String];
+    /// Error frames (CAN_ERR_FLAG) met so far, skipped.
+    fn error_frames(&self) -> usize;
+    /// Bytes of text the frames so far took, when the source reads text (0 otherwise).
+    fn bytes_read(&self) -> u64 {
+        0
+    }
+}
+
+impl<T: CanSource + ?Sized> CanSource for &mut T {
+    fn next_frame(&mut self) -> Result<Option<CanFrame>> {
+        (**self).next_frame()
+    }
+
+    fn interfaces(&self) -> &[String] {
+        (**self).interfaces()
+    }
+
+    fn error_frames(&self) -> usize {
+        (**self).error_frames()
+    }
+
+    fn bytes_read(&self) -> u64 {
+        (**self).bytes_read()
+    }
+}
+
+/// What a [`CanSource`] can be made from: any source, or a whole [`CandumpLog`] by reference.
+pub trait IntoCanSource {
+    /// The source.
+    type Source: CanSource;
+    /// Makes it.
+    fn into_can_source(self) -> Self::Source;
+}
+
+impl<S: CanSource> IntoCanSource for S {
+    type Source = S;
+
+    fn into_can_source(self) -> S {
+        self
+    }
+}
+
+impl<'a> IntoCanSource for &'a CandumpLog {
+    type Source = LogFrames<'a>;
+
+    fn into_can_source(self) -> LogFrames<'a> {
+        self.source()
+    }
+}
+
+/// The frames of a [`CandumpLog`] in memory, as a [`CanSource`].
+#[derive(Debug, Clone)]
+pub struct LogFrames<'a> {
+    log: &'a CandumpLog,
+    next: usize,
+    error_frames: usize,
+}
+
+impl CanSource for LogFrames<'_> {
+    fn next_frame(&mut self) -> Result<Option<CanFrame>> {
+        let frame = self.log.frames.get(self.next).copied();
+        self.next += usize::from(frame.is_some());
+        if frame.is_none() {
+            // The log's error frames were counted when it was read: all met by its end.
+            self.error_frames = self.log.error_frames;
+        }
+        Ok(frame)
+    }
+
+    fn interfaces(&self) -> &[String] {
+        &self.log.interfaces
+    }
+
+    fn error_frames(&self) -> usize {
+        self.error_frames
+    }
+}
+
+/// A candump log read one frame at a time, with memory for one line whatever the log's length
+/// (gzip-compressed logs too, with [`CandumpReader::open`]).
+///
+/// ```
+/// use skin_can::candump::CandumpReader;
+///
+/// let text = "(1700000000.000000) can0 080#05\n(1700000000.000150) can1 201#E803\n";
+/// let mut log = CandumpReader::new(text.as_bytes(), "session.log".as_ref());
+/// while let Some(frame) = log.next_frame()? {
+///     println!("{} on {}", frame.id, log.interfaces()[usize::from(frame.bus)]);
+/// }
+/// assert_eq!(log.interfaces(), ["can0", "can1"]);
+/// # Ok::<(), skin_can::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct CandumpReader<R = Input> {
+    lines: Lines<R>,
+    interfaces: Vec<String>,
+    error_frames: usize,
+    frames: u64,
+}
+
+impl CandumpReader<Input> {
+    /// Opens the log at `path`, decompressed as it is read when gzip-compressed.
+    pub fn open(path: &Path) -> Result<CandumpReader<Input>> {
+        Ok(CandumpReader::new(Input::open(path, Gzip::Read)?, path))
+    }
+}
+
+impl<R: BufRead> CandumpReader<R> {
+    /// The log `reader` holds; `path` names it in errors.
+    pub fn new(reader: R, path: &Path) -> CandumpReader<R> {
+        CandumpReader {
+            lines: Lines::new(reader, path),
+            interfaces: Vec::new(),
+            error_frames: 0,
+            frames: 0,
+        }
+    }
+
+    /// The next frame (blank lines and error frames skipped); `None` at the end of the log. An
+    /// error names the file and the line.
+    pub fn next_frame(&mut self) -> Result<Option<CanFrame>> {
+        loop {
+            let Some(line) = self.lines.next_line()? else {
+                return Ok(None);
+            };
+            if line.trim().is_empty() {
+                continue;
+            }
+            match parse_line(&line, &mut self.interfaces) {
+                Ok(frame) => {
+                    self.frames += 1;
+                    return Ok(Some(frame));
+                }
+                Err(Bad::ErrorFrame) => self.error_frames += 1,
+                Err(Bad::Line(message)) => {
+                    return Err(Error::Line {
+                        path: line.path().to_owned(),
+                        line: line.number(),
+                        message,
+                    });
+                }
+            }
+        }
+    }
+
+    /// The interfaces named so far, in order of first appearance (a frame's `bus` indexes this).
+    pub fn interfaces(&self) -> &[String] {
+        &self.interfaces
+    }
+
+    /// Error frames met so far, skipped.
+    pub fn error_frames(&self) -> usize {
+        self.error_frames
+    }
+
+    /// Frames read so far.
+    pub fn frames_read(&self) -> u64 {
+        self.frames
+    }
+
+    /// The file, as errors name it.
+    pub fn path(&self) -> &Path {
+        self.lines.path()
+    }
+
+    /// The input being read.
+    pub fn get_ref(&self) -> &R {
+        self.lines.get_ref()
+    }
+
+    /// The rest of the log, read into memory.
+    pub fn into_log(mut self) -> Result<CandumpLog> {
+        let mut frames = Vec::new();
+        while let Some(f) = self.next_frame()? {
+            frames.push(f);
+        }
+        Ok(CandumpLog {
+            interfaces: self.interfaces,
+            frames,
+            error_frames: self.error_frames,
+        })
+    }
+}
+
+impl<R: BufRead> CanSource for CandumpReader<R> {
+    fn next_frame(&mut self) -> Result<Option<CanFrame>> {
+        CandumpReader::next_frame(self)
+    }
+
+    fn interfaces(&self) -> &[String] {
+        &self.interfaces
+    }
+
+    fn error_frames(&self) -> usize {
+        self.error_frames
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.lines.consumed()
+    }
+}
+
+impl<R: BufRead> Iterator for CandumpReader<R> {
+    type Item = Result<CanFrame>;
+
+    fn next(&mut self) -> Option<Result<CanFrame>> {
+        CandumpReader::next_frame(self).transpose()
     }
 }
 

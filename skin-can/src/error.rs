@@ -37,6 +37,10 @@ pub enum Error {
         /// The taxel.
         taxel: skin_core::TaxelId,
     },
+    /// A text input that cannot be read as lines (binary, not UTF-8, a line too long, a
+    /// damaged compressed file), naming the file and the line.
+    #[error(transparent)]
+    Text(#[from] skin_core::Error),
     /// A frame or a buffer of the wrong length.
     #[error("{what}: {got}, expected {expected}")]
     Length {

@@ -1,17 +1,20 @@
 //! `skin replay`: a candump log -> assembled skin frames (summary, CSV).
 
-use anyhow::{Result, bail};
+use crate::output::OutputFile;
+use anyhow::{Context, Result, bail};
 use skin_can::FRAMES_CSV_HEADER as CSV_HEADER;
 use skin_can::ModuleTally;
-use skin_can::candump::CandumpLog;
+use skin_can::candump::CandumpReader;
 use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Replay a candump log through a bus map: assemble one frame of the whole skin per cycle and say
 /// what was missing.
 ///
-/// LOG is a candump log (can-utils `candump -l` or python-can). MAP is the bus map (TOML: wire
+/// LOG is a candump log (can-utils `candump -l` or python-can; gzip-compressed too), of any
+/// length: it is read as it goes, the CSV written row by row. MAP is the bus map (TOML: wire
 /// format, buses, modules, taxel ids per slot). skin16 traffic is cut into cycles at its sync
 /// frames; icub8 traffic, which has no sync, into time windows of --window-ms.
 ///
@@ -102,11 +105,72 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(layout) = &args.layout {
         check_layout(&map, &args.busmap, layout)?;
     }
-    let log = CandumpLog::read(&args.log)?;
+    // The log is read one frame at a time and each skin frame's row written as it is
+    // assembled: memory does not grow with the log. A log of another skin is found at its end;
+    // the CSV, built aside, then never appears.
+    let mut log = CandumpReader::open(&args.log)?;
+    let ids = map.taxel_ids();
+    let mut csv = match &args.output {
+        Some(path) => {
+            let mut file = OutputFile::create(path, &inputs)?;
+            let mut header = String::from(CSV_HEADER);
+            for id in &ids {
+                let _ = write!(header, ",{id}");
+            }
+            header.push('\n');
+            file.write_all(header.as_bytes())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            Some(file)
+        }
+        None => None,
+    };
+    let mut tally = ModuleTally::default();
+    let window_us = (args.window_ms * 1000.0).round() as u64;
+    let mut assembler = Assembler::for_map(&map, &[], window_us);
+    let mut row = String::new();
+    // The first write error stops the rows (and the log).
+    let failed = std::cell::RefCell::new(None::<std::io::Error>);
+    let mut emit = |f: &AssembledFrame| {
+        tally.add(f);
+        if let Some(file) = csv.as_mut()
+            && failed.borrow().is_none()
+        {
+            row.clear();
+            f.csv_row(&mut row);
+            *failed.borrow_mut() = file.write_all(row.as_bytes()).err();
+        }
+    };
+    let (mut count, mut span) = (0u64, None::<(u64, u64)>);
+    while let Some(frame) = log.next_frame()? {
+        for name in &log.interfaces()[assembler.interfaces()..] {
+            assembler.add_interface(name);
+        }
+        count += 1;
+        span = Some(span.map_or((frame.time_us, frame.time_us), |(a, _)| (a, frame.time_us)));
+        assembler.push(&frame, &mut emit);
+        if failed.borrow().is_some() {
+            break;
+        }
+    }
+    assembler.finish(&mut emit);
+    if let (Some(e), Some(path)) = (failed.into_inner(), &args.output) {
+        return Err(anyhow::Error::new(e).context(format!("cannot write {}", path.display())));
+    }
+    let interfaces = log.interfaces();
+    if count == 0 {
+        bail!(
+            "{}: no CAN frames in it ({})",
+            args.log.display(),
+            match log.error_frames() {
+                0 => "an empty log".to_string(),
+                n => format!("{n} error frame(s): a log of bus errors, without skin traffic"),
+            }
+        );
+    }
     let unknown: Vec<&str> = map
         .buses
         .iter()
-        .filter(|b| !log.interfaces.contains(&b.interface))
+        .filter(|b| !interfaces.contains(&b.interface))
         .map(|b| b.interface.as_str())
         .collect();
     if unknown.len() == map.buses.len() {
@@ -118,36 +182,11 @@ pub fn run(args: Args) -> Result<()> {
                 .map(|b| b.interface.as_str())
                 .collect::<Vec<_>>()
                 .join(", "),
-            log.interfaces.join(", ")
+            interfaces.join(", ")
         );
     }
-    let ids = map.taxel_ids();
-    let mut csv = String::new();
-    if args.output.is_some() {
-        csv.push_str(CSV_HEADER);
-        for id in &ids {
-            let _ = write!(csv, ",{id}");
-        }
-        csv.push('\n');
-    }
-    let mut tally = ModuleTally::default();
-    let window_us = (args.window_ms * 1000.0).round() as u64;
-    let mut assembler = Assembler::for_map(&map, &log.interfaces, window_us);
-    let mut emit = |f: &AssembledFrame| {
-        tally.add(f);
-        if args.output.is_some() {
-            f.csv_row(&mut csv);
-        }
-    };
-    for frame in &log.frames {
-        assembler.push(frame, &mut emit);
-    }
-    assembler.finish(&mut emit);
     let s = assembler.stats();
-    let span = match (log.frames.first(), log.frames.last()) {
-        (Some(a), Some(b)) => (b.time_us.saturating_sub(a.time_us)) as f64 * 1e-6,
-        _ => 0.0,
-    };
+    let span = span.map_or(0.0, |(a, b)| b.saturating_sub(a) as f64 * 1e-6);
     let cut = match map.format {
         WireFormat::Skin16 => "one per sync cycle".to_string(),
         WireFormat::Icub8 => format!("one per {} ms window", args.window_ms),
@@ -155,7 +194,7 @@ pub fn run(args: Args) -> Result<()> {
     crate::say!(
         "{}: {} CAN frames over {span:.2} s on {} bus(es), {} -> {} skin frames ({cut}) of {} taxels: {} complete, {} partial",
         args.log.display(),
-        log.frames.len(),
+        count,
         map.buses.len(),
         map.format.name(),
         s.frames,
@@ -167,12 +206,13 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!("bus \"{name}\" of the map is not in the log: its modules are missing in every frame");
     }
     crate::shared::say_report(&tally, &map, s);
-    if log.error_frames > 0 {
-        crate::say!("CAN error frames in the log, skipped: {}", log.error_frames);
+    if log.error_frames() > 0 {
+        crate::say!("CAN error frames in the log, skipped: {}", log.error_frames());
     }
-    if let Some(out) = &args.output {
-        crate::output::write_file(out, csv.as_bytes(), &inputs)?;
-        crate::say!("wrote {}", out.display());
+    if let Some(file) = csv {
+        let path = file.path().to_owned();
+        file.commit()?;
+        crate::say!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -6,9 +6,10 @@ use crate::ros_out::{Outlets, RosArgs};
 use crate::shared::LiveStep;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use skin_can::candump::CandumpLog;
+use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
 use skin_core::output::{Staged, writing};
+use skin_core::text::{Gzip, Input};
 use skin_learn::session::{
     Event, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, Session, SessionConfig, Sink,
 };
@@ -467,18 +468,22 @@ fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> 
     ))
 }
 
-/// Offline: the log through the session. Returns the log's span, seconds.
+/// Offline: the log through the session, read one frame at a time (gzip-compressed logs too);
+/// the progress bar follows the bytes of the file read. Returns the log's span, seconds.
 fn offline(session: &mut Session, log_path: &Path, sinks: &mut Sinks, quiet: bool) -> Result<f64> {
-    let log = CandumpLog::read(log_path)?;
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(log.frames.len() as u64).with_style(
-            ProgressStyle::with_template("{bar:40} {percent}% of the CAN frames, eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        )
+    let input = Input::open(log_path, Gzip::Read)?;
+    let meter = input.meter();
+    let style = |template: &str| {
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar())
     };
-    let span = session.run_log(&log, log_path, sinks, &mut |k, _| bar.set_position(k as u64));
+    let bar = match meter.len() {
+        _ if quiet => ProgressBar::hidden(),
+        Some(len) => ProgressBar::new(len).with_style(style("{bar:40} {percent}% of the log, eta {eta}")),
+        // A pipe or a device: no length to go by.
+        None => ProgressBar::new_spinner().with_style(style("{spinner} {bytes} of the log read")),
+    };
+    let log = CandumpReader::new(input, log_path);
+    let span = session.run_log(log, log_path, sinks, &mut |_, _| bar.set_position(meter.read()));
     bar.finish_and_clear();
     Ok(span?)
 }
@@ -530,7 +535,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
     crate::say!("recording                       frames  touches  most contacts in a touch");
     let (mut staged, mut rest) = (None, None);
     for (k, (path, name)) in args.recording.iter().zip(&names).enumerate() {
-        let rec = skin_core::format::recording::read(path)?;
+        let mut rec = skin_core::format::recording::RecordingReader::open(path)?;
         if k > 0 {
             session = session.restarted()?;
         }
@@ -547,7 +552,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         )?));
         let ros = args.ros.open(session.links(), inputs)?;
         let mut sinks = (events, (Images::new(&here, &shown)?, ros));
-        let span = session.run_recording(&rec, path, &mut sinks)?;
+        let span = session.run_recording(&mut rec, path, &mut sinks)?;
         sinks.0.into_inner()?;
         if let Some(ros) = sinks.1.1 {
             let mut outlets = ros.into_outlet();
@@ -565,7 +570,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         }
         let touches = session.touches();
         let most = touches.iter().map(|t| t.peak.contacts).max().unwrap_or(0);
-        let row = [rec.frames.len(), touches.len(), most];
+        let row = [rec.frames_read() as usize, touches.len(), most];
         let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
         crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }

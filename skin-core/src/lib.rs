@@ -49,6 +49,7 @@ mod layout;
 pub mod normals;
 pub mod output;
 mod taxel;
+pub mod text;
 
 pub use baseline::{Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth};
 pub use contact::{Contact, ContactFinder};

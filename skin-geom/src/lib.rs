@@ -81,7 +81,7 @@ pub use faults::{BlindSpots, Decimation, masked_ground_truth};
 pub use layout_file::{read_layout, read_link, read_map};
 pub use map_cache::MapCache;
 pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh};
-pub use mesh_file::{MeshFileLink, load_mesh_file};
+pub use mesh_file::{MAX_MESH_BYTES, MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};
 pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, TactileImager, encode_png, write_png};
 pub use resize::Resizer;

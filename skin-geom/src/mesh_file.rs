@@ -19,6 +19,11 @@ pub struct MeshFileLink {
     pub faces: Vec<[usize; 3]>,
 }
 
+/// The largest mesh file (OBJ, glTF, GLB, or a glTF's buffer) read, bytes: 256 MiB, far more
+/// than a skin's mesh (a vertex per taxel) takes. A larger file (a whole robot's CAD model, a
+/// wrong file) is refused before it is read.
+pub const MAX_MESH_BYTES: u64 = 256 << 20;
+
 fn mesh_error(path: &Path, message: impl Into<String>) -> Error {
     Error::MeshFile {
         path: path.display().to_string(),
@@ -26,7 +31,8 @@ fn mesh_error(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
-/// Reads an OBJ (`.obj`) or glTF (`.gltf`, `.glb`) file; all its meshes are merged.
+/// Reads an OBJ (`.obj`) or glTF (`.gltf`, `.glb`) file; all its meshes are merged. A file (or
+/// a glTF buffer) past [`MAX_MESH_BYTES`] is refused before it is read.
 pub fn load_mesh_file(path: &Path) -> Result<MeshFileLink> {
     let ext = path
         .extension()
@@ -79,11 +85,15 @@ fn load_obj(path: &Path) -> Result<MeshFileLink> {
         single_index: true,
         ..Default::default()
     };
-    let (models, _materials) =
-        tobj::load_obj(path, &options).map_err(|e| mesh_error(path, format!("OBJ: {e}")))?;
+    // Read once, bounded, as text (byte-order mark, CR line ends): a pipe is read once too.
+    let text = skin_core::text::read_document(path, MAX_MESH_BYTES)?;
+    // Materials are not used: none is loaded.
+    let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| mesh_error(path, format!("OBJ: {e}")))?;
     // tobj keeps only the vertices that faces use, but every vertex of a skin mesh is a taxel:
     // read the `v` lines too, and map tobj's vertices back to them by their (identical) values.
-    let text = std::fs::read_to_string(path).map_err(|e| mesh_error(path, e.to_string()))?;
     let mut vertices = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let mut fields = line.split_whitespace();
@@ -140,7 +150,7 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
     use gltf::json::accessor::{ComponentType, Type};
     use gltf::json::mesh::{Mode, Semantic};
     use gltf::json::validation::Checked;
-    let bytes = std::fs::read(path).map_err(|e| mesh_error(path, e.to_string()))?;
+    let bytes = skin_core::text::read_bytes(path, MAX_MESH_BYTES)?;
     // The gltf crate's validation and accessor reader index by the file's numbers without
     // checking them all (a hostile file makes them panic), so the file is parsed without its
     // validation and every number read below is checked here before it indexes anything. Its
@@ -176,8 +186,8 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
             }
             Some(uri) => {
                 let file = path.parent().unwrap_or(Path::new(".")).join(uri);
-                std::fs::read(&file)
-                    .map_err(|e| mesh_error(path, format!("glTF buffer {}: {e}", file.display())))?
+                skin_core::text::read_bytes(&file, MAX_MESH_BYTES)
+                    .map_err(|e| mesh_error(path, format!("glTF buffer: {e}")))?
             }
         };
         let declared = buffer.byte_length.0;

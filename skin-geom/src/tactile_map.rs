@@ -483,11 +483,7 @@ impl TactileMap {
 
     /// Reads a map: the project's JSON or a Cyskin `tactile_maps` file.
     pub fn read(path: &Path) -> Result<TactileMap> {
-        let text = std::fs::read_to_string(path).map_err(|e| skin_core::Error::Io {
-            path: path.to_owned(),
-            source: e,
-        })?;
-        TactileMap::parse(&text, path)
+        TactileMap::parse(&skin_core::format::read_text(path)?, path)
     }
 
     /// Parses a map (the project's JSON or a Cyskin `tactile_maps` file) and checks it: ids

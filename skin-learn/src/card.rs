@@ -34,7 +34,8 @@ impl ModelCard {
     /// Reads the card beside `model`, if there is one.
     pub fn for_model(model: &Path) -> Option<ModelCard> {
         let path = Self::path_for(model);
-        let text = std::fs::read_to_string(&path).ok()?;
+        // A card as an editor saved it (byte-order mark, CR line ends) reads as any other.
+        let text = skin_core::format::read_text(&path).ok()?;
         Some(Self::parse(&text, path))
     }
 

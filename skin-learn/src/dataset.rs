@@ -16,6 +16,7 @@
 //! touching with its fingertips only.
 
 use crate::synth::Sample;
+use skin_core::text::{Gzip, Input, Lines};
 use skin_core::{Frame, Recording, TaxelId};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -105,29 +106,27 @@ impl Dataset {
     /// Reads `DIR/labels.csv`.
     pub fn read(dir: &Path) -> Result<Dataset, DatasetError> {
         let path = dir.join("labels.csv");
-        let text = std::fs::read_to_string(&path).map_err(|e| io(&path, e))?;
-        let mut lines = text.lines().enumerate();
-        match lines.next() {
-            Some((_, h)) if h.trim() == HEADER => {}
+        let input = Input::open(&path, Gzip::Read).map_err(|e| text_error(&path, e))?;
+        let mut lines = Lines::new(input, &path);
+        match lines.next_line().map_err(|e| text_error(&path, e))? {
+            Some(h) if h.trim() == HEADER => {}
             other => {
+                let found = skin_core::format::excerpt(other.as_ref().map_or("", |h| h.text()));
                 return Err(DatasetError::Parse {
-                    path,
+                    path: path.clone(),
                     line: 1,
-                    message: format!(
-                        "expected the header `{HEADER}`, found `{}`",
-                        other.map_or("", |(_, h)| h)
-                    ),
+                    message: format!("expected the header `{HEADER}`, found `{found}`"),
                 });
             }
         }
         let mut entries = Vec::new();
-        for (i, line) in lines {
+        while let Some(line) = lines.next_line().map_err(|e| text_error(&path, e))? {
             if line.trim().is_empty() {
                 continue;
             }
             let bad = |message: String| DatasetError::Parse {
                 path: path.clone(),
-                line: i + 1,
+                line: line.number(),
                 message,
             };
             let f: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -182,6 +181,24 @@ impl Dataset {
             path: self.dir.join("labels.csv"),
             message: format!("no sample {i} (the dataset has {})", self.entries.len()),
         })
+    }
+}
+
+/// A text input's error (it names its file and line) as a dataset error.
+fn text_error(file: &Path, e: skin_core::Error) -> DatasetError {
+    match e {
+        skin_core::Error::Invalid { path, place, message } => DatasetError::Io {
+            path,
+            message: format!("{place}: {message}"),
+        },
+        skin_core::Error::Io { path, source } => DatasetError::Io {
+            path,
+            message: source.to_string(),
+        },
+        e => DatasetError::Io {
+            path: file.to_owned(),
+            message: e.to_string(),
+        },
     }
 }
 

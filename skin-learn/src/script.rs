@@ -27,7 +27,9 @@
 //! ```
 
 use skin_core::format::excerpt;
+use skin_core::text::{Gzip, Input, Lines};
 use skin_core::{Error, Result};
+use std::io::BufRead;
 use std::path::Path;
 
 /// One touch of the script.
@@ -71,19 +73,26 @@ pub struct Score {
 }
 
 impl Script {
-    /// Reads a script file.
+    /// Reads a script file, line by line (gzip-compressed too).
     pub fn read(path: &Path) -> Result<Script> {
-        Script::parse(&skin_core::format::read_text(path)?, path)
+        Script::from_reader(Input::open(path, Gzip::Read)?, path)
     }
 
     /// Parses a script; `path` names it in errors. Times must be finite, and no touch may end
     /// before it starts.
     pub fn parse(text: &str, path: &Path) -> Result<Script> {
+        Script::from_reader(text.as_bytes(), path)
+    }
+
+    /// Reads a script from any text input, line by line; `path` names it in errors.
+    pub fn from_reader(reader: impl BufRead, path: &Path) -> Result<Script> {
         let mut touches = Vec::new();
-        for (n, line) in text.lines().enumerate() {
+        let mut lines = Lines::new(reader, path);
+        while let Some(line) = lines.next_line()? {
             if line.trim().is_empty() || line.starts_with('#') {
                 continue;
             }
+            let n = line.number() - 1;
             let f: Vec<&str> = line.split('\t').map(str::trim).collect();
             let place = |field: usize| format!("line {} field {}", n + 1, field + 1);
             let time = |i: usize, what: &str| -> Result<f64> {

@@ -77,6 +77,24 @@ pub enum SceneError {
     },
 }
 
+/// The text of a scene or URDF file, as every file read whole is read
+/// ([`skin_core::format::read_text`]: bounded, byte-order mark skipped, encodings named).
+fn read_text(path: &Path) -> Result<String, SceneError> {
+    skin_core::format::read_text(path).map_err(|e| match e {
+        skin_core::Error::Io { path, source } => SceneError::Io { path, source },
+        skin_core::Error::Invalid { path, place, message } => SceneError::Field {
+            origin: path.display().to_string(),
+            field: place,
+            why: message,
+        },
+        e => SceneError::Field {
+            origin: path.display().to_string(),
+            field: "file".into(),
+            why: e.to_string(),
+        },
+    })
+}
+
 /// An obstacle, padding included.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -213,10 +231,7 @@ pub struct Scene {
 impl Scene {
     /// Reads and checks a scene file.
     pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-            path: path.into(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let mut scene = Scene::parse(&text, &path.display().to_string())?;
         scene.origin = Some(path.into());
         Ok(scene)
@@ -253,10 +268,7 @@ impl Scene {
                     Some(o) if p.is_relative() => o.parent().unwrap_or(Path::new(".")).join(p),
                     _ => p.clone(),
                 };
-                let text = std::fs::read_to_string(&path).map_err(|source| SceneError::Io {
-                    path: path.clone(),
-                    source,
-                })?;
+                let text = read_text(&path)?;
                 Ok((text, path.display().to_string()))
             }
         }

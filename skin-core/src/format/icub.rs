@@ -8,9 +8,11 @@
 //! Several slots can carry the same position (the files give some taxels their module's position).
 //! [`Duplicates`] says what to do with them; either way the rows are reported.
 
-use super::{make_taxel, read_text};
+use super::make_taxel;
+use crate::text::{Gzip, Input, Lines};
 use crate::{Error, LinkSkin, Result, TaxelId};
 use std::collections::HashMap;
+use std::io::BufRead;
 use std::path::Path;
 
 /// What to do with taxels whose position repeats an earlier one.
@@ -83,21 +85,28 @@ impl IcubPositions {
     }
 }
 
-/// Reads an iCub taxel file.
+/// Reads an iCub taxel file, line by line (a compressed file is refused with the command that
+/// decompresses it).
 pub fn read(path: &Path, duplicates: Duplicates) -> Result<IcubPositions> {
-    parse(&read_text(path)?, path, duplicates)
+    from_reader(Input::open(path, Gzip::Refuse)?, path, duplicates)
 }
 
 /// Parses an iCub taxel file; `path` is used in error messages.
 pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPositions> {
+    from_reader(text.as_bytes(), path, duplicates)
+}
+
+/// Reads an iCub taxel file from any text input, line by line; `path` is used in error messages.
+pub fn from_reader(reader: impl BufRead, path: &Path, duplicates: Duplicates) -> Result<IcubPositions> {
+    let mut lines = Lines::new(reader, path);
     let mut name = String::new();
     let mut rows: Vec<(usize, [f64; 6])> = Vec::new();
     let mut in_calibration = false;
     // `taxel2Repr ( r0 r1 ... )`: each slot's representative taxel, negative for a slot that is
     // no taxel (-1 unused, -2 a thermal pad).
     let (mut in_repr, mut repr_text) = (false, String::new());
-    for (i, line) in text.lines().enumerate() {
-        let lineno = i + 1;
+    while let Some(line) = lines.next_line()? {
+        let lineno = line.number();
         let trimmed = line.trim();
         if trimmed.is_empty() || trimmed.starts_with('#') || trimmed.starts_with("//") {
             continue;

@@ -213,18 +213,18 @@ pub fn load_link(path: &Path) -> Result<Noted<LinkSkin>> {
             .ok_or_else(|| Error::invalid(path, "robot", "no tactile sensor"))?;
         return Ok(Noted { value: link, notes });
     }
-    let text = read_text(path)?;
     let is_txt = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("txt") || e.eq_ignore_ascii_case("ini"));
     if is_txt {
-        let read = icub::parse(&text, path, icub::Duplicates::Merge)?;
+        let read = icub::read(path, icub::Duplicates::Merge)?;
         let notes = read.notes(path);
         return Ok(Noted {
             value: read.skin,
             notes,
         });
     }
+    let text = read_text(path)?;
     let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::json(path, &e))?;
     if value.get("skin").is_some() {
         cyskin::from_value(value, path)
@@ -272,9 +272,12 @@ pub(crate) fn locate<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// The text of the file at `path`, an [`Error::Io`] naming it if it cannot be read.
+/// The text of the file at `path`, read whole: refused past
+/// [`MAX_DOCUMENT_BYTES`](crate::text::MAX_DOCUMENT_BYTES) before it is read; a byte-order mark
+/// skipped; compressed, UTF-16, binary and non-UTF-8 files refused with the line and the fix
+/// ([`crate::text::read_document`]). An error names the file.
 pub fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+    crate::text::read_document(path, crate::text::MAX_DOCUMENT_BYTES)
 }
 
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {

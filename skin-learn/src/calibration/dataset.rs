@@ -17,9 +17,11 @@
 use nalgebra::Point3;
 use skin_core::format::recording::MAX_READING;
 use skin_core::format::{MAX_POSITION_M, excerpt};
+use skin_core::text::{Gzip, Input, Lines};
 use skin_core::{Error, Result, TaxelId};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+use std::io::BufRead;
 use std::path::Path;
 
 /// The header line of the CSV form.
@@ -56,32 +58,42 @@ pub struct TaxelSamples {
 }
 
 impl ProbeDataset {
-    /// Reads the CSV form.
+    /// Reads the CSV form, line by line (gzip-compressed too).
     pub fn read(path: &Path) -> Result<ProbeDataset> {
-        Self::parse(&skin_core::format::read_text(path)?, path)
+        Self::from_reader(Input::open(path, Gzip::Read)?, path)
     }
 
     /// Parses the CSV form; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<ProbeDataset> {
-        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        match lines.next() {
-            Some((_, header)) if header.trim() == CSV_HEADER => {}
-            Some((i, header)) => {
-                return Err(Error::invalid(
-                    path,
-                    format!("line {}", i + 1),
-                    format!(
-                        "header is \"{}\", expected \"{CSV_HEADER}\"",
-                        excerpt(header.trim())
-                    ),
-                ));
-            }
-            None => return Err(Error::invalid(path, "line 1", "empty file; expected the header")),
-        }
+        Self::from_reader(text.as_bytes(), path)
+    }
+
+    /// Reads the CSV form from any text input, line by line; `path` names it in errors.
+    pub fn from_reader(reader: impl BufRead, path: &Path) -> Result<ProbeDataset> {
+        let mut lines = Lines::new(reader, path);
         let mut dataset = ProbeDataset::default();
         let mut index: BTreeMap<u64, usize> = BTreeMap::new();
         let mut answered: std::collections::HashSet<(u64, u32)> = std::collections::HashSet::new();
-        for (i, line) in lines {
+        let mut header = false;
+        while let Some(line) = lines.next_line()? {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let i = line.number() - 1;
+            if !header {
+                if line.trim() != CSV_HEADER {
+                    return Err(Error::invalid(
+                        path,
+                        format!("line {}", i + 1),
+                        format!(
+                            "header is \"{}\", expected \"{CSV_HEADER}\"",
+                            excerpt(line.trim())
+                        ),
+                    ));
+                }
+                header = true;
+                continue;
+            }
             let place = |field: &str| format!("line {}, field {field}", i + 1);
             let cells: Vec<&str> = line.split(',').map(str::trim).collect();
             if cells.len() != 6 {
@@ -154,6 +166,9 @@ impl ProbeDataset {
                 ));
             }
             c.responses.push((TaxelId(taxel), response));
+        }
+        if !header {
+            return Err(Error::invalid(path, "line 1", "empty file; expected the header"));
         }
         Ok(dataset)
     }

@@ -41,9 +41,10 @@ use crate::classify::{Classifier, InputScale, ModelError};
 use crate::script::Script;
 use crate::segment::Segmenter;
 use crate::touch::{Decision, Footprint, TouchError, TouchEvent, TouchPipeline};
-use skin_can::candump::CandumpLog;
+use skin_can::candump::{CanSource, IntoCanSource};
 use skin_can::{AssembledFrame, Assembler, AssemblyStats, BusMap, CounterReset, LayoutFrames, Missing};
 use skin_control::hri::{ClassGate, GateAction, TouchClass};
+use skin_core::format::recording::{IntoRecordingSource, RecordingSource};
 use skin_core::{
     Baseline, BaselineLearner, BaselineOptions, Columns, LinkSkin, Polarity, Recording, TaxelHealth,
 };
@@ -725,27 +726,36 @@ impl Session {
         .map_err(SessionError::Sink)
     }
 
-    /// A whole raw recording (Cyskin's `ids / index time counts...` form; `path` names it in
-    /// errors) through the session, then [`Session::finish`]. Each link reads its taxels'
-    /// columns by id: a taxel the recording has no column for reads 0 and is dead (its count,
-    /// with the columns that are no taxel of the layout, goes to the summary). Frame times are
-    /// the recording's; frames are numbered by the recording's frame numbers. Returns the
-    /// recording's span, seconds.
+    /// A raw recording (Cyskin's `ids / index time counts...` form; `path` names it in errors)
+    /// through the session one frame at a time, then [`Session::finish`]: a
+    /// [`RecordingReader`](skin_core::format::recording::RecordingReader) on a file of any
+    /// length, or a whole [`Recording`] by reference. Each link reads its taxels' columns by id:
+    /// a taxel the recording has no column for reads 0 and is dead (its count, with the columns
+    /// that are no taxel of the layout, goes to the summary). Frame times are the recording's;
+    /// frames are numbered by the recording's frame numbers. Events reach the sink as the frames
+    /// are read: a fault further down the file fails the run after them. Returns the recording's
+    /// span, seconds.
     pub fn run_recording(
         &mut self,
-        rec: &Recording,
+        rec: impl IntoRecordingSource,
         path: &Path,
         sink: &mut dyn Sink,
     ) -> Result<f64, SessionError> {
-        let columns: Vec<Columns> = self.links.iter().map(|l| rec.columns(&l.ids())).collect();
+        let mut rec = rec.into_recording_source();
+        // The header is all that matching columns to taxels needs.
+        let header = Recording {
+            taxel_ids: rec.taxel_ids().to_vec(),
+            ..Recording::default()
+        };
+        let columns: Vec<Columns> = self.links.iter().map(|l| header.columns(&l.ids())).collect();
         // The whole skin at once: a column of one link is not "ignored" by another.
         let all: Vec<skin_core::TaxelId> = self.links.iter().flat_map(LinkSkin::ids).collect();
-        let whole = rec.columns(&all);
+        let whole = header.columns(&all);
         if whole.missing.len() == all.len() {
             return Err(SessionError::NotRecorded {
                 recording: path.to_owned(),
                 taxels: all.len(),
-                columns: rec.taxel_ids.len(),
+                columns: header.taxel_ids.len(),
             });
         }
         self.notes.clear();
@@ -768,79 +778,159 @@ impl Session {
             self.pipeline.set_dead(k, &c.dead())?;
         }
         let mut raw: Vec<Vec<f32>> = self.links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
-        let t0 = rec.frames.first().map_or(0.0, |f| f.time);
-        for (k, frame) in rec.frames.iter().enumerate() {
+        let (mut first, mut last) = (None, 0.0);
+        while let Some(frame) = rec.next_frame()? {
             for (r, c) in raw.iter_mut().zip(&columns) {
-                c.gather(&frame.values, f32::NEG_INFINITY, r);
+                c.gather(frame.values, f32::NEG_INFINITY, r);
             }
             // Times count from the first frame; a recording's times only go forward.
+            let t0 = *first.get_or_insert(frame.time);
+            last = frame.time;
             let time_us = ((frame.time - t0).max(0.0) * 1e6).round() as u64;
-            let cycle = rec.frame_numbers.get(k).copied().unwrap_or(k as u64);
+            let cycle = frame.number;
             self.push(time_us, cycle, &raw, sink)?;
         }
         self.finish(sink)?;
-        Ok(match (rec.frames.first(), rec.frames.last()) {
-            (Some(a), Some(b)) => (b.time - a.time).max(0.0),
-            _ => 0.0,
-        })
+        Ok(first.map_or(0.0, |t0| (last - t0).max(0.0)))
     }
 
-    /// A whole candump log (`path` names it in errors) through the session, then
-    /// [`Session::finish`]; `progress(done, total)` is called every 4,096 CAN frames. Returns the
-    /// log's span, seconds.
-    pub fn run_log(
+    /// A candump log (`path` names it in errors) through the session one CAN frame at a time,
+    /// then [`Session::finish`]: a [`CandumpReader`](skin_can::candump::CandumpReader) on a file
+    /// of any length (memory does not grow with the log), a whole
+    /// [`CandumpLog`](skin_can::candump::CandumpLog) by reference, or any other [`CanSource`].
+    /// `progress(frames, bytes)` is called every 4,096 CAN frames with the frames read so far and
+    /// the bytes of text they took ([`CanSource::bytes_read`]). Events reach the sink as the
+    /// frames are read: a fault further down the log fails the run after them. A log that is
+    /// empty, that has none of the bus map's interfaces or that gives no frame of this skin is
+    /// an error naming it, found when the log ends. Returns the log's span, seconds.
+    pub fn run_log<L: IntoCanSource>(
         &mut self,
-        log: &CandumpLog,
+        log: L,
         path: &Path,
         sink: &mut dyn Sink,
-        progress: &mut dyn FnMut(usize, usize),
+        progress: &mut dyn FnMut(u64, u64),
     ) -> Result<f64, SessionError> {
+        let mut log = log.into_can_source();
+        let empty = |log: &<L as IntoCanSource>::Source| {
+            let message = match log.error_frames() {
+                0 => "no CAN frames in it (an empty log)".to_string(),
+                n => {
+                    format!("no CAN frames but {n} error frame(s): a log of bus errors, without skin traffic")
+                }
+            };
+            SessionError::from(skin_can::Error::Invalid {
+                path: path.to_owned(),
+                message,
+            })
+        };
         let Some(can) = &self.can else {
-            return Err(SessionError::NoBusMap);
+            // An empty log is named as such, before the bus map's absence.
+            if log.next_frame()?.is_none() {
+                return Err(empty(&log));
+            }
+            let whose = if self.source == Path::new("frames") {
+                "the session has none (Session::with_can)".to_string()
+            } else {
+                format!(
+                    "{} names none: add busmap = \"FILE.toml\" to it",
+                    self.source.display()
+                )
+            };
+            return Err(skin_can::Error::Invalid {
+                path: path.to_owned(),
+                message: format!(
+                    "a candump log needs a bus map (which taxel each CAN slot carries), and {whose}"
+                ),
+            }
+            .into());
         };
         let busmap = can.busmap.clone();
-        if !can.interfaces.iter().any(|i| log.interfaces.contains(i)) {
-            return Err(SessionError::OtherBuses {
-                log: path.to_owned(),
-                on_map: can.interfaces.clone(),
-                in_log: log.interfaces.clone(),
-            });
-        }
-        let mut assembler = Assembler::for_map(&busmap, &log.interfaces, skin_can::DEFAULT_WINDOW_US);
+        let on_map = can.interfaces.clone();
+        // Interfaces are added to the assembler as the log names them.
+        let mut assembler = Assembler::for_map(&busmap, &[], skin_can::DEFAULT_WINDOW_US);
         let mut error = None;
         let started = Instant::now();
         let mut inside = Duration::ZERO;
-        for (k, frame) in log.frames.iter().enumerate() {
-            assembler.push(frame, &mut |a| {
+        let (mut count, mut first_us, mut last_us) = (0usize, 0u64, 0u64);
+        // Frames are read a batch at a time, then assembled: reading and assembling each keep
+        // their own code and data hot (bounded: BATCH frames).
+        const BATCH: usize = 256;
+        let mut batch: Vec<skin_can::candump::CanFrame> = Vec::with_capacity(BATCH);
+        let mut ended = false;
+        while !ended && error.is_none() {
+            batch.clear();
+            while batch.len() < BATCH {
+                match log.next_frame() {
+                    Ok(Some(frame)) => batch.push(frame),
+                    Ok(None) => {
+                        ended = true;
+                        break;
+                    }
+                    Err(e) => {
+                        error = Some(e.into());
+                        ended = true;
+                        break;
+                    }
+                }
+            }
+            let named = log.interfaces();
+            if named.len() > assembler.interfaces() {
+                for name in &named[assembler.interfaces()..] {
+                    assembler.add_interface(name);
+                }
+            }
+            let read_error = error.take();
+            for frame in &batch {
+                if count == 0 {
+                    first_us = frame.time_us;
+                }
+                last_us = frame.time_us;
+                assembler.push(frame, &mut |a| {
+                    if error.is_none() {
+                        let t = Instant::now();
+                        error = self.push_can(a, sink).err();
+                        inside += t.elapsed();
+                    }
+                });
                 if error.is_none() {
-                    let t = Instant::now();
+                    error = self.note_resets(assembler.stats(), sink).err();
+                }
+                if error.is_some() {
+                    break;
+                }
+                if count % 4096 == 0 {
+                    progress(count as u64, log.bytes_read());
+                }
+                count += 1;
+            }
+            error = error.or(read_error);
+        }
+        if error.is_none() {
+            assembler.finish(&mut |a| {
+                if error.is_none() {
                     error = self.push_can(a, sink).err();
-                    inside += t.elapsed();
                 }
             });
-            if error.is_none() {
-                error = self.note_resets(assembler.stats(), sink).err();
-            }
-            if error.is_some() {
-                break;
-            }
-            if k % 4096 == 0 {
-                progress(k, log.frames.len());
-            }
         }
-        assembler.finish(&mut |a| {
-            if error.is_none() {
-                error = self.push_can(a, sink).err();
-            }
-        });
         self.stage.assemble += started.elapsed().saturating_sub(inside);
         if let Some(e) = error {
             return Err(e);
         }
+        if count == 0 {
+            return Err(empty(&log));
+        }
+        let in_log = log.interfaces();
+        if !on_map.iter().any(|i| in_log.contains(i)) {
+            return Err(SessionError::OtherBuses {
+                log: path.to_owned(),
+                on_map,
+                in_log: in_log.to_vec(),
+            });
+        }
         let s = assembler.stats();
         self.notes.clear();
         for (n, what) in [
-            (log.error_frames as u64, "CAN error frames in the log, skipped"),
+            (log.error_frames() as u64, "CAN error frames in the log, skipped"),
             (s.remote, "remote requests, skipped"),
             (
                 s.time_backwards,
@@ -856,7 +946,7 @@ impl Session {
             return Err(SessionError::NotThisSkin {
                 log: path.to_owned(),
                 frames: s.frames,
-                can_frames: log.frames.len(),
+                can_frames: count,
                 unknown: s.unknown_module,
                 malformed: s.malformed.iter().map(|(_, n)| n).sum(),
                 format: busmap.format.name(),
@@ -864,10 +954,7 @@ impl Session {
             });
         }
         self.finish(sink)?;
-        Ok(match (log.frames.first(), log.frames.last()) {
-            (Some(a), Some(b)) => b.time_us.saturating_sub(a.time_us) as f64 * 1e-6,
-            _ => 0.0,
-        })
+        Ok(last_us.saturating_sub(first_us) as f64 * 1e-6)
     }
 
     /// Seconds from the first frame (whose stamp the sink is told).
