@@ -45,6 +45,7 @@ mod contact_peaks;
 mod error;
 pub mod format;
 mod frame;
+pub mod image;
 mod layout;
 pub mod normals;
 pub mod output;
