@@ -117,7 +117,7 @@ impl McapOutlet {
             .map_err(&err)?;
         let mut schemas: BTreeMap<&str, u16> = BTreeMap::new();
         let mut channels = Vec::with_capacity(topics.list.len());
-        for topic in &topics.list {
+        for (k, topic) in topics.list.iter().enumerate() {
             let ty = topic.type_name;
             let schema = match schemas.get(ty) {
                 Some(&id) => id,
@@ -130,7 +130,10 @@ impl McapOutlet {
             };
             let hash = interfaces.type_hash(ty).ok_or(RosError::UnknownType(ty))?;
             let metadata = BTreeMap::from([
-                ("offered_qos_profiles".to_owned(), offered_qos_yaml()),
+                (
+                    "offered_qos_profiles".to_owned(),
+                    offered_qos_yaml(k == topics.events),
+                ),
                 ("topic_type_hash".to_owned(), hash),
             ]);
             channels.push(

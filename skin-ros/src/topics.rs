@@ -196,15 +196,21 @@ impl Topics {
     }
 }
 
-/// The QoS every topic is offered with: reliable (RViz's image display subscribes reliable),
-/// volatile, keep last 10.
+/// The depth of the frame topics' history: reliable (RViz's image display subscribes reliable),
+/// volatile, keep last 10. The events topic keeps all (see [`offered_qos_yaml`]).
 pub const QOS_DEPTH: u32 = 10;
 
-/// rosbag2's `offered_qos_profiles` channel metadata for that QoS (YAML, as rosbag2 of Jazzy
-/// writes it; zero durations are the defaults).
-pub fn offered_qos_yaml() -> String {
+/// rosbag2's `offered_qos_profiles` channel metadata (YAML, as rosbag2 of Jazzy writes it; zero
+/// durations are the defaults): reliable and volatile for every topic, keep-all history for the
+/// events (`keep_all`, as the live publisher offers them: an event is never dropped) and keep
+/// last [`QOS_DEPTH`] for the frame topics. `ros2 bag play` offers the same QoS again.
+pub fn offered_qos_yaml(keep_all: bool) -> String {
+    let (history, depth) = match keep_all {
+        true => ("keep_all", 0),
+        false => ("keep_last", QOS_DEPTH),
+    };
     format!(
-        "- history: keep_last\n  depth: {QOS_DEPTH}\n  reliability: reliable\n  durability: volatile\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false\n"
+        "- history: {history}\n  depth: {depth}\n  reliability: reliable\n  durability: volatile\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false\n"
     )
 }
 
@@ -221,6 +227,14 @@ mod tests {
         assert_eq!(topic_token("__a__b__"), "a_b");
         assert_eq!(topic_token("ёж"), "link");
         assert_eq!(topic_token(""), "link");
+    }
+
+    #[test]
+    fn events_are_offered_keep_all_and_frames_keep_last() {
+        let events = offered_qos_yaml(true);
+        assert!(events.starts_with("- history: keep_all\n  depth: 0\n  reliability: reliable\n"));
+        let frames = offered_qos_yaml(false);
+        assert!(frames.starts_with("- history: keep_last\n  depth: 10\n  reliability: reliable\n"));
     }
 
     #[test]

@@ -36,6 +36,10 @@ def main():
             qos = channel.metadata.get('offered_qos_profiles', '')
             if 'reliability:' not in qos or 'history:' not in qos:
                 problems.append(f'{channel.topic}: no offered_qos_profiles')
+            # Events are offered keep-all (never dropped), the frame topics keep-last.
+            history = 'keep_all' if channel.topic.endswith('/events') else 'keep_last'
+            if f'history: {history}' not in qos:
+                problems.append(f'{channel.topic}: offered QoS is not {history}')
             if channel.metadata.get('topic_type_hash') != store.hash_rihs01(schema.name):
                 problems.append(f'{channel.topic}: type hash differs from rosbags')
         counts = Counter()
