@@ -269,7 +269,7 @@ impl<R: BufRead> CandumpReader<R> {
                     return Err(Error::Line {
                         path: line.path().to_owned(),
                         line: line.number(),
-                        message,
+                        message: line.explain(message),
                     });
                 }
             }

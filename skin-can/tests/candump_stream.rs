@@ -159,6 +159,30 @@ fn a_log_cut_short_by_a_crash_names_the_lines_to_keep() {
 }
 
 #[test]
+fn a_log_copied_while_candump_wrote_it_names_the_lines_to_keep() {
+    let log = session_log().into_bytes();
+    // Cut inside a frame's data: the last line has no line end and odd hex digits.
+    let cut = 10_000 + log[10_000..].iter().position(|&b| b == b'#').unwrap() + 2;
+    let lines = log[..cut].iter().filter(|&&b| b == b'\n').count();
+    let e = CandumpReader::new(&log[..cut], Path::new("live.log"))
+        .into_log()
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with(&format!("live.log: line {}: ", lines + 1)), "{e}");
+    assert!(e.contains("ends in the middle of this line"), "{e}");
+    assert!(
+        e.contains(&format!("head -n {lines} 'live.log' > 'live.head.log'")),
+        "{e}"
+    );
+    // A whole last line without its line end reads as any other.
+    let end = log[..cut].iter().rposition(|&b| b == b'\n').unwrap();
+    let read = CandumpReader::new(&log[..end], Path::new("whole.log"))
+        .into_log()
+        .unwrap();
+    assert_eq!(read.frames.len(), lines);
+}
+
+#[test]
 fn a_long_log_is_read_one_frame_at_a_time() {
     // 40 copies of the session: 220 MB that is never made whole.
     let long = long_log::RepeatedLog::new(&session_log(), 40);

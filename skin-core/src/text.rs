@@ -508,6 +508,7 @@ impl<R: BufRead> Lines<R> {
                     text,
                     number,
                     path: &self.path,
+                    unfinished: false,
                 })),
                 Err(e) => {
                     let at = e.valid_up_to();
@@ -570,6 +571,7 @@ impl<R: BufRead> Lines<R> {
                 text,
                 number,
                 path: &self.path,
+                unfinished: !terminated,
             })),
             Err(e) => {
                 let at = e.valid_up_to();
@@ -586,6 +588,7 @@ pub struct Line<'a> {
     text: &'a str,
     number: usize,
     path: &'a Path,
+    unfinished: bool,
 }
 
 impl<'a> Line<'a> {
@@ -602,6 +605,28 @@ impl<'a> Line<'a> {
     /// The file it is a line of.
     pub fn path(&self) -> &'a Path {
         self.path
+    }
+
+    /// Whether the input ends in this line without a line end. A last line without one reads
+    /// as any other; but when it does not parse, the file was most likely cut short (copied
+    /// while a logger was still writing it), which [`Line::explain`] says.
+    pub fn unfinished(&self) -> bool {
+        self.unfinished
+    }
+
+    /// `message` (why this line does not parse), with, for an [unfinished](Line::unfinished)
+    /// last line, what that most likely means and the command that keeps the lines before it.
+    pub fn explain(&self, message: String) -> String {
+        match self.unfinished && self.number > 1 {
+            false => message,
+            true => format!(
+                "{message}; the file ends in the middle of this line (no line end after it), as a file copied while it was still written does: keep the {} line(s) before it (head -n {} '{}' > '{}')",
+                self.number - 1,
+                self.number - 1,
+                self.path.display(),
+                converted_as(self.path, "head").display()
+            ),
+        }
     }
 }
 

@@ -161,6 +161,41 @@ fn a_truncated_gzip_recording_is_named_with_its_line() {
 }
 
 #[test]
+fn a_recording_copied_while_it_was_written_names_the_lines_to_keep() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = fixture("forearm/touches.txt");
+    // Cut in the middle of a frame's line: the last line has no line end and too few values.
+    let cut = whole.len() / 2;
+    let cut = cut + whole[cut..].iter().position(|&b| b == b' ').unwrap();
+    let lines = whole[..cut].iter().filter(|&&b| b == b'\n').count();
+    let p = write(dir.path(), "live.txt", &whole[..cut]);
+    let e = message(recording::read(&p));
+    assert!(
+        e.contains(&format!("live.txt: line {}: expected", lines + 1)),
+        "{e}"
+    );
+    assert!(e.contains("ends in the middle of this line"), "{e}");
+    let head = dir.path().join("live.head.txt");
+    assert!(
+        e.contains(&format!(
+            "head -n {lines} '{}' > '{}'",
+            p.display(),
+            head.display()
+        )),
+        "{e}"
+    );
+    // A whole last line without its line end reads as any other.
+    let end = whole[..cut].iter().rposition(|&b| b == b'\n').unwrap();
+    let p = write(dir.path(), "whole.txt", &whole[..end]);
+    assert_eq!(recording::read(&p).unwrap().frames.len(), lines - 1);
+    // A bad line that has its line end is not said to be cut short.
+    let mut bad = whole[..end].to_vec();
+    bad.extend_from_slice(b"\n1 2 3\n");
+    let e = message(recording::read(&write(dir.path(), "bad.txt", &bad)));
+    assert!(e.contains("expected") && !e.contains("middle"), "{e}");
+}
+
+#[test]
 fn other_compressed_formats_are_named_with_the_command() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "r.txt.xz", b"\xfd7zXZ\x00\x00\x04\xe6\xd6\xb4\x46");

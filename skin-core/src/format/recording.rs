@@ -209,7 +209,6 @@ impl<R: BufRead> RecordingReader<R> {
 
     /// The next frame; `None` at the end of the file. An error names the line and field.
     pub fn next_frame(&mut self) -> Result<Option<RecordedFrame<'_>>> {
-        let n = self.taxel_ids.len();
         let line = loop {
             match self.lines.next_line()? {
                 Some(l) if l.trim().is_empty() => continue,
@@ -217,60 +216,15 @@ impl<R: BufRead> RecordingReader<R> {
                 None => return Ok(None),
             }
         };
-        let (lineno, path, line) = (line.number(), line.path(), line.text());
-        let count = line.split_whitespace().count();
-        if count != n + 2 {
-            return Err(Error::invalid(
+        let (number, time) = parse_frame(&line, &self.taxel_ids, &mut self.values).map_err(|e| match e {
+            // A last line cut short says so, with the command that keeps the lines before.
+            Error::Invalid { path, place, message } => Error::Invalid {
                 path,
-                format!("line {lineno}"),
-                format!(
-                    "expected {} values (frame number, time, {n} readings), found {count}",
-                    n + 2
-                ),
-            ));
-        }
-        let mut fields = line.split_whitespace();
-        let number_field = fields.next().unwrap_or_default();
-        let number: u64 = number_field.parse().map_err(|_| {
-            Error::invalid(
-                path,
-                format!("line {lineno} field 1"),
-                format!(
-                    "frame number \"{}\" is not an integer",
-                    super::excerpt(number_field)
-                ),
-            )
+                place,
+                message: line.explain(message),
+            },
+            e => e,
         })?;
-        let time_field = fields.next().unwrap_or_default();
-        let time: f64 = time_field
-            .parse()
-            .ok()
-            .filter(|t: &f64| t.is_finite())
-            .ok_or_else(|| {
-                Error::invalid(
-                    path,
-                    format!("line {lineno} field 2"),
-                    format!("time \"{}\" is not a finite number", super::excerpt(time_field)),
-                )
-            })?;
-        self.values.clear();
-        for (k, field) in fields.enumerate() {
-            let v: f32 = field
-                .parse()
-                .ok()
-                .filter(|v: &f32| v.is_finite() && v.abs() <= MAX_READING)
-                .ok_or_else(|| {
-                    Error::invalid(
-                        path,
-                        format!("line {lineno} field {} (taxel {})", k + 3, self.taxel_ids[k]),
-                        format!(
-                            "reading \"{}\" is not a finite number within ±{MAX_READING:e} counts",
-                            super::excerpt(field)
-                        ),
-                    )
-                })?;
-            self.values.push(v);
-        }
         self.frames += 1;
         Ok(Some(RecordedFrame {
             number,
@@ -295,6 +249,71 @@ impl<R: BufRead> RecordingReader<R> {
         }
         Ok(rec)
     }
+}
+
+/// The frame number, time and readings (into `values`) of one line of a recording of
+/// `taxel_ids`; an error names the line and the field.
+fn parse_frame(
+    line: &crate::text::Line<'_>,
+    taxel_ids: &[TaxelId],
+    values: &mut Vec<f32>,
+) -> Result<(u64, f64)> {
+    let n = taxel_ids.len();
+    let (lineno, path, line) = (line.number(), line.path(), line.text());
+    let count = line.split_whitespace().count();
+    if count != n + 2 {
+        return Err(Error::invalid(
+            path,
+            format!("line {lineno}"),
+            format!(
+                "expected {} values (frame number, time, {n} readings), found {count}",
+                n + 2
+            ),
+        ));
+    }
+    let mut fields = line.split_whitespace();
+    let number_field = fields.next().unwrap_or_default();
+    let number: u64 = number_field.parse().map_err(|_| {
+        Error::invalid(
+            path,
+            format!("line {lineno} field 1"),
+            format!(
+                "frame number \"{}\" is not an integer",
+                super::excerpt(number_field)
+            ),
+        )
+    })?;
+    let time_field = fields.next().unwrap_or_default();
+    let time: f64 = time_field
+        .parse()
+        .ok()
+        .filter(|t: &f64| t.is_finite())
+        .ok_or_else(|| {
+            Error::invalid(
+                path,
+                format!("line {lineno} field 2"),
+                format!("time \"{}\" is not a finite number", super::excerpt(time_field)),
+            )
+        })?;
+    values.clear();
+    for (k, field) in fields.enumerate() {
+        let v: f32 = field
+            .parse()
+            .ok()
+            .filter(|v: &f32| v.is_finite() && v.abs() <= MAX_READING)
+            .ok_or_else(|| {
+                Error::invalid(
+                    path,
+                    format!("line {lineno} field {} (taxel {})", k + 3, taxel_ids[k]),
+                    format!(
+                        "reading \"{}\" is not a finite number within ±{MAX_READING:e} counts",
+                        super::excerpt(field)
+                    ),
+                )
+            })?;
+        values.push(v);
+    }
+    Ok((number, time))
 }
 
 impl<R: BufRead> RecordingSource for RecordingReader<R> {
