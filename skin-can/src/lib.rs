@@ -28,7 +28,9 @@
 //! Live input goes through [`live::Acquisition`]: a reader thread per interface, the `skin16` sync
 //! sent when this side is bus master, an interface that goes down reported and reopened. Linux
 //! SocketCAN ports come with the `socketcan` feature; any other transport implements
-//! [`live::CanPort`]. A complete replay: `examples/examples/replay_can_log.rs`.
+//! [`live::CanPort`]; [`recorder`] holds the one loop of a live run and a recorder of its
+//! traffic (candump log, frames CSV, module tally); [`replay()`] runs a whole log through a bus
+//! map, a frame at a time. A complete replay: `examples/examples/replay_can_log.rs`.
 
 mod assembler;
 pub mod busmap;
@@ -37,7 +39,10 @@ pub mod decode;
 mod error;
 mod layout_frames;
 pub mod live;
+pub mod recorder;
+mod replay;
 mod tally;
+mod traffic;
 
 pub use assembler::{
     AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, FRAMES_CSV_HEADER, ModuleRef,
@@ -45,4 +50,6 @@ pub use assembler::{
 pub use busmap::{BusMap, SplitError, WireFormat};
 pub use error::{Error, Result};
 pub use layout_frames::{LayoutFrames, Missing};
+pub use replay::{Replay, replay};
 pub use tally::{ModuleTally, TallyReport};
+pub use traffic::{Traffic, TrafficError};

@@ -5,8 +5,8 @@ use anyhow::{Result, bail};
 use skin_core::format::{cyskin, native};
 use skin_core::{LinkSkin, SkinLayout};
 use skin_learn::calibration::{
-    CalibrationErrors, CalibrationOptions, ProbeDataset, ProbeSimulator, Status, calibrate,
-    convergence_curve, curve_svg,
+    CURVE_SAMPLES, CalibrationErrors, CalibrationOptions, ProbeDataset, ProbeSimulator, calibrate,
+    convergence_curve, curve_svg, curve_table,
 };
 use std::path::PathBuf;
 
@@ -190,39 +190,8 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         ..CalibrationOptions::default()
     };
     let report = calibrate(&dataset, &options);
-    let fitted = report
-        .taxels
-        .iter()
-        .filter(|t| t.status == Status::Fitted)
-        .count();
-    let samples: Vec<usize> = report.taxels.iter().map(|t| t.samples).collect();
-    crate::say!(
-        "{}: {} contacts, {} taxels answered (median {} samples per taxel): {fitted} fitted, {} flagged",
-        args.probes.display(),
-        dataset.contacts.len(),
-        report.taxels.len(),
-        median(&samples),
-        report.taxels.len() - fitted
-    );
-    for t in report.flagged().take(20) {
-        crate::say!("  taxel {}: {}", t.id, t.status);
-    }
-    if report.flagged().count() > 20 {
-        crate::say!("  ... and {} more", report.flagged().count() - 20);
-    }
-    let mut sds: Vec<f64> = report
-        .taxels
-        .iter()
-        .filter(|t| t.status == Status::Fitted)
-        .filter_map(|t| t.centre_sd_mm)
-        .collect();
-    sds.sort_by(f64::total_cmp);
-    if let (Some(mid), Some(top)) = (sds.get(sds.len() / 2), sds.last()) {
-        crate::say!(
-            "centre uncertainty of the fitted taxels (1 sd, from the fit; the contacts' own error adds to it): median {mid:.2} mm, largest {top:.2} mm"
-        );
-    }
-    if fitted == 0 {
+    crate::say!("{}", report.summary(&args.probes, dataset.contacts.len()));
+    if report.fitted() == 0 {
         bail!(
             "{}: no taxel could be calibrated; nothing written",
             args.probes.display()
@@ -251,48 +220,14 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     }
 
     if let Some(truth) = &truth {
-        let e = CalibrationErrors::compare(&report, truth);
-        crate::say!("");
-        crate::say!("              mean e    sigma     mean normal error   e max     taxels");
-        crate::say!(
-            "this dataset  {:>5.2} mm  {:>5.2} mm  {:>5.3} rad ({:>4.1} deg)  {:>5.2} mm  {}{}",
-            e.mean_mm,
-            e.std_mm,
-            e.mean_normal_rad,
-            e.mean_normal_rad.to_degrees(),
-            e.max_mm,
-            e.compared,
-            if e.missing > 0 {
-                format!(" ({} of the truth not fitted)", e.missing)
-            } else {
-                String::new()
-            }
-        );
-        crate::say!("thesis ABS     1.90 mm   0.80 mm  0.060 rad ( 3.4 deg)   4.00 mm  61 (Table 7.1)");
+        crate::say!("{}", CalibrationErrors::compare(&report, truth).table());
         if let Some(plot) = &args.plot {
-            let counts = [6, 8, 10, 12, 16, 20, 24, 32];
-            let curve = convergence_curve(&dataset, truth, &counts, 10, 1, &options);
-            crate::say!("");
-            crate::say!("samples/taxel  mean e    sigma    taxels (mean of 10 subsets)");
-            for p in &curve {
-                crate::say!(
-                    "{:>13}  {:>5.2} mm  {:>5.2} mm  {:>6.1}",
-                    p.samples,
-                    p.mean_mm,
-                    p.std_mm,
-                    p.fitted
-                );
-            }
+            let curve = convergence_curve(&dataset, truth, &CURVE_SAMPLES, 10, 1, &options);
+            crate::say!("{}", curve_table(&curve, 10));
             let title = format!("Position error vs samples per taxel ({})", args.probes.display());
             crate::output::write_file(plot, curve_svg(&curve, &title).as_bytes(), &inputs)?;
             crate::say!("wrote {}", plot.display());
         }
     }
     Ok(())
-}
-
-fn median(v: &[usize]) -> usize {
-    let mut v = v.to_vec();
-    v.sort_unstable();
-    v.get(v.len() / 2).copied().unwrap_or(0)
 }

@@ -2,13 +2,10 @@
 
 use crate::output::Inputs;
 use crate::ros_out::RosArgs;
-use anyhow::{Context, Result, bail};
-use skin_can::candump::CandumpReader;
-use skin_core::format::recording::RecordingReader;
-use skin_core::text::{Gzip, Input};
+use anyhow::{Context, Result};
+use skin_can::Traffic;
 use skin_learn::session::{Session, SessionConfig};
-use std::io::BufRead as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Convert a candump log or a raw recording into ROS 2 messages, offline, without the models:
 /// each link's pressures (PointCloud2, every frame after the baseline), the contacts
@@ -53,21 +50,7 @@ pub fn run(args: Args) -> Result<()> {
     config.truth = None;
     // One pass over the input, whatever its length: its first line tells a log from a
     // recording, then the same stream is read one frame at a time.
-    let input = Input::open(&args.input, Gzip::Read)?;
-    let input = match Kind::of(input, &args.input)? {
-        (Kind::Log, input) => Either::Log(CandumpReader::new(input, &args.input)),
-        (Kind::Other(log_error), input) => match RecordingReader::new(input, &args.input) {
-            Ok(rec) => Either::Recording(rec),
-            Err(rec_error) => match log_error {
-                Some(log_error) => bail!(
-                    "{} is neither a candump log ({log_error}) nor a raw recording ({rec_error})",
-                    args.input.display()
-                ),
-                // Not text of lines at all (binary, UTF-16, not UTF-8): the reader says which.
-                None => return Err(rec_error.into()),
-            },
-        },
-    };
+    let input = Traffic::open(&args.input)?;
     let mut session = Session::from_config(&config)?;
     for note in session.layout_notes() {
         crate::say!("{note}");
@@ -77,46 +60,9 @@ pub fn run(args: Args) -> Result<()> {
         .open(session.links(), &inputs)?
         .context("no ROS output opened")?;
     let span = match input {
-        Either::Log(log) => session.run_log(log, &args.input, &mut ros, &mut |_, _| {})?,
-        Either::Recording(rec) => session.run_recording(rec, &args.input, &mut ros)?,
+        Traffic::Log(log) => session.run_log(log, &args.input, &mut ros, &mut |_, _| {})?,
+        Traffic::Recording(rec) => session.run_recording(rec, &args.input, &mut ros)?,
     };
     crate::say!("{}", session.summary(span));
     ros.into_outlet().finish(args.ros.mcap_path())
-}
-
-/// The input, as what it turned out to be.
-enum Either {
-    Log(CandumpReader<Input>),
-    Recording(RecordingReader<Input>),
-}
-
-/// What an input's first line says it is.
-enum Kind {
-    /// A candump log.
-    Log,
-    /// Not a candump log: why (the first line's fault as a log line), when the line is text.
-    Other(Option<anyhow::Error>),
-}
-
-impl Kind {
-    /// Looks at the first non-blank line of `input` (in what it has buffered: a candump line is
-    /// far shorter than the buffer), reading nothing away from it.
-    fn of(mut input: Input, path: &Path) -> Result<(Kind, Input)> {
-        let head = input
-            .fill_buf()
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let mut first = CandumpReader::new(head, path);
-        let kind = match first.next_frame() {
-            Ok(Some(_)) => Kind::Log,
-            // Error frames only: a log, which the session names as such.
-            Ok(None) if first.error_frames() > 0 => Kind::Log,
-            Ok(None) => bail!(
-                "{}: empty file: neither a candump log nor a raw recording",
-                path.display()
-            ),
-            Err(e @ skin_can::Error::Line { .. }) => Kind::Other(Some(e.into())),
-            Err(_) => Kind::Other(None),
-        };
-        Ok((kind, input))
-    }
 }

@@ -1,11 +1,9 @@
 //! `skin live` and `skin record`: CAN interfaces -> assembled frames, a candump recording, or both.
 
 use anyhow::{Context, Result, bail};
-use skin_can::candump::{CanFrame, write_line};
-use skin_can::live::{CanPort, Live, LiveOptions};
-use skin_can::{AssembledFrame, BusMap};
-use std::fmt::Write as _;
-use std::io::Write as _;
+use skin_can::BusMap;
+use skin_can::live::LiveOptions;
+use skin_can::recorder::{Recorder, RecorderNote};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -65,24 +63,6 @@ pub struct RecordArgs {
     output: PathBuf,
 }
 
-/// Where a session's frames go.
-struct Sinks {
-    /// Candump log being written (moved into place when the session ends).
-    log: Option<crate::output::OutputFile>,
-    csv: Option<(PathBuf, String)>,
-    status: bool,
-    /// One candump line, reused for every CAN frame.
-    line: String,
-}
-
-/// What a session saw.
-#[derive(Default)]
-struct Summary {
-    can_frames: u64,
-    outages: Vec<String>,
-    tally: skin_can::ModuleTally,
-}
-
 pub fn live(args: LiveArgs) -> Result<()> {
     session(&args.common, args.record.as_deref(), args.output.as_deref(), true)
 }
@@ -109,18 +89,18 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
     {
         bail!("--duration must be a positive number of seconds, not {d}");
     }
-    let names: Vec<String> = if common.can.is_empty() {
-        map.buses.iter().map(|b| b.interface.clone()).collect()
-    } else {
-        common.can.clone()
-    };
+    let names = crate::shared::interfaces(&map, &common.can);
     let period = Duration::from_secs_f64(common.period_ms / 1000.0);
     let options = LiveOptions {
         sync_period: common.master.then_some(period),
         ..LiveOptions::default()
     };
-    let mut sinks = Sinks::new(record, csv, &map, status, &inputs)?;
-    let ports = crate::shared::open_ports(&names)?;
+    let log = match record {
+        Some(path) => Some(crate::output::OutputFile::create(path, &inputs)?),
+        None => None,
+    };
+    let mut recorder = Recorder::new(log, csv.is_some(), &map);
+    let ports = skin_can::recorder::open_system_ports(&names)?;
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     let deadline = common
@@ -136,237 +116,50 @@ fn session(common: &Common, record: Option<&Path>, csv: Option<&Path>, status: b
             String::new()
         }
     );
-    let summary = run(ports, options, &map, period, &mut sinks, || {
-        stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d)
-    })?;
-    sinks.finish(&summary, &inputs)?;
-    Ok(())
-}
-
-/// The session loop: CAN frames to the sinks, assembled frames to the tally, until `done`.
-fn run<P: CanPort>(
-    ports: Vec<P>,
-    options: LiveOptions,
-    map: &BusMap,
-    period: Duration,
-    sinks: &mut Sinks,
-    done: impl FnMut() -> bool,
-) -> Result<Summary> {
-    let mut summary = Summary::default();
-    let started = Instant::now();
-    let mut next_status = Duration::from_secs(1);
-    let mut result = Ok(());
-    let status = sinks.status;
-    let s = crate::shared::acquire(ports, options, map, period, done, &mut |step, interfaces| {
-        match step {
-            crate::shared::LiveStep::Item(item) => {
-                on_item(item, &mut summary, sinks, interfaces, &mut result)
-            }
-            crate::shared::LiveStep::Polled(s) if status && started.elapsed() >= next_status => {
-                next_status += Duration::from_secs(1);
-                crate::say!(
-                    "{:>5.0} s: {} CAN frames, {} skin frames ({} complete, {} partial)",
-                    started.elapsed().as_secs_f64(),
-                    summary.can_frames,
-                    s.frames,
-                    s.complete,
-                    s.frames - s.complete
-                );
-            }
-            crate::shared::LiveStep::Polled(_) => {}
-        }
-        result.is_ok()
-    });
-    result?;
+    let done = || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d);
+    let s = recorder
+        .run(ports, options, &map, period, done, &mut |n| say_note(n, status))
+        .with_context(|| format!("cannot write {}", record.unwrap_or(Path::new("")).display()))?;
     crate::say!(
         "{} CAN frames -> {} skin frames of {} taxels: {} complete, {} partial; {} interface outage(s)",
-        summary.can_frames,
+        recorder.can_frames,
         s.frames,
         map.taxel_ids().len(),
         s.complete,
         s.frames - s.complete,
-        summary.outages.len()
+        recorder.outages
     );
-    crate::shared::say_report(&summary.tally, map, &s);
-    Ok(summary)
+    crate::shared::say_report(&recorder.tally, &map, &s);
+    let can_frames = recorder.can_frames;
+    // The recording is renamed into place only now, so an interrupted write never leaves a
+    // truncated log under the final name.
+    let (log, table) = recorder.into_parts();
+    if let (Some(out), Some(path)) = (log, record) {
+        out.commit()?;
+        crate::say!("wrote {} ({can_frames} CAN frames)", path.display());
+    }
+    if let (Some(table), Some(path)) = (table, csv) {
+        crate::output::write_file(path, table.as_bytes(), &inputs)?;
+        crate::say!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
-/// One item of the acquisition: CAN frames to the recording, skin frames to the tally and the
-/// CSV, outages said.
-fn on_item(
-    item: Live<'_>,
-    summary: &mut Summary,
-    sinks: &mut Sinks,
-    interfaces: &[String],
-    result: &mut Result<()>,
-) {
-    match item {
-        Live::Can(f) => {
-            summary.can_frames += 1;
-            if result.is_ok() {
-                *result = sinks.frame(f, interfaces);
-            }
-        }
-        Live::Frame(a) => {
-            summary.tally.add(a);
-            sinks.assembled(a);
-        }
-        Live::Down { interface, error } => {
-            let line = format!("{interface}: {error}; reopening");
-            crate::say!("{line}");
-            summary.outages.push(line);
-        }
-        Live::Reopened { interface } => crate::say!("{interface}: open again"),
-    }
-}
-
-impl Sinks {
-    fn new(
-        record: Option<&Path>,
-        csv: Option<&Path>,
-        map: &BusMap,
-        status: bool,
-        inputs: &crate::output::Inputs,
-    ) -> Result<Sinks> {
-        let log = match record {
-            Some(path) => Some(crate::output::OutputFile::create(path, inputs)?),
-            None => None,
-        };
-        let csv = csv.map(|p| {
-            let mut s = String::from(skin_can::FRAMES_CSV_HEADER);
-            for id in map.taxel_ids() {
-                let _ = write!(s, ",{id}");
-            }
-            s.push('\n');
-            (p.to_owned(), s)
-        });
-        Ok(Sinks {
-            log,
-            csv,
-            status,
-            line: String::with_capacity(64),
-        })
-    }
-
-    fn frame(&mut self, f: &CanFrame, interfaces: &[String]) -> Result<()> {
-        if let Some(out) = &mut self.log {
-            self.line.clear();
-            write_line(&mut self.line, f, &interfaces[usize::from(f.bus)]);
-            out.write_all(self.line.as_bytes())
-                .with_context(|| format!("cannot write {}", out.path().display()))?;
-        }
-        Ok(())
-    }
-
-    fn assembled(&mut self, f: &AssembledFrame) {
-        if let Some((_, csv)) = &mut self.csv {
-            f.csv_row(csv);
-        }
-    }
-
-    /// Closes the recording (renamed into place only now, so an interrupted write never leaves a
-    /// truncated log under the final name) and writes the CSV.
-    fn finish(self, summary: &Summary, inputs: &crate::output::Inputs) -> Result<()> {
-        if let Some(out) = self.log {
-            let path = out.path().to_owned();
-            out.commit()?;
-            crate::say!("wrote {} ({} CAN frames)", path.display(), summary.can_frames);
-        }
-        if let Some((path, csv)) = self.csv {
-            crate::output::write_file(&path, csv.as_bytes(), inputs)?;
-            crate::say!("wrote {}", path.display());
-        }
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
-
-    use super::*;
-    use skin_can::candump::Direction;
-    use skin_can::decode::skin16::encode_module;
-    use std::collections::VecDeque;
-
-    /// A bus whose modules answer every sync sent on it.
-    struct Bus {
-        name: String,
-        modules: Vec<u32>,
-        queue: VecDeque<CanFrame>,
-    }
-
-    impl CanPort for Bus {
-        fn name(&self) -> &str {
-            &self.name
-        }
-        fn open(&mut self) -> std::io::Result<()> {
-            Ok(())
-        }
-        fn close(&mut self) {}
-        fn recv(&mut self, timeout: Duration) -> std::io::Result<Option<CanFrame>> {
-            if self.queue.is_empty() {
-                std::thread::sleep(timeout.min(Duration::from_millis(1)));
-            }
-            Ok(self.queue.pop_front())
-        }
-        fn send(&mut self, sync: &CanFrame) -> std::io::Result<()> {
-            for &a in &self.modules {
-                let readings = std::array::from_fn(|s| u16::from(sync.bytes[0]) + s as u16);
-                for mut f in encode_module(a, &readings, sync.time_us + 100, 0) {
-                    f.direction = Some(Direction::Received);
-                    self.queue.push_back(f);
-                }
-            }
-            Ok(())
-        }
-    }
-
-    /// A 2 ms sync sent by us, and a bus whose module 2 answers it.
-    fn master_and_module_2() -> (Duration, LiveOptions, Bus) {
-        let period = Duration::from_millis(2);
-        let options = LiveOptions {
-            sync_period: Some(period),
-            ..LiveOptions::default()
-        };
-        let bus = Bus {
-            name: "can0".into(),
-            modules: vec![2],
-            queue: VecDeque::new(),
-        };
-        (period, options, bus)
-    }
-
-    #[test]
-    fn a_recorded_session_replays_to_the_frames_it_assembled_live() {
-        let map = BusMap::parse(
-            "format = \"skin16\"\n[[bus]]\ninterface = \"can0\"\n[[bus.module]]\naddress = 2\ntaxels = [16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, -1]\n",
-            Path::new("m.toml"),
-        )
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let (log, csv) = (dir.path().join("s.log"), dir.path().join("live.csv"));
-        let mut sinks = Sinks::new(Some(&log), Some(&csv), &map, false, &Default::default()).unwrap();
-        let (period, options, bus) = master_and_module_2();
-        let mut calls = 0;
-        // Stop after a number of loop turns, not a time: the test must not depend on speed.
-        let summary = run(vec![bus], options, &map, period, &mut sinks, || {
-            calls += 1;
-            calls > 400
-        })
-        .unwrap();
-        assert!(!log.exists(), "the log appears only when complete");
-        sinks.finish(&summary, &Default::default()).unwrap();
-        let live_csv = std::fs::read_to_string(&csv).unwrap();
-        assert!(live_csv.lines().count() > 2, "{live_csv}");
-        // The recording replays, offline, to the same frames.
-        let recorded = skin_can::candump::CandumpLog::read(&log).unwrap();
-        let mut assembler = skin_can::Assembler::for_map(&map, &recorded.interfaces, 50_000);
-        let mut replayed = live_csv.lines().next().unwrap().to_string() + "\n";
-        for f in &recorded.frames {
-            assembler.push(f, &mut |a| a.csv_row(&mut replayed));
-        }
-        assembler.finish(&mut |a| a.csv_row(&mut replayed));
-        assert_eq!(replayed, live_csv);
+/// Says an outage, or (with `status`) the counts once a second.
+fn say_note(note: RecorderNote<'_>, status: bool) {
+    match note {
+        RecorderNote::Second {
+            elapsed_s,
+            can_frames,
+            stats: s,
+        } if status => crate::say!(
+            "{elapsed_s:>5.0} s: {can_frames} CAN frames, {} skin frames ({} complete, {} partial)",
+            s.frames,
+            s.complete,
+            s.frames - s.complete
+        ),
+        RecorderNote::Second { .. } => {}
+        RecorderNote::Down { interface, error } => crate::say!("{interface}: {error}; reopening"),
+        RecorderNote::Reopened { interface } => crate::say!("{interface}: open again"),
     }
 }

@@ -51,7 +51,7 @@ macro_rules! say {
 }
 pub(crate) use say;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory as _, FromArgMatches as _, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -89,7 +89,11 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let mut command = one_line_summaries(Cli::command());
+    let cli = command
+        .try_get_matches_from_mut(std::env::args_os())
+        .and_then(|mut matches| Cli::from_arg_matches_mut(&mut matches))
+        .unwrap_or_else(|e| e.format(&mut command).exit());
     output::install_interrupt_handler();
     let result = match cli.command {
         Command::Flatten(args) => flatten_cmd::run(args),
@@ -123,6 +127,22 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `skin --help` lists each command with the first paragraph of its description on one line
+/// (a doc comment kept verbatim would break it where the source does); `skin help CMD` and
+/// `skin CMD --help` show the whole description.
+fn one_line_summaries(command: clap::Command) -> clap::Command {
+    command.mut_subcommands(|sub| {
+        let Some(about) = sub.get_about().map(ToString::to_string) else {
+            return sub;
+        };
+        let long = sub
+            .get_long_about()
+            .map_or_else(|| about.clone(), ToString::to_string);
+        let line = about.split_whitespace().collect::<Vec<_>>().join(" ");
+        sub.about(line).long_about(long)
+    })
 }
 
 /// An error and its causes, each said once: the library errors already end their message with

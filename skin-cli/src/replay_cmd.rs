@@ -3,9 +3,8 @@
 use crate::output::OutputFile;
 use anyhow::{Context, Result, bail};
 use skin_can::FRAMES_CSV_HEADER as CSV_HEADER;
-use skin_can::ModuleTally;
 use skin_can::candump::CandumpReader;
-use skin_can::{AssembledFrame, Assembler, BusMap, WireFormat};
+use skin_can::{BusMap, WireFormat};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -124,77 +123,32 @@ pub fn run(args: Args) -> Result<()> {
         }
         None => None,
     };
-    let mut tally = ModuleTally::default();
     let window_us = (args.window_ms * 1000.0).round() as u64;
-    let mut assembler = Assembler::for_map(&map, &[], window_us);
     let mut row = String::new();
     // The first write error stops the rows (and the log).
-    let failed = std::cell::RefCell::new(None::<std::io::Error>);
-    let mut emit = |f: &AssembledFrame| {
-        tally.add(f);
-        if let Some(file) = csv.as_mut()
-            && failed.borrow().is_none()
-        {
+    let mut failed = None::<std::io::Error>;
+    let replay = skin_can::replay(&mut log, &map, window_us, &mut |f| {
+        if let Some(file) = csv.as_mut() {
             row.clear();
             f.csv_row(&mut row);
-            *failed.borrow_mut() = file.write_all(row.as_bytes()).err();
+            failed = file.write_all(row.as_bytes()).err();
         }
-    };
-    let (mut count, mut span) = (0u64, None::<(u64, u64)>);
-    while let Some(frame) = log.next_frame()? {
-        for name in &log.interfaces()[assembler.interfaces()..] {
-            assembler.add_interface(name);
-        }
-        count += 1;
-        span = Some(span.map_or((frame.time_us, frame.time_us), |(a, _)| (a, frame.time_us)));
-        assembler.push(&frame, &mut emit);
-        if failed.borrow().is_some() {
-            break;
-        }
-    }
-    assembler.finish(&mut emit);
-    if let (Some(e), Some(path)) = (failed.into_inner(), &args.output) {
+        failed.is_none()
+    })?;
+    if let (Some(e), Some(path)) = (failed, &args.output) {
         return Err(anyhow::Error::new(e).context(format!("cannot write {}", path.display())));
     }
-    let interfaces = log.interfaces();
-    if count == 0 {
-        bail!(
-            "{}: no CAN frames in it ({})",
-            args.log.display(),
-            match log.error_frames() {
-                0 => "an empty log".to_string(),
-                n => format!("{n} error frame(s): a log of bus errors, without skin traffic"),
-            }
-        );
-    }
-    let unknown: Vec<&str> = map
-        .buses
-        .iter()
-        .filter(|b| !interfaces.contains(&b.interface))
-        .map(|b| b.interface.as_str())
-        .collect();
-    if unknown.len() == map.buses.len() {
-        bail!(
-            "{}: none of the bus map's interfaces ({}) is in the log (it has {}); is it a log of this skin?",
-            args.log.display(),
-            map.buses
-                .iter()
-                .map(|b| b.interface.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
-            interfaces.join(", ")
-        );
-    }
-    let s = assembler.stats();
-    let span = span.map_or(0.0, |(a, b)| b.saturating_sub(a) as f64 * 1e-6);
+    replay.check(&args.log, &map)?;
+    let s = &replay.stats;
     let cut = match map.format {
         WireFormat::Skin16 => "one per sync cycle".to_string(),
         WireFormat::Icub8 => format!("one per {} ms window", args.window_ms),
     };
     crate::say!(
-        "{}: {} CAN frames over {span:.2} s on {} bus(es), {} -> {} skin frames ({cut}) of {} taxels: {} complete, {} partial",
+        "{}: {} CAN frames over {:.2} s on {} bus(es), {} -> {} skin frames ({cut}) of {} taxels: {} complete, {} partial",
         args.log.display(),
-        count,
+        replay.can_frames,
+        replay.span_s,
         map.buses.len(),
         map.format.name(),
         s.frames,
@@ -202,12 +156,12 @@ pub fn run(args: Args) -> Result<()> {
         s.complete,
         s.frames - s.complete
     );
-    for name in &unknown {
+    for name in &replay.missing_buses {
         crate::say!("bus \"{name}\" of the map is not in the log: its modules are missing in every frame");
     }
-    crate::shared::say_report(&tally, &map, s);
-    if log.error_frames() > 0 {
-        crate::say!("CAN error frames in the log, skipped: {}", log.error_frames());
+    crate::shared::say_report(&replay.tally, &map, s);
+    if replay.error_frames > 0 {
+        crate::say!("CAN error frames in the log, skipped: {}", replay.error_frames);
     }
     if let Some(file) = csv {
         let path = file.path().to_owned();

@@ -3,7 +3,7 @@
 //! `replay` and `live`. A command imports from here, never from another command.
 
 use anyhow::{Context, Result, bail};
-use skin_can::live::{CanPort, Live, LiveFrames, LiveOptions};
+use skin_can::live::LiveOptions;
 use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
 use skin_core::format::{Noted, recording};
@@ -92,41 +92,9 @@ pub(crate) fn model_imagers(
     maps.iter().map(imager).collect()
 }
 
-/// One output name per input: its file stem, prefixed with its folder's name where two inputs
-/// share a stem; an error where even that leaves two alike (nothing is written over another).
+/// One output name per input ([`skin_core::output::output_names`]).
 pub(crate) fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
-    let stem = |p: &Path| {
-        p.file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("input")
-            .to_string()
-    };
-    let mut count: HashMap<String, usize> = HashMap::new();
-    for p in paths {
-        *count.entry(stem(p)).or_default() += 1;
-    }
-    let mut used: HashMap<String, &Path> = HashMap::new();
-    let mut names = Vec::with_capacity(paths.len());
-    for p in paths {
-        let mut name = stem(p);
-        if count[&name] > 1 {
-            let parent = p
-                .parent()
-                .and_then(|d| d.file_name())
-                .and_then(|s| s.to_str())
-                .unwrap_or("input");
-            name = format!("{parent}_{name}");
-        }
-        if let Some(first) = used.insert(name.clone(), p) {
-            bail!(
-                "{} and {}: both would be written as {name}; give inputs distinct names (or list each once)",
-                first.display(),
-                p.display()
-            );
-        }
-        names.push(name);
-    }
-    Ok(names)
+    Ok(skin_core::output::output_names(paths)?)
 }
 
 /// Reads the recordings and maps their columns onto the map's taxels; names each output folder
@@ -308,10 +276,15 @@ mod models {
 
 // The live acquisition of `live`, `record` and `run --can`.
 
-/// One step of [`each_live`]: an item of the acquisition, or the assembler's counts after a poll.
-pub(crate) enum LiveStep<'a> {
-    Item(Live<'a>),
-    Polled(&'a AssemblyStats),
+pub(crate) use skin_can::recorder::LiveStep;
+
+/// The interfaces to read: those given, else the bus map's.
+pub(crate) fn interfaces(map: &BusMap, given: &[String]) -> Vec<String> {
+    if given.is_empty() {
+        map.buses.iter().map(|b| b.interface.clone()).collect()
+    } else {
+        given.to_vec()
+    }
 }
 
 /// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
@@ -324,79 +297,16 @@ pub(crate) fn each_live(
     duration: Option<f64>,
     each: &mut dyn FnMut(LiveStep<'_>) -> bool,
 ) -> Result<()> {
-    let names: Vec<String> = if names.is_empty() {
-        map.buses.iter().map(|b| b.interface.clone()).collect()
-    } else {
-        names.to_vec()
-    };
     let period = Duration::from_millis(50);
     let options = LiveOptions {
         sync_period: master.then_some(period),
         ..LiveOptions::default()
     };
-    let ports = open_ports(&names)?;
+    let ports = skin_can::recorder::open_system_ports(&interfaces(map, names))?;
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     let deadline = duration.map(|d| Instant::now() + Duration::from_secs_f64(d));
     let done = || stop.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d);
-    acquire(ports, options, map, period, done, &mut |step, _| each(step));
+    skin_can::recorder::run_live(ports, options, map, period, done, &mut |step, _| each(step));
     Ok(())
-}
-
-/// The one acquisition loop of `live`, `record` and `run --can`: every item, and the
-/// assembler's counts after each poll, to `each` (with the interfaces' names), until `done` or
-/// `each` returns false. Returns the assembler's counts at the end.
-pub(crate) fn acquire<P: CanPort>(
-    ports: Vec<P>,
-    options: LiveOptions,
-    map: &BusMap,
-    period: Duration,
-    mut done: impl FnMut() -> bool,
-    each: &mut dyn FnMut(LiveStep<'_>, &[String]) -> bool,
-) -> AssemblyStats {
-    let mut frames = LiveFrames::start(ports, options, map, period);
-    let interfaces = frames.interfaces().to_vec();
-    let mut go = true;
-    while go && !done() {
-        frames.poll(Duration::from_millis(50), &mut |i| {
-            go = go && each(LiveStep::Item(i), &interfaces)
-        });
-        go = go && each(LiveStep::Polled(frames.stats()), &interfaces);
-    }
-    let s = frames.finish(&mut |i| go = go && each(LiveStep::Item(i), &interfaces));
-    if go {
-        each(LiveStep::Polled(&s), &interfaces);
-    }
-    s
-}
-
-#[cfg(all(target_os = "linux", feature = "socketcan"))]
-pub(crate) fn open_ports(names: &[String]) -> Result<Vec<skin_can::live::socketcan::SocketCanPort>> {
-    Ok(skin_can::live::socketcan::SocketCanPort::open_all(names)?)
-}
-
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-pub(crate) fn open_ports(_names: &[String]) -> Result<Vec<NoPort>> {
-    bail!("live CAN input needs Linux SocketCAN; this build has none (build skin-cli on Linux)")
-}
-
-/// Stands in for a port type on builds without SocketCAN.
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-struct NoPort;
-
-#[cfg(not(all(target_os = "linux", feature = "socketcan")))]
-impl CanPort for NoPort {
-    fn name(&self) -> &str {
-        ""
-    }
-    fn open(&mut self) -> std::io::Result<()> {
-        Err(std::io::Error::other("no SocketCAN"))
-    }
-    fn close(&mut self) {}
-    fn recv(&mut self, _: Duration) -> std::io::Result<Option<skin_can::candump::CanFrame>> {
-        Ok(None)
-    }
-    fn send(&mut self, _: &skin_can::candump::CanFrame) -> std::io::Result<()> {
-        Ok(())
-    }
 }

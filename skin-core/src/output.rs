@@ -178,6 +178,20 @@ pub enum OutputError {
         /// What is written there, e.g. "a tactile map".
         kind: String,
     },
+    /// Two inputs whose outputs would have the same name ([`output_names`]).
+    #[error(
+        "{} and {}: both would be written as {name}; give inputs distinct names (or list each once)",
+        first.display(),
+        second.display()
+    )]
+    SameName {
+        /// The first input.
+        first: PathBuf,
+        /// The second.
+        second: PathBuf,
+        /// The name both would have.
+        name: String,
+    },
     /// The operating system refused (a full disk, no permission, ...).
     #[error("cannot {action} {}: {source}", path.display())]
     Io {
@@ -215,6 +229,9 @@ fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -
 }
 
 type Result<T, E = OutputError> = std::result::Result<T, E>;
+
+mod names;
+pub use names::output_names;
 
 /// A file's device and inode: what it is, whatever its name.
 type FileId = (u64, u64);

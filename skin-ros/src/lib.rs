@@ -14,7 +14,8 @@
 //!   package), their `ros2msg` schemas; [`type_hash`]: their RIHS01 hashes (REP-2016).
 //! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens
 //!   and frame ids; [`clock`]: the stamps, checked against the end of ROS 2 time.
-//! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait.
+//! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait; [`Outlets`]: one run's
+//!   MCAP file and live publisher together.
 //!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
 //! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). A robot stack that wants only the solver
@@ -42,6 +43,7 @@ pub mod interfaces;
 #[cfg(feature = "mcap")]
 pub mod mcap_file;
 pub mod messages;
+mod outlets;
 pub mod topics;
 pub mod type_hash;
 #[cfg(feature = "zenoh")]
@@ -51,6 +53,7 @@ pub use bridge::{Outlet, RosOptions, RosSink};
 pub use clock::RosTime;
 #[cfg(feature = "mcap")]
 pub use mcap_file::McapOutlet;
+pub use outlets::{DEFAULT_DRAIN_S, OutletOptions, Outlets};
 #[cfg(feature = "zenoh")]
 pub use zenoh_live::{InFlight, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport};
 

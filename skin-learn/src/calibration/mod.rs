@@ -55,12 +55,14 @@ pub mod exploration;
 mod gaussian_fit;
 mod metrics;
 mod probe_sim;
+mod report_text;
 mod taxel_pose;
 
 pub use dataset::{CSV_HEADER, ProbeContact, ProbeDataset, TaxelSamples};
 pub use gaussian_fit::{FitOptions, GaussianFit};
 pub use metrics::{CalibrationErrors, CurvePoint, convergence_curve, curve_svg};
 pub use probe_sim::{ProbeSession, ProbeSimulator};
+pub use report_text::{CURVE_SAMPLES, curve_table};
 
 use nalgebra::{Point3, Unit, Vector3};
 use rayon::prelude::*;
