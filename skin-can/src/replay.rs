@@ -37,10 +37,11 @@ pub fn replay<R: BufRead>(
 ) -> Result<Replay> {
     let mut tally = ModuleTally::default();
     let mut assembler = Assembler::for_map(map, &[], window_us);
-    let mut go = true;
+    // A cell, as the loop reads the flag while `emit` holds the tally and `each` mutably.
+    let go = std::cell::Cell::new(true);
     let mut emit = |f: &AssembledFrame| {
         tally.add(f);
-        go = go && each(f);
+        go.set(go.get() && each(f));
     };
     let (mut count, mut span) = (0u64, None::<(u64, u64)>);
     while let Some(frame) = log.next_frame()? {
@@ -50,7 +51,7 @@ pub fn replay<R: BufRead>(
         count += 1;
         span = Some(span.map_or((frame.time_us, frame.time_us), |(a, _)| (a, frame.time_us)));
         assembler.push(&frame, &mut emit);
-        if !go {
+        if !go.get() {
             break;
         }
     }
