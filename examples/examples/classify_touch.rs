@@ -13,7 +13,7 @@
 
 use skin_can::candump::CandumpLog;
 use skin_control::hri::{GateAction, TouchClass};
-use skin_learn::session::{Event, Session, SessionConfig, Sink};
+use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
 use std::path::PathBuf;
 
 /// Prints each decision and each change of the gate's action.
@@ -22,28 +22,27 @@ struct Robot {
 }
 
 impl Sink for Robot {
-    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+    type Error = std::convert::Infallible;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, Self::Error> {
         match event {
-            Event::Classified {
-                time,
-                touch,
-                kind,
-                probability,
-                parts,
-                image,
-                ..
-            } => {
+            Event::Classified { touch, image, .. } => {
                 self.decisions += 1;
-                let what = match kind {
+                let decision = &touch.decision;
+                let what = match decision.class.kind() {
                     TouchClass::Hand => "hand",
                     TouchClass::NonHand => "not a hand",
                 };
-                let parts: Vec<String> = parts
+                let parts: Vec<String> = decision
+                    .parts
                     .iter()
                     .map(|p| format!("{} ({} taxels)", p.part.name(), p.taxels))
                     .collect();
                 println!(
-                    "{time:6.2} s  touch {touch:2}: {what} (p = {probability:.2}, {} x {} image) {}",
+                    "{:6.2} s  touch {:2}: {what} (p = {:.2}, {} x {} image) {}",
+                    touch.time,
+                    touch.id,
+                    decision.probability,
                     image.rows,
                     image.cols,
                     parts.join(", ")
@@ -60,7 +59,7 @@ impl Sink for Robot {
             }
             _ => {}
         }
-        Ok(())
+        Ok(Flow::Continue(()))
     }
 }
 

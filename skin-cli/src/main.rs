@@ -37,6 +37,8 @@ mod ros_out;
 #[cfg(feature = "onnx")]
 mod run_cmd;
 #[cfg(feature = "onnx")]
+mod run_sinks;
+#[cfg(feature = "onnx")]
 mod segment_cmd;
 mod shared;
 mod stitch_cmd;

@@ -3,6 +3,9 @@
 
 use crate::output::{Inputs, OutputDir};
 use crate::ros_out::{Outlets, RosArgs};
+use crate::run_sinks::{
+    Images, Named, Sinks, check_cache, precheck_mcap, say_mcap, sinks, stage_mcap, still_there,
+};
 use crate::shared::LiveStep;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -10,13 +13,10 @@ use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
 use skin_core::output::{Staged, writing};
 use skin_core::text::{Gzip, Input};
-use skin_learn::session::{
-    Event, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, Session, SessionConfig, Sink,
-};
+use skin_learn::session::{JsonLines, Session, SessionConfig};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::{BufWriter, Stdout};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -127,16 +127,6 @@ pub struct Args {
     ros: RosArgs,
 }
 
-/// Where events and images go: events.jsonl and the PNGs in the folder being built, and
-/// standard output when live.
-type Sinks = (
-    Option<JsonLines<BufWriter<Named>>>,
-    (
-        Option<JsonLines<Stdout>>,
-        (Option<Images>, Option<RosSink<Outlets>>),
-    ),
-);
-
 pub fn run(args: Args) -> Result<()> {
     // Before the maps are built and cached: a refused folder costs nothing and writes nothing.
     if let Some(dir) = &args.output {
@@ -220,34 +210,6 @@ pub fn run(args: Args) -> Result<()> {
     result
 }
 
-/// Refuses to write on once the folder being built (`staging`, shown as `shown`) is gone: the
-/// user deleted or moved the output folder, and it must not come back half made.
-fn still_there(staging: &Path, shown: &Path) -> Result<(), skin_core::output::OutputError> {
-    match staging.is_dir() {
-        true => Ok(()),
-        false => Err(skin_core::output::OutputError::Vanished {
-            dir: shown.to_owned(),
-        }),
-    }
-}
-
-/// Finishes the MCAP file of `outlets` (if any) without putting it in place; its messages.
-fn stage_mcap(outlets: Option<&mut Outlets>) -> Result<Option<(Staged, u64)>> {
-    #[cfg(feature = "mcap")]
-    if let Some(o) = outlets {
-        return o.stage_mcap();
-    }
-    let _ = outlets;
-    Ok(None)
-}
-
-/// "wrote FILE.mcap (N ROS 2 messages)", once it is in place.
-fn say_mcap(ros: &RosArgs, messages: Option<u64>) {
-    if let (Some(p), Some(n)) = (ros.mcap_path(), messages) {
-        crate::say!("wrote {} ({n} ROS 2 messages)", p.display());
-    }
-}
-
 /// Refuses, before any work, every input that cannot be read (missing, a folder, no
 /// permission), all of them in one line.
 fn check_inputs<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) -> Result<()> {
@@ -280,192 +242,6 @@ fn unreadable(path: &Path) -> Option<String> {
         Ok(m) if m.is_file() => File::open(path).err().map(|e| e.to_string()),
         Ok(_) => None,
     }
-}
-
-/// `path` made absolute, through the links of the part that exists, so that two names of one
-/// place compare equal whether or not the place exists yet.
-fn resolved(path: &Path) -> PathBuf {
-    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
-    let mut rest = Vec::new();
-    let mut head = abs.as_path();
-    loop {
-        if let Ok(c) = head.canonicalize() {
-            return rest.iter().rev().fold(c, |p: PathBuf, part| p.join(part));
-        }
-        match (head.parent(), head.file_name()) {
-            (Some(parent), Some(name)) => {
-                rest.push(name.to_owned());
-                head = parent;
-            }
-            _ => return abs,
-        }
-    }
-}
-
-/// Refuses, before any work, an MCAP path that is an input, a user's other file, the output
-/// folder itself, or inside it (whose next run would then find a file that is not its own).
-fn precheck_mcap(ros: &RosArgs, output: Option<&Path>, inputs: &Inputs) -> Result<()> {
-    if let (Some(file), Some(dir)) = (ros.mcap_path(), output) {
-        let (f, d) = (resolved(file), resolved(dir));
-        if f == d {
-            let beside = match d.file_name() {
-                Some(_) => dir.with_extension("mcap"),
-                None => PathBuf::from("session.mcap"),
-            };
-            anyhow::bail!(
-                "--mcap {} is the output folder: give the MCAP file a name beside it, e.g. --mcap {}",
-                file.display(),
-                beside.display()
-            );
-        }
-        anyhow::ensure!(
-            !f.starts_with(&d),
-            "--mcap {} is inside the output folder {}: write it beside the folder",
-            file.display(),
-            dir.display()
-        );
-    }
-    ros.precheck(inputs)
-}
-
-/// The map cache: refused inside the output folder (its next run would find files that are not
-/// its own), and said once when it cannot be written (the maps are then made again each run).
-fn check_cache(config: &SessionConfig, output: Option<&Path>, force: bool) -> Result<()> {
-    let cache = config.cache_dir();
-    if let Some(dir) = output
-        && !force
-        && resolved(&cache).starts_with(resolved(dir))
-    {
-        anyhow::bail!(
-            "{}: the map cache {} is inside the output folder {}; set `cache =` to a folder outside it",
-            config.path.display(),
-            cache.display(),
-            dir.display()
-        );
-    }
-    if let Err(e) = skin_geom::MapCache::new(&cache).check_writable() {
-        eprintln!(
-            "warning: cannot keep tactile maps in {} ({e}): they are made again on every run; set `cache =` in {} to a folder skin can write",
-            cache.display(),
-            config.path.display()
-        );
-    }
-    Ok(())
-}
-
-/// A file of the folder being built, whose errors name it as the user will know it (never the
-/// staging folder).
-pub struct Named {
-    file: File,
-    shown: PathBuf,
-}
-
-impl Named {
-    /// Creates `path` (in the folder being built), shown as `shown`.
-    fn create(path: &Path, shown: &Path) -> Result<Named> {
-        let _creating = writing();
-        let file = File::create(path).with_context(|| format!("cannot write {}", shown.display()))?;
-        Ok(Named {
-            file,
-            shown: shown.to_owned(),
-        })
-    }
-
-    fn named(&self, e: std::io::Error) -> std::io::Error {
-        std::io::Error::new(e.kind(), format!("{}: {e}", self.shown.display()))
-    }
-}
-
-impl std::io::Write for Named {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.file.write(buf).map_err(|e| self.named(e))
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.file.flush().map_err(|e| self.named(e))
-    }
-}
-
-/// The PNG images of the folder being built: each made while [`writing`] is held (an interrupt
-/// waits for it, and none is made once the folder is abandoned), errors naming the user's
-/// folder.
-pub struct Images {
-    png: PngImages,
-    staging: String,
-    shown: PathBuf,
-}
-
-impl Images {
-    /// Images in `dir` (in the folder being built), shown as `shown`.
-    fn new(dir: &Path, shown: &Path) -> Result<Images> {
-        let _creating = writing();
-        let png = PngImages::new(dir).with_context(|| format!("cannot write into {}", shown.display()))?;
-        Ok(Images {
-            png,
-            staging: dir.display().to_string(),
-            shown: shown.to_owned(),
-        })
-    }
-
-    /// Each image is a new file: none is made once the folder is gone (its folders would be
-    /// made again).
-    fn check(&self) -> std::io::Result<()> {
-        still_there(Path::new(&self.staging), &self.shown)
-            .map_err(|e| std::io::Error::new(std::io::ErrorKind::NotFound, e))
-    }
-
-    fn named(&self, e: std::io::Error) -> std::io::Error {
-        let shown = self.shown.display().to_string();
-        let text = e.to_string().replace(&self.staging, &shown);
-        let text = if text.contains(&shown) {
-            text
-        } else {
-            format!("{shown}: {text}")
-        };
-        std::io::Error::new(e.kind(), text)
-    }
-}
-
-impl Sink for Images {
-    fn event(&mut self, event: &Event) -> std::io::Result<()> {
-        if !matches!(event, Event::Classified { .. }) {
-            return Ok(());
-        }
-        let _creating = writing();
-        self.check()?;
-        self.png.event(event).map_err(|e| self.named(e))
-    }
-
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<()> {
-        let _creating = writing();
-        self.check()?;
-        self.png
-            .frame_image(view, cycle, image)
-            .map_err(|e| self.named(e))
-    }
-
-    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
-        self.png.origin(origin_us)
-    }
-
-    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
-        self.png.frame(frame)
-    }
-}
-
-/// The sinks for an output folder (being built), live standard output, and the ROS outputs.
-fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> Result<Sinks> {
-    let (events, images) = match out {
-        Some(out) => {
-            let file = Named::create(&out.path().join("events.jsonl"), &out.dir().join("events.jsonl"))?;
-            let images = Images::new(out.path(), out.dir())?;
-            (Some(JsonLines::new(BufWriter::new(file))), Some(images))
-        }
-        None => (None, None),
-    };
-    Ok((
-        events,
-        (live.then(|| JsonLines::new(std::io::stdout())), (images, ros)),
-    ))
 }
 
 /// Offline: the log through the session, read one frame at a time (gzip-compressed logs too);
@@ -568,9 +344,13 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         if !args.quiet {
             crate::say!("{summary}");
         }
-        let touches = session.touches();
-        let most = touches.iter().map(|t| t.peak.contacts).max().unwrap_or(0);
-        let row = [rec.frames_read() as usize, touches.len(), most];
+        let most = session
+            .touches()
+            .iter()
+            .map(|t| t.peak.contacts)
+            .max()
+            .unwrap_or(0);
+        let row = [rec.frames_read() as usize, session.stats().touches, most];
         let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
         crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }

@@ -22,7 +22,8 @@ use skin_core::format::poses::{Posture, Postures};
 use skin_core::{LinkSkin, TaxelId};
 use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
 use skin_learn::classify::{Classifier, InputScale};
-use skin_learn::session::{Event, Session, SessionOptions, Sink, Stitching};
+use skin_learn::model::{Classes, Models};
+use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink, Stitching};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -74,9 +75,11 @@ impl Arm {
 struct Count(usize);
 
 impl Sink for Count {
-    fn event(&mut self, _: &Event) -> std::io::Result<()> {
+    type Error = std::convert::Infallible;
+
+    fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
         self.0 += 1;
-        Ok(())
+        Ok(Flow::Continue(()))
     }
 }
 
@@ -140,7 +143,8 @@ fn bench(c: &mut Criterion) {
         threshold: 5.0,
         ..TouchOptions::default()
     };
-    let pipeline = TouchPipeline::new(maps, Some((classifier, model)), None, options).unwrap();
+    let models = Models::new(classifier, Classes::hand_or_not());
+    let pipeline = TouchPipeline::new(maps, models, options).unwrap();
     let mut session = Session::new(arm.links.clone(), pipeline, SessionOptions::default())
         .unwrap()
         .with_can(&arm.map)
@@ -151,7 +155,9 @@ fn bench(c: &mut Criterion) {
     let mut n = 0u64;
     let mut push = |frames: &[CanFrame], session: &mut Session| {
         for f in frames {
-            assembler.push(f, &mut |a| session.push_can(a, &mut sink).unwrap());
+            assembler.push(f, &mut |a| {
+                let _ = session.push_can(a, &mut sink).unwrap();
+            });
         }
     };
     // The CAN frames of 256 cycles (the sync counter's period), touched and quiet.

@@ -9,7 +9,9 @@
 //! ---
 //! ```
 //!
-//! `input_scale` is `unit` (pixels / 255) or `bytes` (0..255).
+//! `input_scale` is `unit` (pixels / 255) or `bytes` (0..255). A classifier's card may name its
+//! hand class (`hand_class: NAME`, one of `classes`); without it the first class listed is the hand
+//! ([`crate::model::Classes::from_card`]).
 
 use std::path::{Path, PathBuf};
 
@@ -23,6 +25,8 @@ pub struct ModelCard {
     pub unit_scale: Option<bool>,
     /// Class names, in output order (empty if the card does not list them).
     pub classes: Vec<String>,
+    /// The class that is the hand (`hand_class:`), if the card names it.
+    pub hand: Option<String>,
 }
 
 impl ModelCard {
@@ -69,6 +73,7 @@ impl ModelCard {
                         .filter(|c| !c.is_empty())
                         .collect()
                 }
+                "hand_class" => card.hand = Some(value.to_string()).filter(|v| !v.is_empty()),
                 _ => {}
             }
         }

@@ -10,6 +10,7 @@
 
 use crate::image_model::ImageModel;
 pub use crate::image_model::{InputScale, ModelError};
+use skin_core::image::{ImageSize, ImageView};
 use std::path::Path;
 
 /// A loaded classifier.
@@ -82,4 +83,17 @@ fn probabilities(scores: &[f32]) -> Vec<f32> {
     let e: Vec<f32> = scores.iter().map(|s| (s - top).exp()).collect();
     let total: f32 = e.iter().sum();
     e.iter().map(|v| v / total).collect()
+}
+
+impl crate::model::HandClassifier for Classifier {
+    fn input_size(&self) -> ImageSize {
+        ImageSize {
+            rows: self.net.height,
+            cols: self.net.width,
+        }
+    }
+
+    fn classify(&mut self, image: ImageView<'_, u8>) -> Result<Vec<f32>, ModelError> {
+        Classifier::classify(self, image.pixels())
+    }
 }

@@ -1,6 +1,6 @@
 //! The crate's error: every error of skin-learn's modules, so that a robot stack can `?` any of
 //! them into one type. Each module keeps its own precise error ([`crate::dataset::DatasetError`],
-//! the model and touch errors with feature `onnx`); this wraps them.
+//! the model, touch and session errors); this wraps them.
 
 /// Any error of skin-learn.
 ///
@@ -28,15 +28,12 @@ pub enum Error {
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
     /// Models and their inputs.
-    #[cfg(feature = "onnx")]
     #[error(transparent)]
-    Model(#[from] crate::classify::ModelError),
+    Model(#[from] crate::model::ModelError),
     /// The per-frame touch pipeline.
-    #[cfg(feature = "onnx")]
     #[error(transparent)]
     Touch(#[from] crate::touch::TouchError),
     /// A session: its configuration, its inputs, its frames (boxed: it is the largest).
-    #[cfg(feature = "onnx")]
     #[error(transparent)]
     Session(Box<crate::session::SessionError>),
 }
@@ -44,7 +41,6 @@ pub enum Error {
 /// `Result` with skin-learn's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-#[cfg(feature = "onnx")]
 impl From<crate::session::SessionError> for Error {
     fn from(e: crate::session::SessionError) -> Self {
         Error::Session(Box::new(e))

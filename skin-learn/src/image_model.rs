@@ -31,43 +31,7 @@ impl InputScale {
     }
 }
 
-/// What can go wrong with a model or its input.
-#[derive(Debug, thiserror::Error)]
-pub enum ModelError {
-    /// The file is not a model tract can load (corrupt, not ONNX, unsupported operator).
-    #[error("{path}: not a usable ONNX model: {why}")]
-    Load {
-        /// The file.
-        path: PathBuf,
-        /// tract's explanation.
-        why: String,
-    },
-    /// The model's input or output is not what a tactile image classifier has.
-    #[error("{path}: {why}")]
-    Shape {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        why: String,
-    },
-    /// An image of the wrong size.
-    #[error("image {index}: {got} pixels, the model takes {height} x {width} = {want}")]
-    Image {
-        /// Index in the batch.
-        index: usize,
-        /// Pixels given.
-        got: usize,
-        /// Pixels expected.
-        want: usize,
-        /// Model input height.
-        height: usize,
-        /// Model input width.
-        width: usize,
-    },
-    /// tract failed while running.
-    #[error("running the model: {0}")]
-    Run(String),
-}
+pub use crate::model::ModelError;
 
 /// A planned ONNX model of grey images: one plan for one image, and its reused state.
 #[derive(Debug)]

@@ -5,18 +5,19 @@
 //!
 //! ```text
 //! pressures per link --ContactFinder--> contacts --touch tracking--> touches (appeared, released)
-//!   fullest image of a touch --HandsNet (tract)--> hand / non-hand --segmenter--> hand parts
+//!   fullest image of a touch --HandClassifier--> hand / non-hand --PartSegmenter--> hand parts
 //! ```
-//! (`touch`, feature `onnx`), scored against a script of touches with [`script`].
+//! ([`touch`]; the models behind the traits of [`model`], HandsNet and the shipped segmenter
+//! run by tract with feature `onnx`), scored against a script of touches with [`script`].
 //!
-//! `session` (feature `onnx`) is that whole path as one value, built once from `skin run`'s
-//! configuration or from code. A robot stack's loop, frames in and events out (without models
-//! here: touches are tracked, not classified):
+//! [`session`] is that whole path as one value, built once from `skin run`'s configuration or
+//! from code. A robot stack's loop, frames in and events out (without models here: touches are
+//! tracked, not classified):
 //!
 //! ```
-//! # #[cfg(feature = "onnx")] {
 //! use skin_core::{LinkSkin, Taxel, TaxelId};
 //! use skin_geom::{FlattenOptions, TactileMap};
+//! use skin_learn::model::Models;
 //! use skin_learn::session::{Event, Session, SessionOptions};
 //! use skin_learn::touch::{TouchOptions, TouchPipeline};
 //! use nalgebra::{Point3, Unit, Vector3};
@@ -30,7 +31,7 @@
 //! let patch = LinkSkin::new("patch", taxels);
 //! let map = TactileMap::flatten(&patch, &FlattenOptions::default())?;
 //! let options = TouchOptions { threshold: 5.0, ..TouchOptions::default() };
-//! let pipeline = TouchPipeline::new(vec![map], None, None, options)?;
+//! let pipeline = TouchPipeline::new(vec![map], Models::none(), options)?;
 //! let mut session = Session::new(vec![patch], pipeline, SessionOptions::default())?;
 //!
 //! // 50 Hz frames: 20 untouched ones teach the baseline, then a press on four taxels.
@@ -45,12 +46,12 @@
 //! session.finish(&mut events)?;
 //! let appeared = events.iter().filter(|e| matches!(e, Event::Appeared { .. })).count();
 //! let released: Vec<_> = events.iter().filter_map(|e| match e {
-//!     Event::Released { duration, peak, .. } => Some(((duration * 1e3).round(), peak.taxels)),
+//!     Event::Released { touch, .. } => Some(((touch.duration * 1e3).round(), touch.peak.taxels)),
 //!     _ => None,
 //! }).collect();
 //! // Pressed in 5 frames: 80 ms from the first to the last, 4 taxels at the peak.
 //! assert_eq!((appeared, released), (1, vec![(80.0, 4)]));
-//! # }
+//! assert_eq!(session.stats().touches, 1);
 //! # Ok::<(), skin_learn::Error>(())
 //! ```
 //!
@@ -92,9 +93,12 @@
 //! - [`script`]: scoring a run against a script of touches (found, right class, extra).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
 //!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
-//! - `session` (feature `onnx`): the whole per-frame runtime (CAN frames or readings in, typed
-//!   events out, sinks that write them), what `skin run` drives.
-//! - `touch` (feature `onnx`): the per-frame path of a whole skin, from pressures to contacts,
+//! - [`model`]: what the touch path asks of its models ([`model::HandClassifier`],
+//!   [`model::PartSegmenter`]), the classes a model card names, and the bundle a pipeline takes.
+//! - [`session`]: the whole per-frame runtime (CAN frames or readings in, typed events out,
+//!   sinks that write them), what `skin run` drives; its models need feature `onnx` or are
+//!   brought by the caller.
+//! - [`touch`]: the per-frame path of a whole skin, from pressures to contacts,
 //!   touches and their hand / non-hand decisions and hand parts (what `skin run` drives; a
 //!   complete example: `examples/examples/classify_touch.rs`).
 //! - `evaluation` (feature `onnx`): a model's scores on a dataset (Tables 4.3-4.9) and the
@@ -115,15 +119,14 @@ mod image_model;
 #[cfg(feature = "onnx")]
 pub mod max_pool;
 pub mod metrics;
+pub mod model;
 pub mod parts;
 pub mod script;
 #[cfg(feature = "onnx")]
 pub mod segment;
 pub mod segmentation_diagnostics;
-#[cfg(feature = "onnx")]
 pub mod session;
 pub mod synth;
-#[cfg(feature = "onnx")]
 pub mod touch;
 
 pub use error::{Error, Result};

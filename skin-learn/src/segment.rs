@@ -15,6 +15,7 @@
 
 use crate::image_model::ImageModel;
 pub use crate::image_model::{InputScale, ModelError};
+use skin_core::image::{ImageSize, ImageView};
 use std::path::Path;
 
 /// A loaded segmenter.
@@ -149,5 +150,18 @@ impl Segmenter {
                 })
                 .collect()
         })
+    }
+}
+
+impl crate::model::PartSegmenter for Segmenter {
+    fn input_size(&self) -> ImageSize {
+        ImageSize {
+            rows: self.net.height,
+            cols: self.net.width,
+        }
+    }
+
+    fn segment(&mut self, image: ImageView<'_, u8>) -> Result<Vec<u8>, ModelError> {
+        Segmenter::segment(self, image.pixels())
     }
 }

@@ -1,11 +1,13 @@
-//! Touches, frame by frame (feature `onnx`): the per-frame path from pressures to decisions.
+//! Touches, frame by frame: the per-frame path from pressures to decisions.
 //!
 //! For every link, each frame's pressures (after the baseline) go through [`ContactFinder`]; a
 //! touch begins with the first frame holding a contact and ends after
 //! [`TouchOptions::release_frames`] frames without one. While it lasts, the frame of largest total
 //! pressure so far is kept; after [`TouchOptions::decide_frames`] frames of contact that frame is
 //! imaged (map -> 1 mm grid -> contact-max grey -> erosion/dilation -> model size, thesis Ch. 4.5)
-//! and classified, and a hand is segmented into its parts (Fig. 4.9). The touch is classified
+//! and classified by the [`Models`]' [`HandClassifier`](crate::model::HandClassifier), and a touch
+//! of the hand class is segmented into its parts (Fig. 4.9). Without a classifier touches are
+//! tracked (appeared, released) and not decided. The touch is classified
 //! again whenever its total pressure has grown by [`TouchOptions::reclassify_growth`] since the
 //! image last classified, so the final decision is that of the touch at its fullest, at a bounded
 //! cost: a touch costs a few model runs, not one per frame.
@@ -13,14 +15,13 @@
 //! Frames without contact cost one contact search per link. The buffers are sized when the
 //! pipeline is built; a frame allocates only when a model runs or an event is emitted.
 
-use crate::classify::Classifier;
-use crate::image_model::ModelError;
+use crate::model::{Class, Classes, ModelError, Models};
 use crate::parts::{PartContact, part_contacts};
-use crate::segment::Segmenter;
 use nalgebra::Point3;
+use skin_core::image::{ImageSize, ImageView};
 use skin_core::{ContactFinder, Separation};
 use skin_geom::{TactileImager, TactileMap};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// What can go wrong building or running a [`TouchPipeline`].
@@ -46,16 +47,12 @@ pub enum TouchError {
         source: skin_core::Error,
     },
     /// The classifier and the segmenter take images of different sizes.
-    #[error("{classifier} takes {a:?} images, {segmenter} takes {b:?}: they must agree")]
+    #[error("the classifier takes {classifier} images, the segmenter {segmenter}: they must agree")]
     Sizes {
-        /// The classifier's file.
-        classifier: PathBuf,
-        /// The segmenter's file.
-        segmenter: PathBuf,
-        /// Classifier input (rows, cols).
-        a: (usize, usize),
-        /// Segmenter input (rows, cols).
-        b: (usize, usize),
+        /// Classifier input.
+        classifier: ImageSize,
+        /// Segmenter input.
+        segmenter: ImageSize,
     },
     /// A link index beyond the skin's links.
     #[error("no link {link}: the skin has {links}")]
@@ -92,8 +89,6 @@ pub struct TouchOptions {
     pub reclassify_growth: f32,
     /// Image grid step on the map, millimetres (thesis: 1 mm).
     pub step_mm: f64,
-    /// Class names of the classifier's outputs, in order; the class named `hand` is segmented.
-    pub classes: Vec<String>,
     /// How a patch of pressed taxels becomes contacts (default [`Separation::FINGERS`]: split
     /// between pressure peaks, so fingers side by side are separate contacts).
     pub separation: Separation,
@@ -108,7 +103,6 @@ impl Default for TouchOptions {
             release_frames: 2,
             reclassify_growth: 1.25,
             step_mm: 1.0,
-            classes: vec!["hand".into(), "non_hand".into()],
             separation: Separation::FINGERS,
         }
     }
@@ -132,58 +126,73 @@ pub struct Footprint {
 /// A decision on a touch.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Decision {
-    /// Index of the most probable class.
-    pub class: usize,
+    /// The most probable class.
+    pub class: Class,
     /// Its probability.
     pub probability: f32,
-    /// The hand parts pressing, when the class is `hand` and a segmenter is loaded.
+    /// The hand parts pressing, when the class is the hand class and there is a segmenter.
     pub parts: Vec<PartContact>,
 }
 
-/// What happened on a link.
+/// A touch began on a link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Appeared {
+    /// Link index (layout order).
+    pub link: usize,
+    /// Touch number, unique over the run.
+    pub id: u64,
+    /// Frame time, seconds.
+    pub time: f64,
+    /// The first frame's footprint.
+    pub footprint: Footprint,
+}
+
+/// A touch was classified, on the image of the touch at its fullest so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Classified {
+    /// Link index (layout order).
+    pub link: usize,
+    /// Touch number.
+    pub id: u64,
+    /// Frame time, seconds.
+    pub time: f64,
+    /// The decision.
+    pub decision: Decision,
+    /// The class changed since the touch's last decision.
+    pub revised: bool,
+}
+
+/// A touch ended (or the input did, with the touch still open).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Released {
+    /// Link index (layout order).
+    pub link: usize,
+    /// Touch number.
+    pub id: u64,
+    /// Time of its first frame of contact, seconds.
+    pub start: f64,
+    /// Time of its last frame of contact, seconds.
+    pub time: f64,
+    /// From first to last frame of contact, seconds.
+    pub duration: f64,
+    /// Frames of contact.
+    pub frames: usize,
+    /// The footprint at its largest total pressure.
+    pub peak: Footprint,
+    /// The final decision (none without a classifier).
+    pub decision: Option<Decision>,
+}
+
+/// What happened on a link: the touch types that a session's [`Event`](crate::session::Event)s
+/// carry on, and a ROS 2 bridge publishes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum TouchEvent {
     /// A touch began.
-    Appeared {
-        /// Link index.
-        link: usize,
-        /// Touch number, unique over the run.
-        touch: u64,
-        /// Frame time, seconds.
-        time: f64,
-        /// The first frame's footprint.
-        footprint: Footprint,
-    },
+    Appeared(Appeared),
     /// A touch was classified (`revised`: again, with another class than before).
-    Classified {
-        /// Link index.
-        link: usize,
-        /// Touch number.
-        touch: u64,
-        /// Frame time, seconds.
-        time: f64,
-        /// The decision.
-        decision: Decision,
-        /// The class changed since the touch's last decision.
-        revised: bool,
-    },
+    Classified(Classified),
     /// A touch ended.
-    Released {
-        /// Link index.
-        link: usize,
-        /// Touch number.
-        touch: u64,
-        /// Time of its last frame of contact, seconds.
-        time: f64,
-        /// From first to last frame of contact, seconds.
-        duration: f64,
-        /// Frames of contact.
-        frames: usize,
-        /// The footprint at its largest total pressure.
-        peak: Footprint,
-        /// The final decision (none without a classifier).
-        decision: Option<Decision>,
-    },
+    Released(Released),
 }
 
 /// Time spent in each stage, summed over the frames processed.
@@ -239,7 +248,7 @@ struct Link {
 fn search_and_image(
     map: &TactileMap,
     options: &TouchOptions,
-    size: (usize, usize),
+    size: ImageSize,
 ) -> Result<(ContactFinder, TactileImager), TouchError> {
     let finder = ContactFinder::new(&map.positions, &[], &map.faces, Path::new(&map.name))
         .map_err(|source| TouchError::Mesh {
@@ -247,20 +256,21 @@ fn search_and_image(
             source,
         })?
         .with_separation(options.separation);
-    let imager = TactileImager::for_model(map, options.step_mm, size).map_err(|source| TouchError::Map {
-        link: map.name.clone(),
-        source,
-    })?;
+    let imager =
+        TactileImager::for_model(map, options.step_mm, (size.rows, size.cols)).map_err(|source| {
+            TouchError::Map {
+                link: map.name.clone(),
+                source,
+            }
+        })?;
     Ok((finder, imager))
 }
 
 /// The per-frame path of a whole skin: contacts, touches, images, decisions.
 pub struct TouchPipeline {
     links: Vec<Link>,
-    classifier: Option<(Classifier, PathBuf)>,
-    segmenter: Option<(Segmenter, PathBuf)>,
+    models: Models,
     options: TouchOptions,
-    hand: Option<usize>,
     next_touch: u64,
     times: StageTimes,
 }
@@ -275,28 +285,14 @@ impl std::fmt::Debug for TouchPipeline {
 }
 
 impl TouchPipeline {
-    /// A pipeline over the tactile maps of a skin's links, with optional models (each with the
-    /// file it came from, for errors). Images are made at the models' input size (68 x 100
-    /// without a model).
+    /// A pipeline over the tactile maps of a skin's links, with its models ([`Models::none`]:
+    /// tracking only). Images are made at the models' input size (68 x 100 without a model).
     pub fn new(
         maps: Vec<TactileMap>,
-        classifier: Option<(Classifier, PathBuf)>,
-        segmenter: Option<(Segmenter, PathBuf)>,
+        models: Models,
         options: TouchOptions,
     ) -> Result<TouchPipeline, TouchError> {
-        let size = match (&classifier, &segmenter) {
-            (Some((c, cp)), Some((s, sp))) if c.input_size() != s.input_size() => {
-                return Err(TouchError::Sizes {
-                    classifier: cp.clone(),
-                    segmenter: sp.clone(),
-                    a: c.input_size(),
-                    b: s.input_size(),
-                });
-            }
-            (Some((c, _)), _) => c.input_size(),
-            (None, Some((s, _))) => s.input_size(),
-            (None, None) => (68, 100),
-        };
+        let size = models.input_size()?;
         let mut links = Vec::with_capacity(maps.len());
         for map in maps {
             let name = map.name.clone();
@@ -322,13 +318,10 @@ impl TouchPipeline {
                 dead: Vec::new(),
             });
         }
-        let hand = options.classes.iter().position(|c| c == "hand");
         Ok(TouchPipeline {
             links,
-            classifier,
-            segmenter,
+            models,
             options,
-            hand,
             next_touch: 0,
             times: StageTimes::default(),
         })
@@ -359,7 +352,8 @@ impl TouchPipeline {
                 source,
             })?
         };
-        (l.finder, l.imager) = search_and_image(&map, &self.options, l.imager.output_size())?;
+        let (rows, cols) = l.imager.output_size();
+        (l.finder, l.imager) = search_and_image(&map, &self.options, ImageSize { rows, cols })?;
         l.dead = dead;
         Ok(())
     }
@@ -369,14 +363,13 @@ impl TouchPipeline {
     pub fn restarted(self) -> Result<TouchPipeline, TouchError> {
         let TouchPipeline {
             links,
-            classifier,
-            segmenter,
+            models,
             options,
             ..
         } = self;
         let dead: Vec<Vec<usize>> = links.iter().map(|l| l.dead.clone()).collect();
         let maps = links.into_iter().map(|l| l.map).collect();
-        let mut fresh = TouchPipeline::new(maps, classifier, segmenter, options)?;
+        let mut fresh = TouchPipeline::new(maps, models, options)?;
         for (k, d) in dead.iter().enumerate() {
             fresh.set_dead(k, d)?;
         }
@@ -388,19 +381,16 @@ impl TouchPipeline {
         self.links.iter().map(|l| l.name.as_str())
     }
 
-    /// The tactile image last classified on `link` (model size, row-major grey), and its size.
-    pub fn last_image(&self, link: usize) -> Option<(&[u8], (usize, usize))> {
+    /// The tactile image last classified on `link` (model size, row-major grey); none before
+    /// the first.
+    pub fn last_image(&self, link: usize) -> Option<ImageView<'_, u8>> {
         let l = self.links.get(link)?;
-        Some((l.imager.last_output(), l.imager.output_size()))
+        view(l.imager.last_output(), l.imager.output_size())
     }
 
     /// The tactile image of `pressures` on `link` (readings at or below the threshold count as
     /// none), at model size: what `--frames` writes. Not used by the decisions.
-    pub fn frame_image(
-        &mut self,
-        link: usize,
-        pressures: &[f32],
-    ) -> Result<(&[u8], (usize, usize)), TouchError> {
+    pub fn frame_image(&mut self, link: usize, pressures: &[f32]) -> Result<ImageView<'_, u8>, TouchError> {
         let threshold = self.options.threshold;
         let Some(l) = self.links.get_mut(link) else {
             return Err(TouchError::Frame {
@@ -416,16 +406,23 @@ impl TouchPipeline {
             link: l.name.clone(),
             source,
         })?;
-        Ok((grey, size))
+        let pixels = grey.len();
+        view(grey, size).ok_or_else(|| TouchError::Frame {
+            time: 0.0,
+            why: format!(
+                "link {}: an image of {pixels} pixels is not {} x {}",
+                l.name, size.0, size.1
+            ),
+        })
     }
 
     /// The pressure image (real pressures, counts; row-major at the map's raster size, before
     /// grey conversion and resizing) behind [`Self::last_image`] or the last
-    /// [`Self::frame_image`] of `link`, and its size (rows, cols).
-    pub fn last_pressure_image(&self, link: usize) -> Option<(&[f32], (usize, usize))> {
+    /// [`Self::frame_image`] of `link`; none before the first.
+    pub fn last_pressure_image(&self, link: usize) -> Option<ImageView<'_, f32>> {
         let l = self.links.get(link)?;
         let raster = l.imager.raster();
-        Some((l.imager.pressure_image(), (raster.rows(), raster.cols())))
+        view(l.imager.pressure_image(), (raster.rows(), raster.cols()))
     }
 
     /// The contacts of `link` in the last frame processed, largest total pressure first.
@@ -445,10 +442,10 @@ impl TouchPipeline {
     }
 
     /// The classes of the touches in progress that have been decided.
-    pub fn open_classes(&self) -> impl Iterator<Item = usize> + '_ {
+    pub fn open_classes(&self) -> impl Iterator<Item = &Class> + '_ {
         self.links
             .iter()
-            .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| d.class))
+            .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| &d.class))
     }
 
     /// Taxels of `link`'s map.
@@ -456,9 +453,14 @@ impl TouchPipeline {
         self.links.get(link).map(|l| l.map.ids.len())
     }
 
-    /// The class names, in the classifier's output order.
-    pub fn classes(&self) -> &[String] {
-        &self.options.classes
+    /// The classifier's classes, in output order.
+    pub fn classes(&self) -> &Classes {
+        self.models.classes()
+    }
+
+    /// A classifier decides the touches.
+    pub fn classifies(&self) -> bool {
+        self.models.classifies()
     }
 
     /// The options it was built with.
@@ -560,12 +562,12 @@ impl TouchPipeline {
             None => {
                 let id = self.next_touch;
                 self.next_touch += 1;
-                events.push(TouchEvent::Appeared {
+                events.push(TouchEvent::Appeared(Appeared {
                     link: k,
-                    touch: id,
+                    id,
                     time,
                     footprint,
-                });
+                }));
                 link.touch.insert(Touch {
                     id,
                     start: time,
@@ -607,7 +609,7 @@ impl TouchPipeline {
 
     /// Classifies (and segments) the fullest frame of link `k`'s touch.
     fn decide(&mut self, k: usize, time: f64, events: &mut Vec<TouchEvent>) -> Result<(), TouchError> {
-        let Some((classifier, _)) = &mut self.classifier else {
+        let Some(classifier) = &mut self.models.classifier else {
             return Ok(());
         };
         let link = &mut self.links[k];
@@ -615,6 +617,7 @@ impl TouchPipeline {
             return Ok(());
         };
         let t0 = Instant::now();
+        let (rows, cols) = link.imager.output_size();
         let image = link
             .imager
             .process(&link.peak_pressures)
@@ -622,6 +625,10 @@ impl TouchPipeline {
                 link: link.name.clone(),
                 source,
             })?;
+        let image = ImageView::new(image, ImageSize { rows, cols }).map_err(|e| TouchError::Frame {
+            time,
+            why: format!("link {}: {e}", link.name),
+        })?;
         let t1 = Instant::now();
         let probabilities = classifier.classify(image)?;
         let t2 = Instant::now();
@@ -637,22 +644,42 @@ impl TouchPipeline {
                     (0, f32::NEG_INFINITY),
                     |best, (c, p)| if p > best.1 { (c, p) } else { best },
                 );
+        let classes = &self.models.classes;
+        let class = match classes.get(class) {
+            Some(c) if probabilities.len() == classes.len() => c.clone(),
+            _ => {
+                return Err(TouchError::Model(ModelError::Run(format!(
+                    "{} class scores from the classifier, for {} classes",
+                    probabilities.len(),
+                    classes.len()
+                ))));
+            }
+        };
         let mut parts = Vec::new();
-        if Some(class) == self.hand
-            && let Some((segmenter, _)) = &mut self.segmenter
+        if class.is_hand()
+            && let Some(segmenter) = &mut self.models.segmenter
         {
             let labels = segmenter.segment(image)?;
+            if labels.len() != rows * cols {
+                return Err(TouchError::Model(ModelError::Run(format!(
+                    "the segmenter gave {} labels for a {rows} x {cols} image",
+                    labels.len()
+                ))));
+            }
             parts = part_contacts(
                 &link.map,
                 link.imager.raster(),
-                link.imager.output_size(),
+                (rows, cols),
                 &labels,
                 &link.peak_pressures,
             );
             self.times.segment += t2.elapsed();
             self.times.runs.1 += 1;
         }
-        let revised = touch.decision.as_ref().is_some_and(|d| d.class != class);
+        let revised = touch
+            .decision
+            .as_ref()
+            .is_some_and(|d| d.class.index() != class.index());
         let first = touch.decision.is_none();
         touch.classified_total = touch.peak_total;
         let decision = Decision {
@@ -661,13 +688,13 @@ impl TouchPipeline {
             parts,
         };
         if first || revised {
-            events.push(TouchEvent::Classified {
+            events.push(TouchEvent::Classified(Classified {
                 link: k,
-                touch: touch.id,
+                id: touch.id,
                 time,
                 decision: decision.clone(),
                 revised,
-            });
+            }));
         }
         touch.decision = Some(decision);
         Ok(())
@@ -680,16 +707,23 @@ impl TouchPipeline {
             self.decide(k, time, events)?;
         }
         if let Some(t) = self.links[k].touch.take() {
-            events.push(TouchEvent::Released {
+            events.push(TouchEvent::Released(Released {
                 link: k,
-                touch: t.id,
+                id: t.id,
+                start: t.start,
                 time: t.last,
                 duration: t.last - t.start,
                 frames: t.frames,
                 peak: t.peak,
                 decision: t.decision,
-            });
+            }));
         }
         Ok(())
     }
+}
+
+/// A view of an imager's pixels at `(rows, cols)`; none if they do not fill it (nothing imaged
+/// yet).
+fn view<T>(pixels: &[T], (rows, cols): (usize, usize)) -> Option<ImageView<'_, T>> {
+    ImageView::new(pixels, ImageSize { rows, cols }).ok()
 }

@@ -39,7 +39,7 @@ fn touches(log: &CandumpLog, t0_us: u64) -> (Vec<(f64, f64)>, Vec<Event>) {
     let found = events
         .iter()
         .filter_map(|e| match e {
-            Event::Released { time, duration, .. } => Some((first + time - duration, first + time)),
+            Event::Released { touch, .. } => Some((first + touch.time - touch.duration, first + touch.time)),
             _ => None,
         })
         .collect();
@@ -140,9 +140,14 @@ fn a_session_switched_on_while_someone_leans_on_the_skin_corrects_its_baseline_w
                 200.0 + (i % 200) as f32 + wobble + load.get(i).copied().unwrap_or(0.0)
             })
             .collect();
-        session.push(k * 50_000, k, &[raw], &mut events).unwrap();
+        assert!(
+            session
+                .push(k * 50_000, k, &[raw], &mut events)
+                .unwrap()
+                .is_continue()
+        );
     }
-    session.finish(&mut events).unwrap();
+    assert!(session.finish(&mut events).unwrap().is_continue());
     let corrected: Vec<_> = events
         .iter()
         .filter_map(|e| match e {
@@ -157,9 +162,9 @@ fn a_session_switched_on_while_someone_leans_on_the_skin_corrects_its_baseline_w
     let released: Vec<(f64, f64, f32)> = events
         .iter()
         .filter_map(|e| match e {
-            Event::Released {
-                time, duration, peak, ..
-            } => Some((time - duration, *time, peak.mean_pressure)),
+            Event::Released { touch, .. } => {
+                Some((touch.time - touch.duration, touch.time, touch.peak.mean_pressure))
+            }
             _ => None,
         })
         .collect();
@@ -178,4 +183,5 @@ fn a_session_switched_on_while_someone_leans_on_the_skin_corrects_its_baseline_w
         )),
         "{summary}"
     );
+    assert_eq!(session.stats().baseline_corrections, (1, pressed as u64));
 }

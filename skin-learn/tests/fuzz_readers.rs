@@ -87,7 +87,6 @@ proptest! {
 /// The session configuration (`run.toml`): hostile edits of the fixture's and arbitrary text
 /// give values in their documented ranges or an error, never a panic, and never a message that
 /// echoes a long line.
-#[cfg(feature = "onnx")]
 mod session_config {
     use super::*;
     use skin_learn::session::{MAX_IMAGE_SIDE, SessionConfig};

@@ -6,7 +6,7 @@
 
 use skin_can::candump::{CandumpLog, CandumpReader};
 use skin_core::format::recording::{self, RecordingReader};
-use skin_learn::session::{Event, Session, SessionConfig, Sink};
+use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
 use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -69,10 +69,64 @@ struct FirstEvent {
 }
 
 impl Sink for FirstEvent {
-    fn event(&mut self, _: &Event) -> std::io::Result<()> {
+    type Error = std::io::Error;
+
+    fn event(&mut self, _: &Event) -> std::io::Result<Flow> {
         self.at = Some(self.served.load(Ordering::Relaxed));
         Err(std::io::Error::other("seen enough"))
     }
+}
+
+/// Takes events until the first release, then says stop.
+struct UntilReleased(Vec<Event>);
+
+impl Sink for UntilReleased {
+    type Error = std::convert::Infallible;
+
+    fn event(&mut self, e: &Event) -> Result<Flow, Self::Error> {
+        self.0.push(e.clone());
+        Ok(match e {
+            Event::Released { .. } => Flow::Break(()),
+            _ => Flow::Continue(()),
+        })
+    }
+}
+
+#[test]
+fn a_sink_that_says_stop_ends_the_run_cleanly_at_that_event() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut session = session(dir.path(), true);
+    let mut sink = UntilReleased(Vec::new());
+    let reader = CandumpReader::open(&session_log()).unwrap();
+    let span = session
+        .run_log(reader, &session_log(), &mut sink, &mut |_, _| {})
+        .unwrap();
+    assert!(session.stopped());
+    assert!(
+        matches!(sink.0.last(), Some(Event::Released { .. })),
+        "{:?}",
+        sink.0
+    );
+    assert_eq!(
+        sink.0
+            .iter()
+            .filter(|e| matches!(e, Event::Released { .. }))
+            .count(),
+        1
+    );
+    assert_eq!(session.stats().touches, 1);
+    assert!(span > 0.0 && span < 60.0, "{span}");
+    // Frames after the stop are refused, and nothing more reaches the sink.
+    let frame = vec![vec![0.0f32; session.links()[0].taxels.len()]];
+    assert!(session.push(0, 0, &frame, &mut sink).unwrap().is_break());
+    assert!(session.finish(&mut sink).unwrap().is_break());
+    assert_eq!(
+        sink.0
+            .iter()
+            .filter(|e| matches!(e, Event::Released { .. }))
+            .count(),
+        1
+    );
 }
 
 #[test]

@@ -1,12 +1,16 @@
 //! The session as a robot stack uses it (`skin_learn::session`): the fixture session's CAN log
-//! in, typed events out, without the binary.
+//! in, typed events out, without the binary. The fixture's classes are checked with the shipped
+//! models (feature `onnx`); everything else runs with rule-based test models.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
 use skin_can::candump::CandumpLog;
+#[cfg(feature = "onnx")]
 use skin_control::hri::{GateAction, TouchClass};
 use skin_learn::session::{Event, MissingModule, Session, SessionConfig};
 use std::path::{Path, PathBuf};
+
+mod support;
 
 #[path = "../../test-support/recordings.rs"]
 mod recordings;
@@ -18,35 +22,55 @@ fn fixture_session() -> (Session, CandumpLog, PathBuf) {
     let config = SessionConfig::read(&root.join("run.toml")).unwrap();
     let log_path = root.join("session.candump.log");
     let log = CandumpLog::read(&log_path).unwrap();
-    (Session::from_config(&config).unwrap(), log, log_path)
+    (session_of(&config), log, log_path)
 }
 
+/// The session of a configuration naming models: the shipped ones with the model runtime,
+/// else the rule-based test models.
+fn session_of(config: &SessionConfig) -> Session {
+    if cfg!(feature = "onnx") {
+        Session::from_config(config).unwrap()
+    } else {
+        Session::from_config_with_models(config, support::rule_models()).unwrap()
+    }
+}
+
+#[cfg(feature = "onnx")]
 #[test]
 fn the_fixture_session_decides_every_scripted_touch_with_typed_events() {
     let (mut session, log, path) = fixture_session();
     let mut events: Vec<Event> = Vec::new();
     let span = session.run_log(&log, &path, &mut events, &mut |_, _| {}).unwrap();
-    let summary = session.summary(span).to_string();
+    let summary = session.summary(span);
     assert!(
-        summary.contains("20 of 20 scripted touches found, 20 with the right class"),
+        summary
+            .to_string()
+            .contains("20 of 20 scripted touches found, 20 with the right class"),
         "{summary}"
     );
+    let score = summary.script_score().unwrap();
+    assert_eq!((score.scripted, score.found, score.right), (20, 20, 20));
+    assert_eq!(session.stats().touches, session.touches().len());
     let mut decisions = 0;
     let mut last_kind = None;
     for e in &events {
         match e {
-            Event::Classified {
-                class, kind, image, ..
-            } => {
+            Event::Classified { touch, image, .. } => {
                 decisions += 1;
+                let class = &touch.decision.class;
                 // The typed class is the name's, and the image is the model's input.
-                assert_eq!(*kind, TouchClass::from_name(class), "{e:?}");
+                assert_eq!(class.kind(), TouchClass::from_name(class.name()), "{e:?}");
                 assert_eq!((image.rows, image.cols, image.pixels.len()), (68, 100, 6800));
                 assert!(image.pixels.iter().any(|&p| p > 0), "the image shows the touch");
-                last_kind = Some(*kind);
+                last_kind = Some(class.kind());
             }
-            Event::Released { class, kind, .. } => {
-                assert_eq!(*kind, class.as_deref().map(TouchClass::from_name), "{e:?}");
+            Event::Released { touch, .. } => {
+                let class = touch.decision.as_ref().map(|d| &d.class);
+                assert_eq!(
+                    class.map(|c| c.kind()),
+                    class.map(|c| TouchClass::from_name(c.name())),
+                    "{e:?}"
+                );
             }
             // The gate follows the run.toml's [gate]: comply with a hand, stop for the rest.
             Event::Gate { action, .. } => match last_kind {
@@ -99,6 +123,7 @@ fn a_module_lost_for_half_a_second_is_reported_frame_by_frame_and_loses_no_touch
     );
     let summary = session.summary(span).to_string();
     assert!(summary.contains("20 of 20 scripted touches found"), "{summary}");
+    assert_eq!(session.stats().incomplete as usize, dropped);
 }
 
 #[test]
@@ -112,7 +137,7 @@ fn a_layout_taxel_on_no_bus_is_reported() {
     let busmap_path = dir.path().join("busmap.toml");
     std::fs::write(&busmap_path, busmap.replacen("[16, ", "[-1, ", 1)).unwrap();
     config.busmap = Some(busmap_path);
-    let session = Session::from_config(&config).unwrap();
+    let session = session_of(&config);
     assert_eq!(session.uncovered(), [("forearm", skin_core::TaxelId(16))]);
     let (full, _, _) = fixture_session();
     assert!(full.uncovered().is_empty());
@@ -156,7 +181,7 @@ fn a_raw_recording_goes_through_a_session_configured_by_its_layout_alone() {
     let released: Vec<(f64, usize)> = events
         .iter()
         .filter_map(|e| match e {
-            Event::Released { time, peak, .. } => Some((*time, peak.contacts)),
+            Event::Released { touch, .. } => Some((touch.time, touch.peak.contacts)),
             _ => None,
         })
         .collect();
@@ -225,17 +250,14 @@ fn nobody_touching_the_real_patch_gives_no_touch() {
 fn touch_split_is_read_with_its_defaults_and_checked() {
     let path = Path::new("/nowhere/run.toml");
     let config = SessionConfig::parse("layout = \"l.json\"\n[touch.split]\n", path).unwrap();
-    let options = config.touch_options(vec!["hand".into(), "non_hand".into()]);
+    let options = config.touch_options();
     assert_eq!(options.separation, skin_core::Separation::FINGERS);
     let plain = SessionConfig::parse("layout = \"l.json\"\n", path).unwrap();
-    assert_eq!(
-        plain.touch_options(Vec::new()).separation,
-        skin_core::Separation::FINGERS
-    );
+    assert_eq!(plain.touch_options().separation, skin_core::Separation::FINGERS);
     let thesis =
         SessionConfig::parse("layout = \"l.json\"\n[touch]\ncontacts = \"connected\"\n", path).unwrap();
     assert_eq!(
-        thesis.touch_options(Vec::new()).separation,
+        thesis.touch_options().separation,
         skin_core::Separation::Connected
     );
     let both = "layout = \"l.json\"\n[touch]\ncontacts = \"connected\"\n[touch.split]\n";
@@ -245,7 +267,7 @@ fn touch_split_is_read_with_its_defaults_and_checked() {
     assert_eq!(
         SessionConfig::parse(wider, path)
             .unwrap()
-            .touch_options(Vec::new())
+            .touch_options()
             .separation,
         skin_core::Separation::Peaks {
             min_dip: 0.5,
@@ -341,7 +363,7 @@ fn a_dead_taxel_under_a_press_leaves_the_contact_whole() {
         events
             .iter()
             .filter_map(|e| match e {
-                Event::Released { peak, .. } => Some(peak.contacts),
+                Event::Released { touch, .. } => Some(touch.peak.contacts),
                 _ => None,
             })
             .collect::<Vec<usize>>()

@@ -14,6 +14,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use skin_core::LinkSkin;
 use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::model::Models;
 use skin_learn::session::{ProcessedFrame, Sink};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
@@ -39,7 +40,7 @@ fn bench(c: &mut Criterion) {
         .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
         .collect();
     let pressures = hand_on_middle_link(&links, &maps[1]);
-    let mut pipeline = TouchPipeline::new(maps, None, None, TouchOptions::default()).unwrap();
+    let mut pipeline = TouchPipeline::new(maps, Models::none(), TouchOptions::default()).unwrap();
     pipeline.process(1.0, &pressures, &mut Vec::new()).unwrap();
     let contacts = pipeline.contacts(1).len();
     assert!(contacts > 0, "the hand makes no contact");

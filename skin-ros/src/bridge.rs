@@ -16,7 +16,7 @@ use crate::messages::{
 };
 use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
-use skin_learn::session::{Event, ProcessedFrame, Sink};
+use skin_learn::session::{Event, Flow, ProcessedFrame, Sink};
 use skin_learn::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
@@ -180,12 +180,18 @@ fn footprint(f: &Footprint) -> FootprintMsg {
     }
 }
 
+/// Go on: a ROS sink never stops a run.
+const GO: Flow = Flow::Continue(());
+
 impl<O: Outlet> Sink for RosSink<O> {
-    fn origin(&mut self, origin_us: u64) -> std::io::Result<()> {
-        self.clock.set_origin(origin_us).map_err(std::io::Error::other)
+    type Error = std::io::Error;
+
+    fn origin(&mut self, origin_us: u64) -> std::io::Result<Flow> {
+        self.clock.set_origin(origin_us).map_err(std::io::Error::other)?;
+        Ok(GO)
     }
 
-    fn event(&mut self, event: &Event) -> std::io::Result<()> {
+    fn event(&mut self, event: &Event) -> std::io::Result<Flow> {
         let (stamp_ns, stamp) = self.clock.event(event.time()).map_err(std::io::Error::other)?;
         let names = &self.names;
         let frame_ids = &self.topics.frame_ids;
@@ -213,35 +219,24 @@ impl<O: Outlet> Sink for RosSink<O> {
                 m.bus = bus;
                 m.cycle = *cycle;
             }
-            Event::Appeared {
-                link,
-                touch,
-                footprint: f,
-                ..
-            } => {
+            Event::Appeared { link, touch } => {
                 m.kind = EventKind::Appeared;
                 m.link = link;
                 m.frame_id = frame_of(link);
-                m.touch = *touch;
-                m.footprint = footprint(f);
+                m.touch = touch.id;
+                m.footprint = footprint(&touch.footprint);
             }
-            Event::Classified {
-                link,
-                touch,
-                revised,
-                class,
-                probability,
-                parts,
-                ..
-            } => {
+            Event::Classified { link, touch, .. } => {
+                let d = &touch.decision;
                 m.kind = EventKind::Classified;
                 m.link = link;
                 m.frame_id = frame_of(link);
-                m.touch = *touch;
-                m.revised = *revised;
-                m.touch_class = class;
-                m.probability = *probability;
-                m.parts = parts
+                m.touch = touch.id;
+                m.revised = touch.revised;
+                m.touch_class = d.class.name();
+                m.probability = d.probability;
+                m.parts = d
+                    .parts
                     .iter()
                     .map(|p| HandPartMsg {
                         part: p.part.name(),
@@ -251,25 +246,17 @@ impl<O: Outlet> Sink for RosSink<O> {
                     })
                     .collect();
             }
-            Event::Released {
-                link,
-                touch,
-                duration,
-                frames,
-                peak,
-                class,
-                probability,
-                ..
-            } => {
+            Event::Released { link, touch } => {
+                let d = touch.decision.as_ref();
                 m.kind = EventKind::Released;
                 m.link = link;
                 m.frame_id = frame_of(link);
-                m.touch = *touch;
-                m.duration = *duration;
-                m.frames = *frames as u32;
-                m.footprint = footprint(peak);
-                m.touch_class = class.as_deref().unwrap_or_default();
-                m.probability = probability.unwrap_or(f32::NAN);
+                m.touch = touch.id;
+                m.duration = touch.duration;
+                m.frames = touch.frames as u32;
+                m.footprint = footprint(&touch.peak);
+                m.touch_class = d.map_or("", |d| d.class.name());
+                m.probability = d.map_or(f32::NAN, |d| d.probability);
             }
             Event::Gate { action, .. } => {
                 m.kind = EventKind::Gate;
@@ -318,24 +305,25 @@ impl<O: Outlet> Sink for RosSink<O> {
             self.publish(topic, stamp_ns)?;
             self.pending_images[l] = self.topics.links[l].pressure_image.is_some();
         }
-        Ok(())
+        Ok(GO)
     }
 
-    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<()> {
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> std::io::Result<Flow> {
         let (stamp_ns, stamp) = self.clock.frame(frame.time_us).map_err(std::io::Error::other)?;
         for (l, pressures) in frame.pressures.iter().enumerate().take(self.clouds.len()) {
             let topic = self.topics.links[l].pressure;
             let bytes = self.clouds[l].fill(stamp, pressures);
             self.outlet.publish(topic, stamp_ns, bytes)?;
             if self.pending_images[l]
-                && let (Some(topic), Some((values, (rows, cols)))) = (
+                && let (Some(topic), Some(image)) = (
                     self.topics.links[l].pressure_image,
                     frame.decision_pressure_image(l),
                 )
             {
                 self.pending_images[l] = false;
                 let frame_id = frame_id(&self.topics.frame_ids, l);
-                messages::image_32fc1(&mut self.w, stamp, frame_id, rows, cols, values);
+                let size = image.size();
+                messages::image_32fc1(&mut self.w, stamp, frame_id, size.rows, size.cols, image.pixels());
                 self.publish(topic, stamp_ns)?;
             }
         }
@@ -347,7 +335,7 @@ impl<O: Outlet> Sink for RosSink<O> {
                 messages::arrows(&mut self.w, stamp, std::iter::empty());
                 self.publish(self.topics.markers, stamp_ns)?;
             }
-            return Ok(());
+            return Ok(GO);
         }
         // Each contact's normal: its taxels' normals weighted by pressure (the map has none).
         let normal = |l: usize, taxels: &[usize]| {
@@ -392,7 +380,7 @@ impl<O: Outlet> Sink for RosSink<O> {
         self.outlet
             .publish(self.topics.markers, stamp_ns, self.w.bytes())?;
         self.arrows_shown = true;
-        Ok(())
+        Ok(GO)
     }
 }
 

@@ -36,7 +36,7 @@
 //!
 //! [`Session::from_config`]: super::Session::from_config
 
-use super::SessionError;
+use super::ConfigError;
 use crate::touch::TouchOptions;
 use serde::Deserialize;
 use skin_control::hri::ClassGate;
@@ -176,14 +176,14 @@ pub struct StitchConfig {
 
 impl SessionConfig {
     /// Reads and checks a configuration file.
-    pub fn read(path: &Path) -> Result<SessionConfig, SessionError> {
+    pub fn read(path: &Path) -> Result<SessionConfig, ConfigError> {
         let text = skin_core::format::read_text(path)?;
         SessionConfig::parse(&text, path)
     }
 
     /// Parses and checks a configuration (not the files it names): every number in its range,
     /// every closed set one of its values. `path` names it in errors and anchors its paths.
-    pub fn parse(text: &str, path: &Path) -> Result<SessionConfig, SessionError> {
+    pub fn parse(text: &str, path: &Path) -> Result<SessionConfig, ConfigError> {
         // toml's own message quotes the whole line at fault, whatever its length: name the line
         // and say what is wrong instead.
         let mut config: SessionConfig = toml::from_str(text).map_err(|e| {
@@ -196,14 +196,14 @@ impl SessionConfig {
             if short.len() < message.len() {
                 short.push_str("...");
             }
-            SessionError::Syntax {
+            ConfigError::Syntax {
                 file: path.to_owned(),
                 line,
                 message: short,
             }
         })?;
         config.path = path.to_owned();
-        let value = |field: &'static str, value: String, expected: &'static str| SessionError::Value {
+        let value = |field: &'static str, value: String, expected: &'static str| ConfigError::Value {
             file: path.to_owned(),
             field,
             value,
@@ -269,7 +269,7 @@ impl SessionConfig {
     }
 
     /// The models' input size (rows, cols).
-    pub fn image_size(&self) -> Result<(usize, usize), SessionError> {
+    pub fn image_size(&self) -> Result<(usize, usize), ConfigError> {
         let Some(s) = &self.image_size else {
             return Ok((68, 100));
         };
@@ -281,7 +281,7 @@ impl SessionConfig {
         };
         match s.split_once(['x', 'X']).map(|(r, c)| (side(r), side(c))) {
             Some((Some(r), Some(c))) => Ok((r, c)),
-            _ => Err(SessionError::Value {
+            _ => Err(ConfigError::Value {
                 file: self.path.clone(),
                 field: "image_size",
                 value: s.chars().take(40).collect(),
@@ -290,8 +290,8 @@ impl SessionConfig {
         }
     }
 
-    /// The touch options it gives, with the classifier's class names.
-    pub fn touch_options(&self, classes: Vec<String>) -> TouchOptions {
+    /// The touch options it gives.
+    pub fn touch_options(&self) -> TouchOptions {
         let t = &self.touch;
         TouchOptions {
             threshold: t.threshold,
@@ -309,17 +309,16 @@ impl SessionConfig {
                     }
                 }
             },
-            classes,
             ..TouchOptions::default()
         }
     }
 
     /// A path of the configuration, resolved against its folder; `field` names it if the file
     /// is missing.
-    pub fn resolve(&self, field: &'static str, p: &Path) -> Result<PathBuf, SessionError> {
+    pub fn resolve(&self, field: &'static str, p: &Path) -> Result<PathBuf, ConfigError> {
         let full = self.path.parent().unwrap_or(Path::new(".")).join(p);
         if full.is_dir() {
-            return Err(SessionError::Value {
+            return Err(ConfigError::Value {
                 file: self.path.clone(),
                 field,
                 value: format!("\"{}\" ({})", p.display(), full.display()),
@@ -327,7 +326,7 @@ impl SessionConfig {
             });
         }
         if !full.is_file() {
-            return Err(SessionError::NoFile {
+            return Err(ConfigError::NoFile {
                 config: self.path.clone(),
                 field,
                 path: p.to_owned(),
@@ -339,7 +338,7 @@ impl SessionConfig {
 
     /// Every file the configuration names, resolved (no output may land on one); an error for
     /// the first that does not exist.
-    pub fn inputs(&self) -> Result<Vec<PathBuf>, SessionError> {
+    pub fn inputs(&self) -> Result<Vec<PathBuf>, ConfigError> {
         let mut files = vec![self.resolve("layout", &self.layout)?];
         for (field, p) in [
             ("busmap", &self.busmap),

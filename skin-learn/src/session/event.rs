@@ -10,9 +10,11 @@
 //! full values.
 
 use crate::parts::PartContact;
-use crate::touch::Footprint;
+use crate::touch::{self, Footprint};
+use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
-use skin_control::hri::{GateAction, TouchClass};
+use skin_control::hri::GateAction;
+use skin_core::image::{ImageSize, ImageView};
 
 /// Something that happened in a session, as it happened.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -42,73 +44,38 @@ pub enum Event {
         /// The cycle the frame after the restart was given.
         cycle: u64,
     },
-    /// A touch began on a link.
+    /// A touch began on a link. In JSON: `time`, `link`, `touch` and the footprint's fields.
     Appeared {
-        /// Frame time, s.
-        #[serde(serialize_with = "ms")]
-        time: f64,
         /// The link's name.
         link: String,
-        /// Touch number, unique over the session.
-        touch: u64,
-        /// The first frame's footprint (its fields are written at the top level in JSON).
+        /// The touch (its link index, number, time and footprint).
         #[serde(flatten)]
-        footprint: Footprint,
+        touch: touch::Appeared,
     },
     /// A touch was classified, on the image of the touch at its fullest so far; `revised` when
-    /// the class changed since the touch's last decision.
+    /// the class changed since the touch's last decision. In JSON: `time`, `link`, `touch`,
+    /// `revised`, `class` (its name), `probability` and the `parts` pressing (a hand, with a
+    /// segmenter), thumb to palm.
     Classified {
-        /// Frame time, s.
-        #[serde(serialize_with = "ms")]
-        time: f64,
         /// The link's name.
         link: String,
-        /// Touch number.
-        touch: u64,
-        /// The class changed since the touch's last decision.
-        revised: bool,
-        /// The class's name (the model card's).
-        class: String,
-        /// The class as the gate sees it (a hand or not), so a consumer matches a type, not
-        /// a name; not in JSON (`class` says it).
-        #[serde(skip)]
-        kind: TouchClass,
-        /// Its probability, 0 to 1.
-        #[serde(serialize_with = "prob")]
-        probability: f32,
-        /// The hand parts pressing (a hand, with a segmenter), thumb to palm.
-        #[serde(skip_serializing_if = "Vec::is_empty", serialize_with = "part_list")]
-        parts: Vec<PartContact>,
+        /// The touch and its decision.
+        #[serde(flatten)]
+        touch: touch::Classified,
         /// The tactile image the decision was made on (model input size); not in JSON
         /// ([`PngImages`](super::PngImages) writes it).
         #[serde(skip)]
         image: GreyImage,
     },
-    /// A touch ended (or the session did, with the touch still open).
+    /// A touch ended (or the session did, with the touch still open). In JSON: `time` (its last
+    /// frame of contact), `link`, `touch`, `duration`, `frames`, the `peak` footprint and, once
+    /// decided, the final `class` and its `probability`.
     Released {
-        /// Time of its last frame of contact, s.
-        #[serde(serialize_with = "ms")]
-        time: f64,
         /// The link's name.
         link: String,
-        /// Touch number.
-        touch: u64,
-        /// From its first to its last frame of contact, s.
-        #[serde(serialize_with = "ms")]
-        duration: f64,
-        /// Frames of contact.
-        frames: usize,
-        /// The footprint at its largest total pressure.
-        peak: Footprint,
-        /// The final class (none without a classifier).
-        #[serde(skip_serializing_if = "Option::is_none")]
-        class: Option<String>,
-        /// The final class as the gate sees it; not in JSON (`class` says it).
-        #[serde(skip)]
-        kind: Option<TouchClass>,
-        /// Its probability, 0 to 1.
-        #[serde(skip_serializing_if = "Option::is_none", serialize_with = "prob_opt")]
-        probability: Option<f32>,
+        /// The touch, from its first to its last frame of contact, and its final decision.
+        #[serde(flatten)]
+        touch: touch::Released,
     },
     /// What the robot should do changed (with a `[gate]`): the action of the most severe touch in
     /// progress, `resume` when none is.
@@ -164,13 +131,13 @@ impl Event {
         match self {
             Event::Incomplete { time, .. }
             | Event::CounterReset { time, .. }
-            | Event::Appeared { time, .. }
-            | Event::Classified { time, .. }
-            | Event::Released { time, .. }
             | Event::Gate { time, .. }
             | Event::AcrossJoint { time, .. }
             | Event::AcrossJointEnd { time }
             | Event::BaselineCorrected { time, .. } => *time,
+            Event::Appeared { touch, .. } => touch.time,
+            Event::Classified { touch, .. } => touch.time,
+            Event::Released { touch, .. } => touch.time,
         }
     }
 
@@ -201,6 +168,25 @@ pub struct GreyImage {
     pub cols: usize,
     /// `rows * cols` pixels.
     pub pixels: Vec<u8>,
+}
+
+impl GreyImage {
+    /// The image as a view; none if its pixels do not fill `rows * cols`.
+    pub fn view(&self) -> Option<ImageView<'_, u8>> {
+        let size = ImageSize {
+            rows: self.rows,
+            cols: self.cols,
+        };
+        ImageView::new(&self.pixels, size).ok()
+    }
+
+    /// Copies `image` into this one, reusing its buffer.
+    pub fn set(&mut self, image: ImageView<'_, u8>) {
+        self.rows = image.size().rows;
+        self.cols = image.size().cols;
+        self.pixels.clear();
+        self.pixels.extend_from_slice(image.pixels());
+    }
 }
 
 /// One frame after the baseline, as the session processed it ([`Sink::frame`](super::Sink)):
@@ -250,7 +236,7 @@ impl<'a> ProcessedFrame<'a> {
 
     /// The pressure image a decision of this frame on `link` was made from
     /// ([`TouchPipeline::last_pressure_image`](crate::touch::TouchPipeline::last_pressure_image)).
-    pub fn decision_pressure_image(&self, link: usize) -> Option<(&'a [f32], (usize, usize))> {
+    pub fn decision_pressure_image(&self, link: usize) -> Option<ImageView<'a, f32>> {
         self.pipeline.last_pressure_image(link)
     }
 }
@@ -283,17 +269,6 @@ fn ms<S: Serializer>(t: &f64, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_f64(round(*t, 3))
 }
 
-fn prob<S: Serializer>(p: &f32, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_f64(round(f64::from(*p), 4))
-}
-
-fn prob_opt<S: Serializer>(p: &Option<f32>, s: S) -> Result<S::Ok, S::Error> {
-    match p {
-        Some(p) => prob(p, s),
-        None => s.serialize_none(),
-    }
-}
-
 fn action_name<S: Serializer>(a: &GateAction, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(a.name())
 }
@@ -308,8 +283,15 @@ fn pressure(p: f32) -> f64 {
 
 impl Serialize for Footprint {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
         let mut m = s.serialize_map(Some(5))?;
+        self.entries(&mut m)?;
+        m.end()
+    }
+}
+
+impl Footprint {
+    /// Its fields as entries of `m` (an event's own, or the footprint's).
+    fn entries<M: SerializeMap>(&self, m: &mut M) -> Result<(), M::Error> {
         m.serialize_entry("area_cm2", &round(self.area_cm2, 2))?;
         m.serialize_entry(
             "centroid",
@@ -317,13 +299,64 @@ impl Serialize for Footprint {
         )?;
         m.serialize_entry("contacts", &self.contacts)?;
         m.serialize_entry("mean_pressure", &pressure(self.mean_pressure))?;
-        m.serialize_entry("taxels", &self.taxels)?;
+        m.serialize_entry("taxels", &self.taxels)
+    }
+}
+
+/// JSON of a touch's events: the link's name is the event's, the link index is not written.
+impl Serialize for touch::Appeared {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("time", &round(self.time, 3))?;
+        m.serialize_entry("touch", &self.id)?;
+        self.footprint.entries(&mut m)?;
         m.end()
     }
 }
 
+impl Serialize for touch::Classified {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let d = &self.decision;
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("time", &round(self.time, 3))?;
+        m.serialize_entry("touch", &self.id)?;
+        m.serialize_entry("revised", &self.revised)?;
+        m.serialize_entry("class", &d.class)?;
+        m.serialize_entry("probability", &round(f64::from(d.probability), 4))?;
+        if !d.parts.is_empty() {
+            m.serialize_entry("parts", &Parts(&d.parts))?;
+        }
+        m.end()
+    }
+}
+
+impl Serialize for touch::Released {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("time", &round(self.time, 3))?;
+        m.serialize_entry("touch", &self.id)?;
+        m.serialize_entry("duration", &round(self.duration, 3))?;
+        m.serialize_entry("frames", &self.frames)?;
+        m.serialize_entry("peak", &self.peak)?;
+        if let Some(d) = &self.decision {
+            m.serialize_entry("class", &d.class)?;
+            m.serialize_entry("probability", &round(f64::from(d.probability), 4))?;
+        }
+        m.end()
+    }
+}
+
+/// The hand parts of a decision, thumb to palm.
+struct Parts<'a>(&'a [PartContact]);
+
+impl Serialize for Parts<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        part_list(self.0, s)
+    }
+}
+
 fn part_list<S: Serializer>(parts: &[PartContact], s: S) -> Result<S::Ok, S::Error> {
-    use serde::ser::{SerializeMap, SerializeSeq};
+    use serde::ser::SerializeSeq;
     struct One<'a>(&'a PartContact);
     impl Serialize for One<'_> {
         fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {

@@ -8,23 +8,13 @@ impl Session {
     /// file again. A batch builds its session once and restarts it for each input, so every
     /// input meets the same layout and models even if their files change meanwhile.
     pub fn restarted(self) -> Result<Session, SessionError> {
-        let Session {
-            links,
-            pipeline,
-            options,
-            can,
-            stitching,
-            script,
-            source,
-            layout_notes,
-            ..
-        } = self;
-        let mut fresh = Session::new(links, pipeline.restarted()?, options)?;
-        fresh.can = can;
-        fresh.stitching = stitching;
-        fresh.script = script;
-        fresh.source = source;
-        fresh.layout_notes = layout_notes;
+        let Session { setup, pipeline, .. } = self;
+        let mut fresh = Session::new(setup.links, pipeline.restarted()?, setup.options)?;
+        fresh.setup.can = setup.can;
+        fresh.setup.stitching = setup.stitching;
+        fresh.setup.script = setup.script;
+        fresh.setup.source = setup.source;
+        fresh.setup.layout_notes = setup.layout_notes;
         Ok(fresh)
     }
 }

@@ -2,7 +2,7 @@
 //! of a poses file, contacts searched over the whole chain at the posture of each frame, and the
 //! stitched tactile image.
 
-use super::SessionError;
+use super::ConfigError as SessionError;
 use skin_core::format::poses::Postures;
 use skin_geom::raster::to_grey;
 use skin_geom::{ChainContacts, Normalisation, StitchOptions, StitchedRasterizer, Stitcher, TactileMap};

@@ -1,8 +1,9 @@
 //! A session's summary and its time per stage, as text (what `skin run` prints and writes to
 //! `summary.txt`).
 
-use super::Session;
+use super::{Session, SessionStats};
 use crate::script::Found;
+use crate::touch::Released;
 use std::fmt::{self, Display, Formatter};
 use std::time::Duration;
 
@@ -20,7 +21,48 @@ pub struct Timings<'a> {
     pub(super) span: f64,
 }
 
+/// How the run's touches score against the script ([`Summary::script_score`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScriptScore {
+    /// Scripted touches.
+    pub scripted: usize,
+    /// Of them, found.
+    pub found: usize,
+    /// Of them, found with the right class.
+    pub right: usize,
+    /// Touches found that are not in the script.
+    pub extra: usize,
+}
+
 impl Summary<'_> {
+    /// The session's counts and time per stage.
+    pub fn stats(&self) -> SessionStats {
+        self.session.stats()
+    }
+
+    /// The touches that ended, in the order they ended.
+    pub fn touches(&self) -> &[Released] {
+        &self.session.done
+    }
+
+    /// The input's span, seconds.
+    pub fn span(&self) -> f64 {
+        self.span
+    }
+
+    /// The score against the script (none without one).
+    pub fn script_score(&self) -> Option<ScriptScore> {
+        let script = self.session.setup.script.as_ref()?;
+        let found = self.found();
+        let score = script.score(&found);
+        Some(ScriptScore {
+            scripted: script.touches.len(),
+            found: score.found(),
+            right: score.right(),
+            extra: score.extra(&found),
+        })
+    }
+
     /// The finished touches as the script scores them.
     fn found(&self) -> Vec<Found<'_>> {
         let s = self.session;
@@ -28,11 +70,8 @@ impl Summary<'_> {
             .iter()
             .map(|d| Found {
                 start_s: d.start,
-                end_s: d.end,
-                class: d
-                    .decision
-                    .as_ref()
-                    .map(|dec| s.classes.get(dec.class).map_or("?", String::as_str)),
+                end_s: d.time,
+                class: d.decision.as_ref().map(|dec| dec.class.name()),
             })
             .collect()
     }
@@ -41,75 +80,79 @@ impl Summary<'_> {
 impl Display for Summary<'_> {
     fn fmt(&self, out: &mut Formatter<'_>) -> fmt::Result {
         let s = self.session;
-        let class_name = |k: usize| s.classes.get(k).map_or("?", String::as_str);
-        let taxels: usize = s.links.iter().map(|l| l.taxels.len()).sum();
+        let st = s.stats();
+        let taxels: usize = s.setup.links.iter().map(|l| l.taxels.len()).sum();
         writeln!(
             out,
             "{} frames ({} incomplete) of {} taxels on {} link(s) over {:.2} s; baseline from the first {} frames",
-            s.frames,
-            s.incomplete,
+            st.frames,
+            st.incomplete,
             taxels,
-            s.links.len(),
+            s.setup.links.len(),
             self.span,
-            s.options.baseline_frames
+            s.setup.options.baseline_frames
         )?;
-        if s.resets > 0 {
+        if st.counter_resets > 0 {
             writeln!(
                 out,
                 "sync counter restarted {} time(s) (recordings joined or a hub reset): the frames after it are kept, numbered on by time (\"counter_reset\" events)",
-                s.resets
+                st.counter_resets
             )?;
         }
         for note in &s.notes {
             writeln!(out, "{note}")?;
         }
-        for (l, h) in s.health.iter().enumerate() {
+        for (l, h) in s.base.health.iter().enumerate() {
             if !h.dead.is_empty() || !h.stuck.is_empty() {
                 let ids = |v: &[usize]| {
                     v.iter()
-                        .map(|&i| s.links[l].taxels[i].id.to_string())
+                        .map(|&i| s.setup.links[l].taxels[i].id.to_string())
                         .collect::<Vec<_>>()
                         .join(", ")
                 };
                 writeln!(
                     out,
                     "link {}: taxels that cannot be trusted: dead [{}], stuck [{}]",
-                    s.links[l].name,
+                    s.setup.links[l].name,
                     ids(&h.dead),
                     ids(&h.stuck)
                 )?;
             }
         }
-        for (l, h) in s.health.iter().enumerate() {
+        for (l, h) in s.base.health.iter().enumerate() {
             if !h.pressed.is_empty() {
                 writeln!(
                     out,
                     "link {}: {} taxel(s) were pressed while the baseline was learned (a touch in progress): their offsets are their least pressed readings until the pressure goes",
-                    s.links[l].name,
+                    s.setup.links[l].name,
                     h.pressed.len()
                 )?;
             }
         }
-        for (l, c) in s.correcting.iter().enumerate() {
+        for (l, c) in s.base.correcting.iter().enumerate() {
             if c.events > 0 {
                 writeln!(
                     out,
                     "link {}: baseline corrected {} time(s), {} taxel offset(s) reset: readings fell below offsets learned or drifted under pressure, beyond the noise (baseline_corrected events)",
-                    s.links[l].name, c.events, c.taxels
+                    s.setup.links[l].name, c.events, c.taxels
                 )?;
             }
         }
-        if s.stitching.is_some() {
-            writeln!(out, "contacts across joints (stitched maps): {}", s.across)?;
+        if s.setup.stitching.is_some() {
+            writeln!(
+                out,
+                "contacts across joints (stitched maps): {}",
+                st.across_joints
+            )?;
         }
         // Each scripted touch's detected touch: the one overlapping it the longest.
         let found = self.found();
-        let score = s.script.as_ref().map(|script| script.score(&found));
+        let score = s.setup.script.as_ref().map(|script| script.score(&found));
         write!(out, "{} touch(es):", s.done.len())?;
         write!(
             out,
             "\n  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}parts",
-            if s.script.is_some() {
+            if s.setup.script.is_some() {
                 "script               "
             } else {
                 ""
@@ -118,7 +161,7 @@ impl Display for Summary<'_> {
         for (j, d) in s.done.iter().enumerate() {
             let (class, prob, parts) = match &d.decision {
                 Some(dec) => (
-                    class_name(dec.class).to_string(),
+                    dec.class.name().to_string(),
                     format!("{:.3}", dec.probability),
                     dec.parts
                         .iter()
@@ -128,7 +171,7 @@ impl Display for Summary<'_> {
                 ),
                 None => ("-".into(), "-".into(), String::new()),
             };
-            let script = match (&s.script, &score) {
+            let script = match (&s.setup.script, &score) {
                 (Some(script), Some(score)) => {
                     let name = score.scripted_of(j).map_or("(not scripted)".to_string(), |k| {
                         let t = &script.touches[k];
@@ -140,10 +183,10 @@ impl Display for Summary<'_> {
             };
             let row = format!(
                 "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {script}{parts}",
-                d.touch,
-                s.links[d.link].name,
+                d.id,
+                s.setup.links[d.link].name,
                 d.start,
-                d.end,
+                d.time,
                 class,
                 prob,
                 d.peak.taxels,
@@ -152,7 +195,7 @@ impl Display for Summary<'_> {
             );
             write!(out, "\n{}", row.trim_end())?;
         }
-        if let (Some(script), Some(score)) = (&s.script, &score) {
+        if let (Some(script), Some(score)) = (&s.setup.script, &score) {
             write!(
                 out,
                 "\nscript: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
@@ -184,19 +227,20 @@ impl Display for Summary<'_> {
 impl Display for Timings<'_> {
     fn fmt(&self, out: &mut Formatter<'_>) -> fmt::Result {
         let s = self.session;
-        let t = s.pipeline.times();
+        let st = s.stats();
+        let t = &st.pipeline;
         let frames = t.frames.max(1) as f64;
         let us = |d: Duration| d.as_secs_f64() * 1e6;
-        let wall = s.stage.assemble + s.stage.baseline + t.total + s.stage.output;
+        let wall = st.wall();
         write!(out, "time per frame (mean over all frames), stage by stage:")?;
         let rows = [
-            ("CAN decode + assembly", s.stage.assemble),
-            ("baseline", s.stage.baseline),
+            ("CAN decode + assembly", st.assemble),
+            ("baseline", st.baseline),
             ("contacts", t.contacts),
             ("tactile images", t.image),
             ("classifier", t.classify),
             ("segmenter + parts", t.segment),
-            ("events and images out", s.stage.output),
+            ("events and images out", st.output),
         ];
         for (name, d) in rows {
             write!(out, "\n  {name:<24} {:>9.1} us", us(d) / frames)?;
