@@ -1,8 +1,8 @@
 //! `skin run`: the whole pipeline, from CAN traffic to touch decisions, offline or live. The
 //! pipeline is skin-learn's `Session`; this wires its input and its sinks.
 
-use crate::output::{Inputs, OutputDir};
-use crate::ros_out::{Outlets, RosArgs};
+use crate::output::Inputs;
+use crate::ros_out::RosArgs;
 use crate::run_sinks::{
     Images, Named, Sinks, check_cache, precheck_mcap, say_mcap, sinks, stage_mcap, still_there,
 };
@@ -13,9 +13,10 @@ use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
 use skin_core::output::{Staged, writing};
 use skin_core::text::{Gzip, Input};
-use skin_learn::session::{JsonLines, Session, SessionConfig};
+use skin_learn::session::{Flow, JsonLines, Session, SessionConfig, SessionError};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
+use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -273,19 +274,32 @@ fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
     crate::shared::each_live(&busmap, &args.can, args.master, args.duration, &mut |step| {
         // Interface outages go to standard error: standard output carries the events.
         match step {
-            LiveStep::Item(Live::Frame(a)) => error = session.push_can(a, sinks).err(),
+            LiveStep::Item(Live::Frame(a)) => return go_on(session.push_can(a, sinks), &mut error),
             LiveStep::Item(Live::Down { interface, error }) => eprintln!("{interface}: {error}; reopening"),
             LiveStep::Item(Live::Reopened { interface }) => eprintln!("{interface}: open again"),
             LiveStep::Item(Live::Can(_)) => {}
-            LiveStep::Polled(stats) => error = session.note_resets(stats, sinks).err(),
+            LiveStep::Polled(stats) => return go_on(session.note_resets(stats, sinks), &mut error),
         }
-        error.is_none()
+        true
     })?;
     if let Some(e) = error {
         return Err(e.into());
     }
-    session.finish(sinks)?;
+    // The run ends here whether or not a sink asked to stop.
+    let _ = session.finish(sinks)?;
     Ok(started.elapsed().as_secs_f64())
+}
+
+/// Whether the live loop goes on after a step: not when a sink asked to stop or failed (kept
+/// in `error` for the caller).
+fn go_on(step: Result<Flow, SessionError>, error: &mut Option<SessionError>) -> bool {
+    match step {
+        Ok(flow) => flow.is_continue(),
+        Err(e) => {
+            *error = Some(e);
+            false
+        }
+    }
 }
 
 /// Offline, raw recordings: one session, built once (the layout, maps and models read once for
