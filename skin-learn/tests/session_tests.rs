@@ -8,10 +8,8 @@ use skin_control::hri::{GateAction, TouchClass};
 use skin_learn::session::{Event, MissingModule, Session, SessionConfig};
 use std::path::{Path, PathBuf};
 
-#[path = "../../test-support/recordings.rs"]
-mod recordings;
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::recordings;
+use skin_test_support::shared_data;
 
 fn fixture_session() -> (Session, CandumpLog, PathBuf) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/session");
