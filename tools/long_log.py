@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes a long candump log for the benchmarks: a log (by default the fixture session's, 31 s)
 repeated with its timestamps shifted, each copy starting 1 s after the one before ends, until the
-file reaches the size asked for. The same log as test-support/long_log.rs makes as it is read.
+file reaches the size asked for. The same log as test-support/src/long_log.rs makes as it is read.
 
     tools/long_log.py /tmp/session-1g.candump.log --bytes 1e9
     tools/long_log.py /tmp/x.log --copies 3 --source fixtures/session/session.candump.log

@@ -438,25 +438,7 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
     if data_hex.starts_with('#') {
         return Err("CAN FD frames (##) are not supported; skin traffic is classic CAN".into());
     }
-    let extended = match id_hex.len() {
-        3 => false,
-        8 => true,
-        n => {
-            return Err(format!(
-                "identifier \"{}\" has {n} hex digits (3 for standard, 8 for extended)",
-                excerpt(id_hex)
-            )
-            .into());
-        }
-    };
-    let id = u32::from_str_radix(id_hex, 16)
-        .map_err(|_| format!("identifier \"{}\" is not hexadecimal", excerpt(id_hex)))?;
-    if extended && id & ERROR_FLAG != 0 {
-        return Err(Bad::ErrorFrame);
-    }
-    if (!extended && id > 0x7FF) || id > 0x1FFF_FFFF {
-        return Err(format!("identifier {id_hex} is out of range").into());
-    }
+    let (id, extended) = parse_identifier(id_hex)?;
     let mut f = CanFrame {
         time_us,
         bus: intern(interfaces, iface).ok_or_else(|| {
@@ -476,7 +458,38 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
         f.remote = true;
         return Ok(f);
     }
-    if data_hex.len() % 2 != 0 || data_hex.len() > 16 {
+    parse_data(data_hex, &mut f)?;
+    Ok(f)
+}
+
+/// A frame's identifier: 3 hex digits for a standard one, 8 for an extended one. An extended
+/// identifier with SocketCAN's error flag is an error frame.
+fn parse_identifier(id_hex: &str) -> std::result::Result<(u32, bool), Bad> {
+    let extended = match id_hex.len() {
+        3 => false,
+        8 => true,
+        n => {
+            return Err(format!(
+                "identifier \"{}\" has {n} hex digits (3 for standard, 8 for extended)",
+                excerpt(id_hex)
+            )
+            .into());
+        }
+    };
+    let id = u32::from_str_radix(id_hex, 16)
+        .map_err(|_| format!("identifier \"{}\" is not hexadecimal", excerpt(id_hex)))?;
+    if extended && id & ERROR_FLAG != 0 {
+        return Err(Bad::ErrorFrame);
+    }
+    if (!extended && id > 0x7FF) || id > 0x1FFF_FFFF {
+        return Err(format!("identifier {id_hex} is out of range").into());
+    }
+    Ok((id, extended))
+}
+
+/// A frame's data, 0 to 8 bytes in hex pairs, into `f`.
+fn parse_data(data_hex: &str, f: &mut CanFrame) -> std::result::Result<(), Bad> {
+    if !data_hex.len().is_multiple_of(2) || data_hex.len() > 16 {
         return Err(format!("data \"{}\" is not 0 to 8 bytes of hex", excerpt(data_hex)).into());
     }
     for (k, pair) in data_hex.as_bytes().chunks(2).enumerate() {
@@ -485,7 +498,7 @@ fn parse_line(line: &str, interfaces: &mut Vec<String>) -> std::result::Result<C
             u8::from_str_radix(s, 16).map_err(|_| format!("data byte \"{s}\" is not hexadecimal"))?;
     }
     f.len = (data_hex.len() / 2) as u8;
-    Ok(f)
+    Ok(())
 }
 
 /// Seconds with up to six decimals, to whole microseconds.

@@ -1,8 +1,21 @@
 //! # skin-can: robot skin acquisition over CAN
 //!
-//! A skin answers over one or more CAN buses; this crate turns that traffic into frames. So far it
-//! reads and writes **candump logs** ([`candump`]), the text format of can-utils' `candump -l` and
-//! python-can's `CanutilsLogWriter`, which is how skin traffic is recorded and replayed:
+//! A skin answers over one or more CAN buses; this crate turns that traffic, live or recorded,
+//! into frames of the whole skin, one value per taxel in the layout's order:
+//!
+//! ```text
+//! CAN frames (live: a reader per interface | a candump log)
+//!   --decode::Decoder (skin16 | icub8)--> module readings
+//!   --Assembler + BusMap--> one AssembledFrame per cycle (missing / duplicate modules flagged)
+//!   --LayoutFrames--> readings per link, in layout order
+//! ```
+//!
+//! What it does not do: baselines, contacts and touches are skin-core's and skin-learn's (the
+//! session takes this crate's assembled frames).
+//!
+//! Recorded traffic is a **candump log** ([`candump`]), the text format of can-utils'
+//! `candump -l` and python-can's `CanutilsLogWriter`: read whole or streamed line by line, and
+//! written back byte for byte:
 //!
 //! ```
 //! use skin_can::candump::CandumpLog;

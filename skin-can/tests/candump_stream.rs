@@ -10,8 +10,7 @@ use skin_can::candump::{CanSource, CandumpLog, CandumpReader};
 use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
-#[path = "../../test-support/long_log.rs"]
-mod long_log;
+use skin_test_support::long_log;
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures")

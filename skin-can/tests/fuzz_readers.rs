@@ -1,5 +1,5 @@
 //! Fuzzing of skin-can's readers, bus maps and candump logs: arbitrary text and hostile edits of
-//! valid files (see `test-support/mutate.rs`) give `Ok` or an error, never a panic; a map and a
+//! valid files (see `skin_test_support::mutate`) give `Ok` or an error, never a panic; a map and a
 //! log that are accepted go through the assembler together without a panic, and every frame
 //! it delivers has one value per taxel of the map.
 
@@ -15,9 +15,8 @@ use std::path::Path;
 
 mod common;
 
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
 use mutate::{arbitrary_text, config, mutated};
+use skin_test_support::mutate;
 
 /// Three cycles of skin16 traffic for [`common::TWO_BUSES`], with an icub8-looking frame and an
 /// error frame among them.

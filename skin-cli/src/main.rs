@@ -25,8 +25,7 @@ mod flatten_cmd;
 mod image_cmd;
 mod live_cmd;
 #[cfg(test)]
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
+use skin_test_support::mutate;
 mod numbers;
 mod output;
 mod phri_cmd;

@@ -5,15 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-#[path = "../../test-support/cli.rs"]
-mod cli_support;
-use cli_support::{root, skin};
+skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
-#[path = "../../test-support/recordings.rs"]
-mod recordings;
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
 use shared_data::shared;
+use skin_test_support::recordings;
+use skin_test_support::shared_data;
 
 fn fixture(name: &str) -> String {
     root().join("fixtures/forearm").join(name).display().to_string()

@@ -11,15 +11,11 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-#[path = "../../test-support/cli.rs"]
-mod cli_support;
-use cli_support::{root, skin};
+skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::shared_data;
 
-#[path = "../../skin-ros/tests/support/python.rs"]
-mod python;
+skin_test_support::python_checks!(); // mod python: python_with, run
 
 const PACKAGES: &str = "mcap, mcap_ros2, rosbags, numpy";
 

@@ -5,9 +5,7 @@
 
 use std::path::Path;
 
-#[path = "../../test-support/cli.rs"]
-mod cli_support;
-use cli_support::{root, skin};
+skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
 fn log() -> String {
     root()

@@ -6,9 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-#[path = "../../test-support/cli.rs"]
-mod cli_support;
-use cli_support::{root, skin};
+skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
 fn err(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

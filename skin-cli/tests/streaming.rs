@@ -7,9 +7,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-#[path = "../../test-support/cli.rs"]
-mod cli_support;
-use cli_support::{root, skin};
+skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
 fn fixture(name: &str) -> PathBuf {
     root().join("fixtures").join(name)

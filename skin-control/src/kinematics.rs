@@ -125,6 +125,81 @@ fn check_joint(j: &urdf_rs::Joint, place: &str) -> Result<(), KinematicsError> {
     Ok(())
 }
 
+/// The joints from `base` to `tip`, base first: walked from the tip up through each link's
+/// parent joint. Both links must exist, and a loop in the file ends the walk as no path.
+fn joint_path<'a>(
+    robot: &'a urdf_rs::Robot,
+    base: &str,
+    tip: &str,
+    place: &str,
+) -> Result<Vec<&'a urdf_rs::Joint>, KinematicsError> {
+    for name in [base, tip] {
+        if !robot.links.iter().any(|l| l.name == name) {
+            let mut names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+            names.truncate(40);
+            return Err(KinematicsError::UnknownLink {
+                name: name.into(),
+                place: place.into(),
+                available: names.join(", "),
+            });
+        }
+    }
+    let mut path: Vec<&urdf_rs::Joint> = Vec::new();
+    let mut link = tip.to_string();
+    while link != base {
+        let Some(j) = robot.joints.iter().find(|j| j.child.link == link) else {
+            return Err(KinematicsError::NoPath {
+                base: base.into(),
+                tip: tip.into(),
+            });
+        };
+        path.push(j);
+        link = j.parent.link.clone();
+        if path.len() > robot.joints.len() {
+            return Err(KinematicsError::NoPath {
+                base: base.into(),
+                tip: tip.into(),
+            });
+        }
+    }
+    path.reverse();
+    Ok(path)
+}
+
+/// A revolute, continuous or prismatic URDF joint `j` as a chain joint at `origin` (its pose
+/// after the fixed joints before it).
+fn movable_joint(
+    j: &urdf_rs::Joint,
+    origin: Isometry3<f64>,
+    place: &str,
+) -> Result<ChainJoint, KinematicsError> {
+    let axis = Vector3::new(j.axis.xyz[0], j.axis.xyz[1], j.axis.xyz[2]);
+    // Scaled by its largest component first, so that huge axes keep a finite norm.
+    let axis = Unit::try_new(axis / axis.amax().max(f64::MIN_POSITIVE), 1e-12).ok_or_else(|| {
+        KinematicsError::Urdf {
+            path: place.into(),
+            message: format!("joint \"{}\" has a zero axis", j.name),
+        }
+    })?;
+    let continuous = j.joint_type == urdf_rs::JointType::Continuous;
+    Ok(ChainJoint {
+        name: j.name.clone(),
+        kind: if j.joint_type == urdf_rs::JointType::Prismatic {
+            JointKind::Prismatic
+        } else {
+            JointKind::Revolute
+        },
+        origin,
+        axis,
+        limits: if continuous {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (j.limit.lower, j.limit.upper)
+        },
+        link: j.child.link.clone(),
+    })
+}
+
 impl Chain {
     /// Reads the chain from `base` to `tip` in a URDF file.
     pub fn from_urdf(path: &Path, base: &str, tip: &str) -> Result<Chain, KinematicsError> {
@@ -150,37 +225,7 @@ impl Chain {
         tip: &str,
         place: &str,
     ) -> Result<Chain, KinematicsError> {
-        for name in [base, tip] {
-            if !robot.links.iter().any(|l| l.name == name) {
-                let mut names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
-                names.truncate(40);
-                return Err(KinematicsError::UnknownLink {
-                    name: name.into(),
-                    place: place.into(),
-                    available: names.join(", "),
-                });
-            }
-        }
-        // Walk from the tip up to the base through each link's parent joint.
-        let mut path: Vec<&urdf_rs::Joint> = Vec::new();
-        let mut link = tip.to_string();
-        while link != base {
-            let Some(j) = robot.joints.iter().find(|j| j.child.link == link) else {
-                return Err(KinematicsError::NoPath {
-                    base: base.into(),
-                    tip: tip.into(),
-                });
-            };
-            path.push(j);
-            link = j.parent.link.clone();
-            if path.len() > robot.joints.len() {
-                return Err(KinematicsError::NoPath {
-                    base: base.into(),
-                    tip: tip.into(),
-                });
-            }
-        }
-        path.reverse();
+        let path = joint_path(robot, base, tip, place)?;
         let mut joints = Vec::new();
         let mut fixed_links = Vec::new();
         let mut pending = Isometry3::identity();
@@ -191,32 +236,7 @@ impl Chain {
                 urdf_rs::JointType::Revolute
                 | urdf_rs::JointType::Continuous
                 | urdf_rs::JointType::Prismatic => {
-                    let axis = Vector3::new(j.axis.xyz[0], j.axis.xyz[1], j.axis.xyz[2]);
-                    // Scaled by its largest component first, so that huge axes keep a finite norm.
-                    let axis =
-                        Unit::try_new(axis / axis.amax().max(f64::MIN_POSITIVE), 1e-12).ok_or_else(|| {
-                            KinematicsError::Urdf {
-                                path: place.into(),
-                                message: format!("joint \"{}\" has a zero axis", j.name),
-                            }
-                        })?;
-                    let continuous = j.joint_type == urdf_rs::JointType::Continuous;
-                    joints.push(ChainJoint {
-                        name: j.name.clone(),
-                        kind: if j.joint_type == urdf_rs::JointType::Prismatic {
-                            JointKind::Prismatic
-                        } else {
-                            JointKind::Revolute
-                        },
-                        origin,
-                        axis,
-                        limits: if continuous {
-                            (f64::NEG_INFINITY, f64::INFINITY)
-                        } else {
-                            (j.limit.lower, j.limit.upper)
-                        },
-                        link: j.child.link.clone(),
-                    });
+                    joints.push(movable_joint(j, origin, place)?);
                     pending = Isometry3::identity();
                 }
                 urdf_rs::JointType::Fixed => {

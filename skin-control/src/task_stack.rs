@@ -125,6 +125,95 @@ struct Work {
     r: Vec<f64>,
 }
 
+impl Work {
+    /// Buffers sized for `n` joints (row stride `s`) and tasks of up to `m_max` rows; P = I,
+    /// r = 0.
+    fn reset(&mut self, n: usize, s: usize, m_max: usize) {
+        self.p.resize(n * s, 0.0);
+        self.t.resize(m_max * s, 0.0);
+        self.r.resize(s, 0.0);
+        self.x.resize(m_max * s, 0.0);
+        self.y.resize(m_max * s, 0.0);
+        self.g.resize(m_max * m_max, 0.0);
+        self.j.resize(m_max * s, 0.0);
+        self.e.resize(m_max, 0.0);
+        self.p.fill(0.0);
+        for i in 0..n {
+            self.p[i * s + i] = 1.0;
+        }
+        self.r.fill(0.0);
+        self.j.fill(0.0);
+        self.t.fill(0.0);
+    }
+
+    /// Copies task `t`'s Jacobian (m rows) into `j` and computes X = J P into `x`.
+    fn project(&mut self, t: &Task, m: usize, n: usize, s: usize) {
+        // J row-major, so every inner loop below runs over contiguous rows.
+        for i in 0..m {
+            for k in 0..n {
+                self.j[i * s + k] = t.jacobian[(i, k)];
+            }
+        }
+        // X = J P (m x n), row by row: x_i = sum_k J_ik P_k.
+        // Four columns at a time, held in registers across the n terms.
+        for i in 0..m {
+            let (xi, jr) = (&mut self.x[i * s..(i + 1) * s], &self.j[i * s..i * s + n]);
+            for (c, chunk) in xi.chunks_exact_mut(LANES).enumerate() {
+                let mut acc = [0.0; LANES];
+                for (k, &jik) in jr.iter().enumerate() {
+                    let pk = &self.p[k * s + c * LANES..k * s + (c + 1) * LANES];
+                    for l in 0..LANES {
+                        acc[l] += jik * pk[l];
+                    }
+                }
+                chunk.copy_from_slice(&acc);
+            }
+        }
+    }
+
+    /// With Y = X^#^T in `y`: the updates of r and P shared by both regularised modes.
+    fn update(&mut self, t: &Task, m: usize, n: usize, s: usize) {
+        // W = P X^# = P Y^T (n x m, stored as m rows of n: row i = P y_i, P symmetric).
+        for i in 0..m {
+            let (yi, wi) = (&self.y[i * s..(i + 1) * s], &mut self.t[i * s..(i + 1) * s]);
+            for (rr, o) in wi[..n].iter_mut().enumerate() {
+                *o = dot(&self.p[rr * s..(rr + 1) * s], yi);
+            }
+        }
+        // r += P X^# e with e = rho - J r (all of e from the old r): sum_i e_i W_i.
+        for i in 0..m {
+            self.e[i] = t.reference[i] - dot(&self.j[i * s..(i + 1) * s], &self.r);
+        }
+        for i in 0..m {
+            axpy(&mut self.r, self.e[i], &self.t[i * s..(i + 1) * s]);
+        }
+        // P <- P - W X = P - sum_i W_i^T x_i, symmetrised.
+        // Row by row, four columns at a time held in registers across the m rank-1 terms.
+        for rr in 0..n {
+            let row = &mut self.p[rr * s..(rr + 1) * s];
+            for (c, chunk) in row.chunks_exact_mut(LANES).enumerate() {
+                let mut acc = [0.0; LANES];
+                acc.copy_from_slice(chunk);
+                for i in 0..m {
+                    let wi = self.t[i * s + rr];
+                    let xi = &self.x[i * s + c * LANES..i * s + (c + 1) * LANES];
+                    for l in 0..LANES {
+                        acc[l] -= wi * xi[l];
+                    }
+                }
+                chunk.copy_from_slice(&acc);
+            }
+        }
+        for rr in 0..n {
+            for c in rr + 1..n {
+                let v = 0.5 * (self.p[rr * s + c] + self.p[c * s + rr]);
+                self.p[rr * s + c] = v;
+                self.p[c * s + rr] = v;
+            }
+        }
+    }
+}
+
 impl TaskStack {
     /// A solver for `joints` joints.
     pub fn new(joints: usize, regularisation: Regularisation) -> TaskStack {
@@ -206,21 +295,7 @@ impl TaskStack {
         let s = n.next_multiple_of(LANES);
         let w = &mut self.work;
         let m_max = tasks.iter().map(|t| t.reference.len()).max().unwrap_or(0);
-        w.p.resize(n * s, 0.0);
-        w.t.resize(m_max * s, 0.0);
-        w.r.resize(s, 0.0);
-        w.x.resize(m_max * s, 0.0);
-        w.y.resize(m_max * s, 0.0);
-        w.g.resize(m_max * m_max, 0.0);
-        w.j.resize(m_max * s, 0.0);
-        w.e.resize(m_max, 0.0);
-        w.p.fill(0.0);
-        for i in 0..n {
-            w.p[i * s + i] = 1.0;
-        }
-        w.r.fill(0.0);
-        w.j.fill(0.0);
-        w.t.fill(0.0);
+        w.reset(n, s, m_max);
         for t in tasks {
             let a = t.activation;
             let finite = a.is_finite()
@@ -231,27 +306,7 @@ impl TaskStack {
             }
             let a2 = a.min(1.0).powi(2);
             let m = t.reference.len();
-            // J row-major, so every inner loop below runs over contiguous rows.
-            for i in 0..m {
-                for k in 0..n {
-                    w.j[i * s + k] = t.jacobian[(i, k)];
-                }
-            }
-            // X = J P (m x n), row by row: x_i = sum_k J_ik P_k.
-            // Four columns at a time, held in registers across the n terms.
-            for i in 0..m {
-                let (xi, jr) = (&mut w.x[i * s..(i + 1) * s], &w.j[i * s..i * s + n]);
-                for (c, chunk) in xi.chunks_exact_mut(LANES).enumerate() {
-                    let mut acc = [0.0; LANES];
-                    for (k, &jik) in jr.iter().enumerate() {
-                        let pk = &w.p[k * s + c * LANES..k * s + (c + 1) * LANES];
-                        for l in 0..LANES {
-                            acc[l] += jik * pk[l];
-                        }
-                    }
-                    chunk.copy_from_slice(&acc);
-                }
-            }
+            w.project(t, m, n, s);
             let ok = match regularisation {
                 Regularisation::Damped { lambda } => damped_y(w, m, s, a2, lambda),
                 Regularisation::ActivationAware {
@@ -264,44 +319,7 @@ impl TaskStack {
             if !ok {
                 continue;
             }
-            // W = P X^# = P Y^T (n x m, stored as m rows of n: row i = P y_i, P symmetric).
-            for i in 0..m {
-                let (yi, wi) = (&w.y[i * s..(i + 1) * s], &mut w.t[i * s..(i + 1) * s]);
-                for (rr, o) in wi[..n].iter_mut().enumerate() {
-                    *o = dot(&w.p[rr * s..(rr + 1) * s], yi);
-                }
-            }
-            // r += P X^# e with e = rho - J r (all of e from the old r): sum_i e_i W_i.
-            for i in 0..m {
-                w.e[i] = t.reference[i] - dot(&w.j[i * s..(i + 1) * s], &w.r);
-            }
-            for i in 0..m {
-                axpy(&mut w.r, w.e[i], &w.t[i * s..(i + 1) * s]);
-            }
-            // P <- P - W X = P - sum_i W_i^T x_i, symmetrised.
-            // Row by row, four columns at a time held in registers across the m rank-1 terms.
-            for rr in 0..n {
-                let row = &mut w.p[rr * s..(rr + 1) * s];
-                for (c, chunk) in row.chunks_exact_mut(LANES).enumerate() {
-                    let mut acc = [0.0; LANES];
-                    acc.copy_from_slice(chunk);
-                    for i in 0..m {
-                        let wi = w.t[i * s + rr];
-                        let xi = &w.x[i * s + c * LANES..i * s + (c + 1) * LANES];
-                        for l in 0..LANES {
-                            acc[l] -= wi * xi[l];
-                        }
-                    }
-                    chunk.copy_from_slice(&acc);
-                }
-            }
-            for rr in 0..n {
-                for c in rr + 1..n {
-                    let v = 0.5 * (w.p[rr * s + c] + w.p[c * s + rr]);
-                    w.p[rr * s + c] = v;
-                    w.p[c * s + rr] = v;
-                }
-            }
+            w.update(t, m, n, s);
         }
         if w.r.iter().any(|v| !v.is_finite()) {
             return DVector::zeros(n);

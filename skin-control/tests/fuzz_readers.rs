@@ -1,5 +1,5 @@
 //! Fuzzing of skin-control's readers, scenes (JSON) and robot chains (URDF): arbitrary text and
-//! hostile edits of valid files (see `test-support/mutate.rs`) give `Ok` or an error, never a
+//! hostile edits of valid files (see `skin_test_support::mutate`) give `Ok` or an error, never a
 //! panic; a scene that is accepted builds its world and senses contacts at its home posture
 //! without a panic (parry's penetration search is where huge numbers used to end).
 
@@ -8,9 +8,8 @@
 use proptest::prelude::*;
 use skin_control::Chain;
 
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
 use mutate::{arbitrary_text, config, mutated};
+use skin_test_support::mutate;
 
 /// An accepted chain gives finite poses and Jacobians at its zero posture.
 fn check_urdf(text: &str) -> Result<(), TestCaseError> {

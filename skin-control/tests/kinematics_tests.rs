@@ -9,8 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use skin_control::{Chain, KinematicsError};
 use std::path::Path;
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::shared_data;
 
 fn arm7() -> Chain {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm7/arm7.urdf");

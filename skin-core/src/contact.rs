@@ -148,58 +148,11 @@ impl ContactFinder {
             if self.seen[seed] == self.frame || !(pressures[seed] > threshold) {
                 continue;
             }
-            self.seen[seed] = self.frame;
-            self.patch.clear();
-            self.stack.clear();
-            self.stack.push(seed);
-            while let Some(i) = self.stack.pop() {
-                self.patch.push(i);
-                for &j in &self.neighbours[self.start[i]..self.start[i + 1]] {
-                    if self.seen[j] != self.frame && pressures[j] > threshold {
-                        self.seen[j] = self.frame;
-                        self.stack.push(j);
-                    }
-                }
-            }
+            self.grow_patch(seed, pressures, threshold);
             if self.patch.len() < min_taxels.max(1) {
                 continue;
             }
-            let parts = match self.separation {
-                Separation::Connected => 1,
-                Separation::Peaks {
-                    min_dip,
-                    min_distance_m,
-                } => self.flooding.split(
-                    &self.patch,
-                    pressures,
-                    &self.positions,
-                    &self.start,
-                    &self.neighbours,
-                    min_dip,
-                    min_distance_m,
-                ),
-            };
-            while self.contacts.len() < count + parts {
-                self.contacts.push(Contact::default());
-            }
-            if parts == 1 {
-                // The patch is the contact: swap buffers rather than copy (the flooding's
-                // labels of a patch it left whole are cleared all the same).
-                std::mem::swap(&mut self.contacts[count].taxels, &mut self.patch);
-                if matches!(self.separation, Separation::Peaks { .. }) {
-                    for &i in &self.contacts[count].taxels {
-                        self.flooding.take_basin(i);
-                    }
-                }
-            } else {
-                for c in &mut self.contacts[count..count + parts] {
-                    c.taxels.clear();
-                }
-                for &i in &self.patch {
-                    let part = self.flooding.take_basin(i);
-                    self.contacts[count + part].taxels.push(i);
-                }
-            }
+            let parts = self.split_patch(pressures, count);
             for contact in &mut self.contacts[count..count + parts] {
                 describe(contact, pressures, &self.positions, &self.normals);
             }
@@ -212,6 +165,66 @@ impl ContactFinder {
         });
         self.found = count;
         Ok(&self.contacts[..count])
+    }
+
+    /// The patch of taxels above `threshold` joined to `seed` by mesh edges, into `self.patch`
+    /// (depth first; each taxel marked seen in this frame).
+    fn grow_patch(&mut self, seed: usize, pressures: &[f32], threshold: f32) {
+        self.seen[seed] = self.frame;
+        self.patch.clear();
+        self.stack.clear();
+        self.stack.push(seed);
+        while let Some(i) = self.stack.pop() {
+            self.patch.push(i);
+            for &j in &self.neighbours[self.start[i]..self.start[i + 1]] {
+                if self.seen[j] != self.frame && pressures[j] > threshold {
+                    self.seen[j] = self.frame;
+                    self.stack.push(j);
+                }
+            }
+        }
+    }
+
+    /// Splits `self.patch` into contacts as the separation rule says, written from
+    /// `self.contacts[count]` on (taxels only); returns how many.
+    fn split_patch(&mut self, pressures: &[f32], count: usize) -> usize {
+        let parts = match self.separation {
+            Separation::Connected => 1,
+            Separation::Peaks {
+                min_dip,
+                min_distance_m,
+            } => self.flooding.split(
+                &self.patch,
+                pressures,
+                &self.positions,
+                &self.start,
+                &self.neighbours,
+                min_dip,
+                min_distance_m,
+            ),
+        };
+        while self.contacts.len() < count + parts {
+            self.contacts.push(Contact::default());
+        }
+        if parts == 1 {
+            // The patch is the contact: swap buffers rather than copy (the flooding's
+            // labels of a patch it left whole are cleared all the same).
+            std::mem::swap(&mut self.contacts[count].taxels, &mut self.patch);
+            if matches!(self.separation, Separation::Peaks { .. }) {
+                for &i in &self.contacts[count].taxels {
+                    self.flooding.take_basin(i);
+                }
+            }
+        } else {
+            for c in &mut self.contacts[count..count + parts] {
+                c.taxels.clear();
+            }
+            for &i in &self.patch {
+                let part = self.flooding.take_basin(i);
+                self.contacts[count + part].taxels.push(i);
+            }
+        }
+        parts
     }
 
     /// The contacts [`Self::find`] returned last (none before the first frame).

@@ -10,7 +10,13 @@
 //! - [`Frame`] and [`Recording`]: synchronous snapshots of one value per taxel, in layout order;
 //! - [`Baseline`]: raw readings to pressures, per-taxel noise thresholds, drift tracking, and the
 //!   dead or stuck taxels found while learning it;
-//! - [`ContactFinder`] and [`Contact`]: the connected patches of pressed taxels in a frame.
+//! - [`ContactFinder`] and [`Contact`]: the connected patches of pressed taxels in a frame;
+//! - [`image`]: tactile images as the crates hand them to each other (one size type with its
+//!   parser and limit, a borrowed row-major view).
+//!
+//! In a frame's path (ARCHITECTURE.md at the repository's root) this crate is the step after
+//! acquisition: readings in layout order become pressures through the [`Baseline`], and pressures
+//! become contacts, which skin-learn tracks into touches.
 //!
 //! [`output`] writes a user's outputs without putting their files at risk: an input is never
 //! overwritten, files and folders are built aside and moved into place when complete, a folder

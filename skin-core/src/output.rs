@@ -1,4 +1,5 @@
-//! Writing a user's outputs without ever putting their files at risk (DESIGN.md, "Data safety").
+//! Writing a user's outputs without ever putting their files at risk (the rules a user reads in
+//! the README's "Your files are safe").
 //!
 //! Every writer of the workspace (the `skin` commands, and a robot stack's own sinks) goes through
 //! this module, so the rules hold everywhere:

@@ -467,6 +467,44 @@ impl<R: BufRead> Lines<R> {
             return Ok(None);
         }
         let number = self.number + 1;
+        self.start_line(number)?;
+        // Nearly every line lies whole in the reader's buffer: it is lent from there, not copied.
+        let found = {
+            let available = fill(&mut self.reader, &self.path, number)?;
+            memchr::memchr3(b'\n', b'\r', 0, available)
+                .filter(|&end| end <= self.max)
+                .map(|end| (end, available[end]))
+        };
+        if let Some((end, terminator)) = found
+            && terminator != 0
+        {
+            return self.lend(number, end, terminator);
+        }
+        // A line across the buffer's end (or a bad one): gathered in a copy.
+        let Some(terminated) = self.gather(number)? else {
+            return Ok(None);
+        };
+        self.number = number;
+        if number == 1 && !self.strip_first_line_start(terminated)? {
+            return Ok(None);
+        }
+        match std::str::from_utf8(&self.line) {
+            Ok(text) => Ok(Some(Line {
+                text,
+                number,
+                path: &self.path,
+                unfinished: !terminated,
+            })),
+            Err(e) => {
+                let at = e.valid_up_to();
+                Err(not_utf8(&self.path, number, at + 1, self.line[at]))
+            }
+        }
+    }
+
+    /// Before line `number`: the checks of the file's start, and the `\n` of a `\r\n` that the
+    /// line before ended on.
+    fn start_line(&mut self, number: usize) -> Result<()> {
         if !self.started {
             self.started = true;
             // The first read is usually the buffer's size: enough to tell a compressed, UTF-16
@@ -481,44 +519,42 @@ impl<R: BufRead> Lines<R> {
                 self.consume(1);
             }
         }
-        // Nearly every line lies whole in the reader's buffer: it is lent from there, not copied.
-        let found = {
-            let available = fill(&mut self.reader, &self.path, number)?;
-            memchr::memchr3(b'\n', b'\r', 0, available)
-                .filter(|&end| end <= self.max)
-                .map(|end| (end, available[end]))
-        };
-        if let Some((end, terminator)) = found
-            && terminator != 0
-        {
-            let available = fill(&mut self.reader, &self.path, number)?;
-            let mut bytes = &available[..end];
-            self.lent = end + 1;
-            self.after_cr = terminator == b'\r';
-            self.number = number;
-            if number == 1 {
-                if let Some(rest) = bytes.strip_prefix(UTF8_BOM) {
-                    bytes = rest;
-                } else if let Some(variant) = utf16(bytes) {
-                    return Err(utf16_error(&self.path, variant));
-                }
+        Ok(())
+    }
+
+    /// Line `number`, whole in the reader's buffer up to `end` (its line end `terminator`): lent
+    /// from the buffer, and taken from it at the next call.
+    fn lend(&mut self, number: usize, end: usize, terminator: u8) -> Result<Option<Line<'_>>> {
+        let available = fill(&mut self.reader, &self.path, number)?;
+        let mut bytes = &available[..end];
+        self.lent = end + 1;
+        self.after_cr = terminator == b'\r';
+        self.number = number;
+        if number == 1 {
+            if let Some(rest) = bytes.strip_prefix(UTF8_BOM) {
+                bytes = rest;
+            } else if let Some(variant) = utf16(bytes) {
+                return Err(utf16_error(&self.path, variant));
             }
-            return match std::str::from_utf8(bytes) {
-                Ok(text) => Ok(Some(Line {
-                    text,
-                    number,
-                    path: &self.path,
-                    unfinished: false,
-                })),
-                Err(e) => {
-                    let at = e.valid_up_to();
-                    Err(not_utf8(&self.path, number, at + 1, bytes[at]))
-                }
-            };
         }
-        // A line across the buffer's end (or a bad one): gathered in a copy.
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Ok(Some(Line {
+                text,
+                number,
+                path: &self.path,
+                unfinished: false,
+            })),
+            Err(e) => {
+                let at = e.valid_up_to();
+                Err(not_utf8(&self.path, number, at + 1, bytes[at]))
+            }
+        }
+    }
+
+    /// Line `number` gathered into `self.line` across the reader's buffers (taken from the
+    /// reader as it goes): whether it ended with a line end, or `None` at the end of the input.
+    fn gather(&mut self, number: usize) -> Result<Option<bool>> {
         self.line.clear();
-        let mut terminated = false;
         loop {
             let available = fill(&mut self.reader, &self.path, number)?;
             if available.is_empty() {
@@ -526,7 +562,7 @@ impl<R: BufRead> Lines<R> {
                     self.done = true;
                     return Ok(None);
                 }
-                break;
+                return Ok(Some(false));
             }
             let end = memchr::memchr3(b'\n', b'\r', 0, available);
             let take = end.unwrap_or(available.len());
@@ -547,37 +583,26 @@ impl<R: BufRead> Lines<R> {
                 Some(t) => {
                     self.consume(take + 1);
                     self.after_cr = t == b'\r';
-                    terminated = true;
-                    break;
+                    return Ok(Some(true));
                 }
                 None => self.consume(take),
             }
         }
-        self.number = number;
-        if number == 1 {
-            if self.line.starts_with(UTF8_BOM) {
-                self.line.drain(..UTF8_BOM.len());
-                // A file of a byte-order mark alone is an empty file.
-                if self.line.is_empty() && !terminated {
-                    self.done = true;
-                    return Ok(None);
-                }
-            } else if let Some(variant) = utf16(&self.line) {
-                return Err(utf16_error(&self.path, variant));
+    }
+
+    /// The copied first line without its byte-order mark, or UTF-16 refused. `false`: the file
+    /// is a byte-order mark alone, which is an empty file.
+    fn strip_first_line_start(&mut self, terminated: bool) -> Result<bool> {
+        if self.line.starts_with(UTF8_BOM) {
+            self.line.drain(..UTF8_BOM.len());
+            if self.line.is_empty() && !terminated {
+                self.done = true;
+                return Ok(false);
             }
+        } else if let Some(variant) = utf16(&self.line) {
+            return Err(utf16_error(&self.path, variant));
         }
-        match std::str::from_utf8(&self.line) {
-            Ok(text) => Ok(Some(Line {
-                text,
-                number,
-                path: &self.path,
-                unfinished: !terminated,
-            })),
-            Err(e) => {
-                let at = e.valid_up_to();
-                Err(not_utf8(&self.path, number, at + 1, self.line[at]))
-            }
-        }
+        Ok(true)
     }
 }
 

@@ -195,8 +195,7 @@ fn the_learner_gives_what_from_idle_gives_and_a_bad_frame_changes_nothing() {
     }
 }
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::shared_data;
 
 /// For each real Cyskin recording of `fingers` fingers: whether, with the baseline of its first
 /// 5 frames (default options), any later frame presses 2 taxels or more.

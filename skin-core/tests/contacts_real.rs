@@ -7,8 +7,7 @@
 use nalgebra::{Point3, Vector3};
 use skin_core::{ContactFinder, Separation};
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::shared_data;
 
 /// A small deterministic generator (the test needs no statistics, only spread placements).
 struct Lcg(u64);

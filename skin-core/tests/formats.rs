@@ -7,9 +7,8 @@ use skin_core::format::{cyskin, icub, native, recording};
 use skin_core::{Error, LinkSkin, Taxel, TaxelId};
 use std::path::Path;
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
 use shared_data::shared;
+use skin_test_support::shared_data;
 
 fn place_of(e: &Error) -> String {
     e.to_string()

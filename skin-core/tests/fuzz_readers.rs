@@ -1,5 +1,5 @@
 //! Fuzzing of every reader of skin-core: arbitrary text and hostile edits of valid files (see
-//! `test-support/mutate.rs`) give `Ok` or an error, never a panic, and what is accepted holds
+//! `skin_test_support::mutate`) give `Ok` or an error, never a panic, and what is accepted holds
 //! what the readers promise (finite positions within `MAX_POSITION_M`, unit normals, unique ids,
 //! faces of three distinct taxels, finite readings).
 
@@ -12,9 +12,8 @@ use skin_core::{Frame, LinkSkin, Recording, SkinLayout, Taxel, TaxelId};
 use std::collections::HashSet;
 use std::path::Path;
 
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
 use mutate::{arbitrary_text, config, mutated};
+use skin_test_support::mutate;
 
 fn link(name: &str, first_id: u32) -> LinkSkin {
     let t = |k: u32, x: f64, y: f64| Taxel {

@@ -7,9 +7,8 @@ use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
 use skin_geom::{DistortionReport, Error, FlattenOptions, MeshOptions, SkinMesh, TactileMap};
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
 use shared_data::shared;
+use skin_test_support::shared_data;
 
 fn taxel(id: u32, p: Point3<f64>, n: Vector3<f64>) -> Taxel {
     Taxel {

@@ -1,5 +1,5 @@
 //! Fuzzing of skin-geom's readers, OBJ / glTF / GLB meshes and tactile maps: arbitrary bytes and
-//! hostile edits of valid files (see `test-support/mutate.rs`) give `Ok` or an error, never a
+//! hostile edits of valid files (see `skin_test_support::mutate`) give `Ok` or an error, never a
 //! panic; what is accepted goes on through the next step (a skin, a flattening, a rasterizer)
 //! without a panic either.
 
@@ -12,9 +12,8 @@ use skin_core::{LinkSkin, Taxel, TaxelId};
 use skin_geom::{FlattenOptions, Grid, MeshFileLink, Rasterizer, TactileMap, load_mesh_file};
 use std::path::Path;
 
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
 use mutate::{arbitrary_text, config, mutated, mutated_bytes};
+use skin_test_support::mutate;
 
 const OBJ: &str = "# a patch of four taxels\n\
 v 0 0 0.01\nv 0.008 0 0.01\nv 0.004 0.007 0.01\nv 0.012 0.007 0.011\n\

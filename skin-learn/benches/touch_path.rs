@@ -28,9 +28,8 @@ use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-#[path = "../../test-support/full_arm.rs"]
-mod full_arm;
 use full_arm::{hand_on_middle_link, link};
+use skin_test_support::full_arm;
 
 struct Arm {
     links: Vec<LinkSkin>,

@@ -188,32 +188,7 @@ pub fn score(
     truths: &[Vec<u8>],
     taxels: Option<&TaxelTruth>,
 ) -> Result<Scores> {
-    let mut s = Scores {
-        cm: ConfusionMatrix::new(match model {
-            Model::Classifier(c) => c.classes(),
-            Model::Segmenter(g) => g.classes(),
-        }),
-        by_kind: BTreeMap::new(),
-        hard: [(0, 0); 2],
-        cases: Vec::new(),
-        side_known: (ConfusionMatrix::new(0), 0),
-        by_seam_distance: [(0, 0); SEAM_BINS.len()],
-        naming: Naming::default(),
-        named_right: ConfusionMatrix::new(0),
-        by_taxel: None,
-        seconds: 0.0,
-        images: images.len(),
-        segmenting: matches!(model, Model::Segmenter(_)),
-    };
-    if let Model::Segmenter(g) = model {
-        s.cases = CASES
-            .iter()
-            .map(|_| (ConfusionMatrix::new(g.classes()), 0))
-            .collect();
-        s.side_known.0 = ConfusionMatrix::new(g.classes());
-        s.named_right = ConfusionMatrix::new(g.classes());
-        s.by_taxel = taxels.map(|_| [(); 2].map(|_| ConfusionMatrix::new(g.classes())));
-    }
+    let mut s = Scores::empty(model, images.len(), taxels.is_some());
     let mut inference = Duration::ZERO;
     for (n, (chunk, idx)) in images.chunks(32).zip(test.chunks(32)).enumerate() {
         let refs: Vec<&[u8]> = chunk.iter().map(|v| v.as_slice()).collect();
@@ -223,22 +198,7 @@ pub fn score(
                 let probabilities = c.classify_batch(&refs)?;
                 inference += start.elapsed();
                 for (p, &i) in probabilities.iter().zip(idx) {
-                    let e = &data.entries[i];
-                    let truth = usize::from(!e.hand); // class 0 hand, 1 non-hand
-                    let best = p
-                        .iter()
-                        .enumerate()
-                        .max_by(|a, b| a.1.total_cmp(b.1))
-                        .map_or(0, |(k, _)| k);
-                    s.cm.add(truth, best);
-                    let right = usize::from(best == truth);
-                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
-                    *slot = (slot.0 + right, slot.1 + 1);
-                    for (h, flag) in s.hard.iter_mut().zip([e.partial, e.fingertips]) {
-                        if flag {
-                            *h = (h.0 + right, h.1 + 1);
-                        }
-                    }
+                    s.add_classified(&data.entries[i], p);
                 }
             }
             Model::Segmenter(g) => {
@@ -246,64 +206,132 @@ pub fn score(
                 let segmented = g.segment_batch(&refs)?;
                 inference += start.elapsed();
                 for (k, labels) in segmented.iter().enumerate() {
-                    let truth = &truths[n * 32 + k];
-                    let mut one = ConfusionMatrix::new(s.cm.classes());
-                    one.add_image(truth, labels);
-                    let e = &data.entries[idx[k]];
-                    let slot = s.by_kind.entry(e.kind.clone()).or_default();
-                    // Per interaction: pixels right / hand pixels.
-                    let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
-                    let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
-                    *slot = (slot.0 + right as usize, slot.1 + parts as usize);
-                    let (rows, cols) = g.input_size();
-                    for ((case, yes), name) in s.cases.iter_mut().zip(cases_of(e, truth)).zip(CASES) {
-                        if !yes {
-                            continue;
-                        }
-                        if name == BORDERS_AWAY {
-                            case.0.add_image(&off_borders(truth, rows, cols), labels);
-                        } else {
-                            case.0.merge(&one);
-                        }
-                        case.1 += 1;
-                    }
-                    for ((&t, &p), d) in truth.iter().zip(labels).zip(seam_distance(truth, rows, cols)) {
-                        if t != 0 {
-                            let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
-                            let slot = &mut s.by_seam_distance[bin];
-                            *slot = (slot.0 + u64::from(p == t), slot.1 + 1);
-                        }
-                    }
-                    if let (Some(t), Some(cms)) = (taxels, s.by_taxel.as_mut()) {
-                        let (pressures, parts) = (&t.pressures[n * 32 + k], &t.parts[n * 32 + k]);
-                        for (cm, image) in cms.iter_mut().zip([labels.as_slice(), truth]) {
-                            for (i, label) in taxel_labels(&t.map, &t.raster, (rows, cols), image, pressures)
-                            {
-                                if parts[i] > 0 {
-                                    cm.add(usize::from(parts[i]), usize::from(label));
-                                }
-                            }
-                        }
-                    }
-                    let (naming, renamed) = name_regions(truth, labels, rows, cols);
-                    s.naming.add(&naming);
-                    s.named_right.add_image(truth, &renamed);
-                    let mut mirror = ConfusionMatrix::new(s.cm.classes());
-                    mirror.add_image(&mirror_hand(truth), labels);
-                    let mirror_right: u64 = (1..mirror.classes()).map(|c| mirror.get(c, c)).sum();
-                    if mirror_right > right {
-                        s.side_known.0.merge(&mirror);
-                        s.side_known.1 += 1;
-                    } else {
-                        s.side_known.0.merge(&one);
-                    }
-                    s.cm.merge(&one);
+                    let taxel = taxels.map(|t| (t, n * 32 + k));
+                    s.add_segmented(
+                        &data.entries[idx[k]],
+                        &truths[n * 32 + k],
+                        labels,
+                        g.input_size(),
+                        taxel,
+                    );
                 }
             }
         }
     }
     s.seconds = inference.as_secs_f64();
     Ok(s)
+}
+
+impl Scores {
+    /// Nothing scored yet, for `model` on `images` images (`by_taxel`: also per taxel).
+    fn empty(model: &Model, images: usize, by_taxel: bool) -> Scores {
+        let mut s = Scores {
+            cm: ConfusionMatrix::new(match model {
+                Model::Classifier(c) => c.classes(),
+                Model::Segmenter(g) => g.classes(),
+            }),
+            by_kind: BTreeMap::new(),
+            hard: [(0, 0); 2],
+            cases: Vec::new(),
+            side_known: (ConfusionMatrix::new(0), 0),
+            by_seam_distance: [(0, 0); SEAM_BINS.len()],
+            naming: Naming::default(),
+            named_right: ConfusionMatrix::new(0),
+            by_taxel: None,
+            seconds: 0.0,
+            images,
+            segmenting: matches!(model, Model::Segmenter(_)),
+        };
+        if let Model::Segmenter(g) = model {
+            s.cases = CASES
+                .iter()
+                .map(|_| (ConfusionMatrix::new(g.classes()), 0))
+                .collect();
+            s.side_known.0 = ConfusionMatrix::new(g.classes());
+            s.named_right = ConfusionMatrix::new(g.classes());
+            s.by_taxel = by_taxel.then(|| [(); 2].map(|_| ConfusionMatrix::new(g.classes())));
+        }
+        s
+    }
+
+    /// One sample `e` a classifier gave the class `probabilities`.
+    fn add_classified(&mut self, e: &crate::dataset::Entry, probabilities: &[f32]) {
+        let truth = usize::from(!e.hand); // class 0 hand, 1 non-hand
+        let best = probabilities
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(k, _)| k);
+        self.cm.add(truth, best);
+        let right = usize::from(best == truth);
+        let slot = self.by_kind.entry(e.kind.clone()).or_default();
+        *slot = (slot.0 + right, slot.1 + 1);
+        for (h, flag) in self.hard.iter_mut().zip([e.partial, e.fingertips]) {
+            if flag {
+                *h = (h.0 + right, h.1 + 1);
+            }
+        }
+    }
+
+    /// One sample `e` a segmenter labelled `labels` (an image of `rows` x `cols`) against its
+    /// part mask `truth`; `taxel`: the taxels' truth and the sample's index in it.
+    fn add_segmented(
+        &mut self,
+        e: &crate::dataset::Entry,
+        truth: &[u8],
+        labels: &[u8],
+        (rows, cols): (usize, usize),
+        taxel: Option<(&TaxelTruth, usize)>,
+    ) {
+        let mut one = ConfusionMatrix::new(self.cm.classes());
+        one.add_image(truth, labels);
+        let slot = self.by_kind.entry(e.kind.clone()).or_default();
+        // Per interaction: pixels right / hand pixels.
+        let parts: u64 = (1..one.classes()).map(|c| one.truth_total(c)).sum();
+        let right: u64 = (1..one.classes()).map(|c| one.get(c, c)).sum();
+        *slot = (slot.0 + right as usize, slot.1 + parts as usize);
+        for ((case, yes), name) in self.cases.iter_mut().zip(cases_of(e, truth)).zip(CASES) {
+            if !yes {
+                continue;
+            }
+            if name == BORDERS_AWAY {
+                case.0.add_image(&off_borders(truth, rows, cols), labels);
+            } else {
+                case.0.merge(&one);
+            }
+            case.1 += 1;
+        }
+        for ((&t, &p), d) in truth.iter().zip(labels).zip(seam_distance(truth, rows, cols)) {
+            if t != 0 {
+                let bin = SEAM_BINS.iter().position(|&(_, last)| d <= last).unwrap_or(0);
+                let slot = &mut self.by_seam_distance[bin];
+                *slot = (slot.0 + u64::from(p == t), slot.1 + 1);
+            }
+        }
+        if let (Some((t, at)), Some(cms)) = (taxel, self.by_taxel.as_mut()) {
+            let (pressures, parts) = (&t.pressures[at], &t.parts[at]);
+            for (cm, image) in cms.iter_mut().zip([labels, truth]) {
+                for (i, label) in taxel_labels(&t.map, &t.raster, (rows, cols), image, pressures) {
+                    if parts[i] > 0 {
+                        cm.add(usize::from(parts[i]), usize::from(label));
+                    }
+                }
+            }
+        }
+        let (naming, renamed) = name_regions(truth, labels, rows, cols);
+        self.naming.add(&naming);
+        self.named_right.add_image(truth, &renamed);
+        let mut mirror = ConfusionMatrix::new(self.cm.classes());
+        mirror.add_image(&mirror_hand(truth), labels);
+        let mirror_right: u64 = (1..mirror.classes()).map(|c| mirror.get(c, c)).sum();
+        if mirror_right > right {
+            self.side_known.0.merge(&mirror);
+            self.side_known.1 += 1;
+        } else {
+            self.side_known.0.merge(&one);
+        }
+        self.cm.merge(&one);
+    }
 }
 
 /// Grey images (row-major), or part masks.
@@ -384,31 +412,7 @@ pub fn robustness(
     for &i in test {
         truths_full.push(if segmenting { data.mask(i)?.0 } else { Vec::new() });
     }
-    let cells: Vec<(String, Degrade)> = match which {
-        Robustness::BlindSpots => (1..=4)
-            .flat_map(|spots| (1..=4).map(move |r| (spots, 10.0 * r as f64)))
-            .map(|(spots, radius_mm)| {
-                let m = map.clone();
-                let f: Degrade = Box::new(move |seed| {
-                    BlindSpots {
-                        spots,
-                        radius_mm,
-                        seed,
-                    }
-                    .apply(&m)
-                });
-                (format!("{spots:>3} {radius_mm:>5.0}"), f)
-            })
-            .collect(),
-        Robustness::RemovedTaxels => (1..=7)
-            .map(|k| {
-                let m = map.clone();
-                let fraction = k as f64 / 10.0;
-                let f: Degrade = Box::new(move |seed| Decimation { fraction, seed }.apply(&m));
-                (format!("{:>4.0}%", 100.0 * fraction), f)
-            })
-            .collect(),
-    };
+    let cells = degradations(which, &map);
     let mut table = Vec::with_capacity(cells.len());
     for (name, make) in &cells {
         let mut sums = [0.0f64; 5];
@@ -416,26 +420,8 @@ pub fn robustness(
             let degraded = make(seed)?;
             let mut imager = TactileImager::for_model(&degraded, 1.0, size)?;
             let cols = columns_of(&frames, &degraded.ids, &frames_path, "a degraded map")?;
-            let mut pressures = vec![0.0f32; cols.len()];
-            let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
-            let (mut kept, mut before) = (0usize, 0usize);
-            for (k, &i) in test.iter().enumerate() {
-                let values = &frames.frames[i].values;
-                for (p, &c) in pressures.iter_mut().zip(&cols) {
-                    *p = values[c];
-                }
-                let img = imager.process(&pressures)?.to_vec();
-                if segmenting {
-                    let (img, truth) = skin_geom::masked_ground_truth(&img, &truths_full[k], 0)?;
-                    before += truths_full[k].iter().filter(|&&l| l > 0).count();
-                    kept += truth.iter().filter(|&&l| l > 0).count();
-                    images.push(img);
-                    truths.push(truth);
-                } else {
-                    images.push(img);
-                    truths.push(Vec::new());
-                }
-            }
+            let masks = segmenting.then_some(truths_full.as_slice());
+            let (images, truths, kept, before) = degraded_images(&mut imager, &frames, &cols, test, masks)?;
             let s = score(model, data, test, &images, &truths, None)?;
             if segmenting {
                 let g = s.cm.segmentation_scores(1);
@@ -469,50 +455,128 @@ pub fn robustness(
     Ok(table)
 }
 
+/// The cells of a robustness table: each one's name as the table prints it, and how to make one
+/// of its degraded maps of `map` from a seed.
+fn degradations(which: Robustness, map: &TactileMap) -> Vec<(String, Degrade)> {
+    match which {
+        Robustness::BlindSpots => (1..=4)
+            .flat_map(|spots| (1..=4).map(move |r| (spots, 10.0 * r as f64)))
+            .map(|(spots, radius_mm)| {
+                let m = map.clone();
+                let f: Degrade = Box::new(move |seed| {
+                    BlindSpots {
+                        spots,
+                        radius_mm,
+                        seed,
+                    }
+                    .apply(&m)
+                });
+                (format!("{spots:>3} {radius_mm:>5.0}"), f)
+            })
+            .collect(),
+        Robustness::RemovedTaxels => (1..=7)
+            .map(|k| {
+                let m = map.clone();
+                let fraction = k as f64 / 10.0;
+                let f: Degrade = Box::new(move |seed| Decimation { fraction, seed }.apply(&m));
+                (format!("{:>4.0}%", 100.0 * fraction), f)
+            })
+            .collect(),
+    }
+}
+
+/// The `test` samples' images through a degraded map's `imager` (`cols`: each of its taxels'
+/// column in `frames`). For a segmenter (`truths_full`: the samples' whole part masks) also the
+/// masks cut to what the degraded image still shows, and the hand pixels kept and before.
+fn degraded_images(
+    imager: &mut TactileImager,
+    frames: &Recording,
+    cols: &[usize],
+    test: &[usize],
+    truths_full: Option<&[Vec<u8>]>,
+) -> Result<(Images, Images, usize, usize)> {
+    let mut pressures = vec![0.0f32; cols.len()];
+    let (mut images, mut truths) = (Vec::with_capacity(test.len()), Vec::with_capacity(test.len()));
+    let (mut kept, mut before) = (0usize, 0usize);
+    for (k, &i) in test.iter().enumerate() {
+        let values = &frames.frames[i].values;
+        for (p, &c) in pressures.iter_mut().zip(cols) {
+            *p = values[c];
+        }
+        let img = imager.process(&pressures)?.to_vec();
+        if let Some(truths_full) = truths_full {
+            let (img, truth) = skin_geom::masked_ground_truth(&img, &truths_full[k], 0)?;
+            before += truths_full[k].iter().filter(|&&l| l > 0).count();
+            kept += truth.iter().filter(|&&l| l > 0).count();
+            images.push(img);
+            truths.push(truth);
+        } else {
+            images.push(img);
+            truths.push(Vec::new());
+        }
+    }
+    Ok((images, truths, kept, before))
+}
+
 /// The tables `skin eval` prints: a classifier's accuracy and confusion by kind and hard case;
 /// a segmenter's Acc / mAcc / mIoU / fwIoU, part confusion, and where its errors lie (by case,
 /// by distance to a part seam, per taxel, by region naming, with the hand's side known).
 impl std::fmt::Display for Scores {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let s = self;
-        let ms = 1e3 * s.seconds / s.images.max(1) as f64;
-        if !s.segmenting {
-            writeln!(
-                f,
-                "accuracy {:.2}%  ({ms:.2} ms per image, batches of 32)",
-                100.0 * s.cm.accuracy()
-            )?;
-            writeln!(
-                f,
-                "confusion (rows: true class, columns: predicted; % of the row)"
-            )?;
-            writeln!(f, "{:>10} {:>9} {:>9}", "", "hand", "non_hand")?;
-            for (t, name) in ["hand", "non_hand"].iter().enumerate() {
-                let n = s.cm.truth_total(t).max(1) as f64;
-                writeln!(
-                    f,
-                    "{name:>10} {:>8.2}% {:>8.2}%",
-                    100.0 * s.cm.get(t, 0) as f64 / n,
-                    100.0 * s.cm.get(t, 1) as f64 / n
-                )?;
-            }
-            writeln!(f, "by interaction / contact:")?;
-            for (kind, (right, n)) in &s.by_kind {
-                writeln!(
-                    f,
-                    "  {kind:<11} {:>7.2}%  of {n}",
-                    100.0 * *right as f64 / (*n).max(1) as f64
-                )?;
-            }
-            for ((right, n), name) in s.hard.iter().zip(["partly off the skin", "fingertips only"]) {
-                writeln!(
-                    f,
-                    "  {name}: {:.2}% of {n}",
-                    100.0 * *right as f64 / (*n).max(1) as f64
-                )?;
-            }
-            return Ok(());
+        let ms = 1e3 * self.seconds / self.images.max(1) as f64;
+        if !self.segmenting {
+            return self.write_classifier(f, ms);
         }
+        self.write_segmenter(f, ms)?;
+        self.write_seams(f)?;
+        self.write_where_errors_lie(f)
+    }
+}
+
+impl Scores {
+    /// A classifier's accuracy, confusion, and accuracy by kind and hard case.
+    fn write_classifier(&self, f: &mut std::fmt::Formatter<'_>, ms: f64) -> std::fmt::Result {
+        let s = self;
+        writeln!(
+            f,
+            "accuracy {:.2}%  ({ms:.2} ms per image, batches of 32)",
+            100.0 * s.cm.accuracy()
+        )?;
+        writeln!(
+            f,
+            "confusion (rows: true class, columns: predicted; % of the row)"
+        )?;
+        writeln!(f, "{:>10} {:>9} {:>9}", "", "hand", "non_hand")?;
+        for (t, name) in ["hand", "non_hand"].iter().enumerate() {
+            let n = s.cm.truth_total(t).max(1) as f64;
+            writeln!(
+                f,
+                "{name:>10} {:>8.2}% {:>8.2}%",
+                100.0 * s.cm.get(t, 0) as f64 / n,
+                100.0 * s.cm.get(t, 1) as f64 / n
+            )?;
+        }
+        writeln!(f, "by interaction / contact:")?;
+        for (kind, (right, n)) in &s.by_kind {
+            writeln!(
+                f,
+                "  {kind:<11} {:>7.2}%  of {n}",
+                100.0 * *right as f64 / (*n).max(1) as f64
+            )?;
+        }
+        for ((right, n), name) in s.hard.iter().zip(["partly off the skin", "fingertips only"]) {
+            writeln!(
+                f,
+                "  {name}: {:.2}% of {n}",
+                100.0 * *right as f64 / (*n).max(1) as f64
+            )?;
+        }
+        Ok(())
+    }
+
+    /// A segmenter's scores, part confusion, IoU per part, and accuracy by interaction and case.
+    fn write_segmenter(&self, f: &mut std::fmt::Formatter<'_>, ms: f64) -> std::fmt::Result {
+        let s = self;
         let g = s.cm.segmentation_scores(1);
         writeln!(f, "      Acc     mAcc     mIoU    fwIoU  Time (ms)")?;
         writeln!(
@@ -570,6 +634,12 @@ impl std::fmt::Display for Scores {
                 100.0 * g.mean_iou
             )?;
         }
+        Ok(())
+    }
+
+    /// Hand-part pixels by their distance to another part: where the errors lie.
+    fn write_seams(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
         let wrong: Vec<u64> = s.by_seam_distance.iter().map(|(right, n)| n - right).collect();
         let all_wrong = wrong.iter().sum::<u64>().max(1) as f64;
         let cells = |cell: &dyn Fn(usize) -> String| (0..SEAM_BINS.len()).map(cell).collect::<String>();
@@ -589,6 +659,13 @@ impl std::fmt::Display for Scores {
         ] {
             writeln!(f, "  {name:<22}{row}")?;
         }
+        Ok(())
+    }
+
+    /// Per taxel, by region naming, and with the hand's side known.
+    fn write_where_errors_lie(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
+        let share = |a: u64, b: f64| format!("{:>8.2}%", 100.0 * a as f64 / b.max(1.0));
         match &s.by_taxel {
             Some([model, masks]) => {
                 // The masks follow the image, whose dilation spreads a brighter part over its

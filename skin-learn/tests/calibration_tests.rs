@@ -47,8 +47,7 @@ fn meets_the_thesis_figures(probes: &ProbeDataset, truth: &LinkSkin) -> Calibrat
     e
 }
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::shared_data;
 
 #[test]
 fn the_642_taxel_cyskin_patches_meet_the_same_bounds() {

@@ -3,9 +3,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
 use shared_data::shared;
+use skin_test_support::shared_data;
 
 use prost::Message;
 use skin_learn::classify::{Classifier, InputScale, ModelError};

@@ -1,5 +1,5 @@
 //! Fuzzing of skin-learn's reader of probe datasets (CSV): arbitrary text and hostile edits of a
-//! valid file (see `test-support/mutate.rs`) give `Ok` or an error, never a panic; what is
+//! valid file (see `skin_test_support::mutate`) give `Ok` or an error, never a panic; what is
 //! accepted holds centroids within `MAX_POSITION_M`, finite bounded responses and no taxel
 //! twice per contact, and calibrates (or flags its taxels) without a panic.
 
@@ -14,9 +14,8 @@ use skin_learn::calibration::{CalibrationOptions, ProbeContact, ProbeDataset, ca
 use std::collections::HashSet;
 use std::path::Path;
 
-#[path = "../../test-support/mutate.rs"]
-mod mutate;
 use mutate::{arbitrary_text, config, mutated};
+use skin_test_support::mutate;
 
 /// Six presses around three taxels, each answered by all three.
 fn csv() -> String {

@@ -12,10 +12,8 @@ use std::path::{Path, PathBuf};
 
 mod support;
 
-#[path = "../../test-support/recordings.rs"]
-mod recordings;
-#[path = "../../test-support/shared_data.rs"]
-mod shared_data;
+use skin_test_support::recordings;
+use skin_test_support::shared_data;
 
 fn fixture_session() -> (Session, CandumpLog, PathBuf) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/session");

@@ -19,9 +19,8 @@ use skin_learn::session::{ProcessedFrame, Sink};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
 
-#[path = "../../test-support/full_arm.rs"]
-mod full_arm;
 use full_arm::{hand_on_middle_link, link};
+use skin_test_support::full_arm;
 
 /// Keeps nothing.
 struct Discard(usize);

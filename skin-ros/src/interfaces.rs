@@ -281,42 +281,7 @@ fn parse(name: &str, text: &str) -> Result<Definition, DefinitionError> {
                 "field name \"{field_name}\": lower case letters, digits and '_', starting with a letter"
             )));
         }
-        let (base_text, arity) = match ty.split_once('[') {
-            None => (ty, Arity::Single),
-            Some((b, a)) => {
-                let a = a
-                    .strip_suffix(']')
-                    .ok_or_else(|| err(format!("type \"{ty}\": an array needs its ']'")))?;
-                let number = |s: &str| {
-                    s.parse::<u64>()
-                        .map_err(|_| err(format!("type \"{ty}\": \"{s}\" is not a size")))
-                };
-                let arity = if a.is_empty() {
-                    Arity::Sequence
-                } else if let Some(n) = a.strip_prefix("<=") {
-                    Arity::Bounded(number(n)?)
-                } else {
-                    Arity::Array(number(a)?)
-                };
-                (b, arity)
-            }
-        };
-        let base = if let Some(n) = base_text.strip_prefix("string<=") {
-            BaseType::BoundedString(
-                n.parse()
-                    .map_err(|_| err(format!("type \"{ty}\": \"{n}\" is not a size")))?,
-            )
-        } else if PRIMITIVES.contains(&base_text) {
-            BaseType::Primitive(base_text.to_owned())
-        } else {
-            let full = match base_text.split('/').collect::<Vec<_>>()[..] {
-                [n] => format!("{package}/msg/{n}"),
-                [p, n] => format!("{p}/msg/{n}"),
-                [p, "msg", n] => format!("{p}/msg/{n}"),
-                _ => return Err(err(format!("type \"{ty}\" is not a message name"))),
-            };
-            BaseType::Message(full)
-        };
+        let (base, arity) = field_type(ty, package).map_err(err)?;
         def.fields.push(Field {
             name: field_name.to_owned(),
             base,
@@ -324,6 +289,48 @@ fn parse(name: &str, text: &str) -> Result<Definition, DefinitionError> {
         });
     }
     Ok(def)
+}
+
+/// A field's type `ty` (`T`, `T[N]`, `T[<=N]`, `T[]`; `T` a primitive, `string<=N` or a message
+/// name, relative to `package` when it has no package), or why it is not one.
+fn field_type(ty: &str, package: &str) -> Result<(BaseType, Arity), String> {
+    let (base_text, arity) = match ty.split_once('[') {
+        None => (ty, Arity::Single),
+        Some((b, a)) => {
+            let a = a
+                .strip_suffix(']')
+                .ok_or_else(|| format!("type \"{ty}\": an array needs its ']'"))?;
+            let number = |s: &str| {
+                s.parse::<u64>()
+                    .map_err(|_| format!("type \"{ty}\": \"{s}\" is not a size"))
+            };
+            let arity = if a.is_empty() {
+                Arity::Sequence
+            } else if let Some(n) = a.strip_prefix("<=") {
+                Arity::Bounded(number(n)?)
+            } else {
+                Arity::Array(number(a)?)
+            };
+            (b, arity)
+        }
+    };
+    let base = if let Some(n) = base_text.strip_prefix("string<=") {
+        BaseType::BoundedString(
+            n.parse()
+                .map_err(|_| format!("type \"{ty}\": \"{n}\" is not a size"))?,
+        )
+    } else if PRIMITIVES.contains(&base_text) {
+        BaseType::Primitive(base_text.to_owned())
+    } else {
+        let full = match base_text.split('/').collect::<Vec<_>>()[..] {
+            [n] => format!("{package}/msg/{n}"),
+            [p, n] => format!("{p}/msg/{n}"),
+            [p, "msg", n] => format!("{p}/msg/{n}"),
+            _ => return Err(format!("type \"{ty}\" is not a message name")),
+        };
+        BaseType::Message(full)
+    };
+    Ok((base, arity))
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! ROS 2 without ROS: a skin session's frames and events as ROS 2 messages, written to an MCAP
 //! file that `ros2 bag play` and Foxglove open, or published live on Zenoh as rmw_zenoh (the
-//! Zenoh middleware of ROS 2 Jazzy) does, with nothing of ROS installed.
+//! Zenoh middleware of ROS 2 Jazzy) does, with nothing of ROS installed. It is the last step of a
+//! frame's path (ARCHITECTURE.md at the repository's root): a `Sink` of skin-learn's session.
 //!
 //! ```text
 //! Session --Sink--> RosSink --CDR messages--> Outlet: McapOutlet  (feature mcap: a rosbag2 file)

@@ -328,68 +328,94 @@ fn without_source(text: &str) -> String {
     out.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-impl ZenohOutlet {
-    /// Opens the session and declares the node, a publisher per topic and their tokens.
-    pub fn open(topics: &Topics, options: &ZenohOptions) -> Result<ZenohOutlet, RosError> {
-        check_endpoints(&options.connect, &options.listen)?;
-        if options.connect.is_empty() && options.listen.is_empty() {
-            return Err(RosError::Endpoint {
-                endpoint: String::new(),
-                why: "give an endpoint to connect to or to listen on".into(),
-            });
-        }
-        if options.domain > MAX_DOMAIN {
-            return Err(RosError::Domain(options.domain));
-        }
-        // A listener that cannot be had (an address not of this machine, a port in use, two
-        // endpoints on one port) is said plainly here; Zenoh's own error names its source
-        // files. All are held at once, so that two endpoints on one port are found.
-        let mut held: Vec<(std::net::TcpListener, &String)> = Vec::new();
-        for e in &options.listen {
-            let address = e.strip_prefix("tcp/").unwrap_or(e);
-            match std::net::TcpListener::bind(address) {
-                Ok(l) => held.push((l, e)),
-                Err(err) => {
-                    let port = address.rsplit_once(':').map(|(_, p)| p.parse::<u16>().ok());
-                    let same = held.iter().find(|(l, _)| {
-                        port.flatten()
-                            .is_some_and(|p| l.local_addr().is_ok_and(|a| a.port() == p))
-                    });
-                    return Err(RosError::Endpoint {
-                        endpoint: e.clone(),
-                        why: match same {
-                            Some((_, other)) => format!(
-                                "cannot listen there: {other} already listens on that port (give it once)"
-                            ),
-                            None => format!("cannot listen there: {err}"),
-                        },
-                    });
-                }
+/// The endpoints (at least one), and the domain.
+fn check_options(options: &ZenohOptions) -> Result<(), RosError> {
+    check_endpoints(&options.connect, &options.listen)?;
+    if options.connect.is_empty() && options.listen.is_empty() {
+        return Err(RosError::Endpoint {
+            endpoint: String::new(),
+            why: "give an endpoint to connect to or to listen on".into(),
+        });
+    }
+    if options.domain > MAX_DOMAIN {
+        return Err(RosError::Domain(options.domain));
+    }
+    Ok(())
+}
+
+/// Every endpoint to listen on can be had.
+///
+/// A listener that cannot be had (an address not of this machine, a port in use, two endpoints
+/// on one port) is said plainly here; Zenoh's own error names its source files. All are held at
+/// once, so that two endpoints on one port are found, and let go before Zenoh takes them.
+fn check_listeners(listen: &[String]) -> Result<(), RosError> {
+    let mut held: Vec<(std::net::TcpListener, &String)> = Vec::new();
+    for e in listen {
+        let address = e.strip_prefix("tcp/").unwrap_or(e);
+        match std::net::TcpListener::bind(address) {
+            Ok(l) => held.push((l, e)),
+            Err(err) => {
+                let port = address.rsplit_once(':').map(|(_, p)| p.parse::<u16>().ok());
+                let same = held.iter().find(|(l, _)| {
+                    port.flatten()
+                        .is_some_and(|p| l.local_addr().is_ok_and(|a| a.port() == p))
+                });
+                return Err(RosError::Endpoint {
+                    endpoint: e.clone(),
+                    why: match same {
+                        Some((_, other)) => format!(
+                            "cannot listen there: {other} already listens on that port (give it once)"
+                        ),
+                        None => format!("cannot listen there: {err}"),
+                    },
+                });
             }
         }
-        drop(held);
-        let interfaces = Interfaces::skin()?;
-        let mut config = zenoh::Config::default();
-        let json = |v: &[String]| serde_json::to_string(v).unwrap_or_else(|_| "[]".into());
-        for (key, value) in [
-            ("mode", "\"peer\"".to_owned()),
-            ("scouting/multicast/enabled", "false".to_owned()),
-            ("connect/endpoints", json(&options.connect)),
-            ("listen/endpoints", json(&options.listen)),
-            // Keep trying an endpoint that does not answer, without failing the open.
-            ("connect/exit_on_failure", "false".to_owned()),
-            ("connect/timeout_ms", "0".to_owned()),
-            ("listen/exit_on_failure", "true".to_owned()),
-            (
-                "transport/link/tx/queue/congestion_control/block/wait_before_close",
-                BLOCK_BEFORE_CLOSE.as_micros().to_string(),
-            ),
-            ("transport/link/tcp/so_sndbuf", SEND_BUFFER.to_string()),
-        ] {
-            config.insert_json5(key, &value).map_err(zenoh_error)?;
-        }
-        let session = zenoh::open(config).wait().map_err(zenoh_error)?;
-        let zid = session.zid().to_string();
+    }
+    drop(held);
+    Ok(())
+}
+
+/// The Zenoh configuration of a peer as rmw_zenoh's nodes are: no multicast scouting, the
+/// endpoints given, blocking publishers' wait bounded, the socket's send buffer set.
+fn session_config(options: &ZenohOptions) -> Result<zenoh::Config, RosError> {
+    let mut config = zenoh::Config::default();
+    let json = |v: &[String]| serde_json::to_string(v).unwrap_or_else(|_| "[]".into());
+    for (key, value) in [
+        ("mode", "\"peer\"".to_owned()),
+        ("scouting/multicast/enabled", "false".to_owned()),
+        ("connect/endpoints", json(&options.connect)),
+        ("listen/endpoints", json(&options.listen)),
+        // Keep trying an endpoint that does not answer, without failing the open.
+        ("connect/exit_on_failure", "false".to_owned()),
+        ("connect/timeout_ms", "0".to_owned()),
+        ("listen/exit_on_failure", "true".to_owned()),
+        (
+            "transport/link/tx/queue/congestion_control/block/wait_before_close",
+            BLOCK_BEFORE_CLOSE.as_micros().to_string(),
+        ),
+        ("transport/link/tcp/so_sndbuf", SEND_BUFFER.to_string()),
+    ] {
+        config.insert_json5(key, &value).map_err(zenoh_error)?;
+    }
+    Ok(config)
+}
+
+/// What rmw_zenoh names for a node and its publishers: per topic the data key expression and
+/// the publisher's gid; the liveliness tokens, the node's first.
+struct Names {
+    keys: Vec<String>,
+    tokens: Vec<String>,
+    gids: Vec<[u8; 16]>,
+}
+
+impl Names {
+    fn new(
+        topics: &Topics,
+        interfaces: &Interfaces,
+        zid: &str,
+        options: &ZenohOptions,
+    ) -> Result<Names, RosError> {
         let domain = options.domain;
         let namespace = mangle(options.namespace.trim_end_matches('/'));
         let node = &options.node;
@@ -416,38 +442,71 @@ impl ZenohOutlet {
             gid.copy_from_slice(&digest[..16]);
             gids.push(gid);
         }
-        let mut publishers = Vec::new();
-        let mut matching = Vec::new();
-        let mut listeners = Vec::new();
-        for (k, key) in keys.iter().enumerate() {
-            let (congestion, priority) = if k == topics.events {
-                (CongestionControl::Block, Priority::DataHigh)
-            } else {
-                (CongestionControl::Drop, Priority::Data)
-            };
-            let publisher = session
-                .declare_publisher(key.clone())
-                .congestion_control(congestion)
-                .priority(priority)
+        Ok(Names { keys, tokens, gids })
+    }
+}
+
+/// Publishers, one per key, each with its flag of a matching subscriber (kept by the returned
+/// listeners). The events topic (index `events`) blocks rather than drops, at a higher priority.
+#[allow(clippy::type_complexity)] // the three lists ZenohOutlet keeps, in topic order
+fn declare_publishers(
+    session: &zenoh::Session,
+    keys: &[String],
+    events: usize,
+) -> Result<
+    (
+        Vec<zenoh::pubsub::Publisher<'static>>,
+        Vec<Arc<AtomicBool>>,
+        Vec<zenoh::matching::MatchingListener<()>>,
+    ),
+    RosError,
+> {
+    let mut publishers = Vec::new();
+    let mut matching = Vec::new();
+    let mut listeners = Vec::new();
+    for (k, key) in keys.iter().enumerate() {
+        let (congestion, priority) = if k == events {
+            (CongestionControl::Block, Priority::DataHigh)
+        } else {
+            (CongestionControl::Drop, Priority::Data)
+        };
+        let publisher = session
+            .declare_publisher(key.clone())
+            .congestion_control(congestion)
+            .priority(priority)
+            .wait()
+            .map_err(zenoh_error)?;
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        listeners.push(
+            publisher
+                .matching_listener()
+                .callback(move |s| f.store(s.matching(), Ordering::Relaxed))
                 .wait()
-                .map_err(zenoh_error)?;
-            let flag = Arc::new(AtomicBool::new(false));
-            let f = flag.clone();
-            listeners.push(
-                publisher
-                    .matching_listener()
-                    .callback(move |s| f.store(s.matching(), Ordering::Relaxed))
-                    .wait()
-                    .map_err(zenoh_error)?,
-            );
-            if let Ok(s) = publisher.matching_status().wait() {
-                flag.fetch_or(s.matching(), Ordering::Relaxed);
-            }
-            publishers.push(publisher);
-            matching.push(flag);
+                .map_err(zenoh_error)?,
+        );
+        if let Ok(s) = publisher.matching_status().wait() {
+            flag.fetch_or(s.matching(), Ordering::Relaxed);
         }
+        publishers.push(publisher);
+        matching.push(flag);
+    }
+    Ok((publishers, matching, listeners))
+}
+
+impl ZenohOutlet {
+    /// Opens the session and declares the node, a publisher per topic and their tokens.
+    pub fn open(topics: &Topics, options: &ZenohOptions) -> Result<ZenohOutlet, RosError> {
+        check_options(options)?;
+        check_listeners(&options.listen)?;
+        let interfaces = Interfaces::skin()?;
+        let session = zenoh::open(session_config(options)?)
+            .wait()
+            .map_err(zenoh_error)?;
+        let names = Names::new(topics, &interfaces, &session.zid().to_string(), options)?;
+        let (publishers, matching, listeners) = declare_publishers(&session, &names.keys, topics.events)?;
         let mut liveliness = Vec::new();
-        for t in &tokens {
+        for t in &names.tokens {
             liveliness.push(
                 session
                     .liveliness()
@@ -461,7 +520,7 @@ impl ZenohOutlet {
             peers_seen: std::sync::Mutex::default(),
             publishers,
             matching,
-            counts: (0..keys.len()).map(|_| Counts::default()).collect(),
+            counts: (0..names.keys.len()).map(|_| Counts::default()).collect(),
         });
         let (give_back, pool) = mpsc::channel::<Vec<u8>>();
         let (frames, frames_queue) = mpsc::sync_channel::<Outgoing>(options.queue.max(1));
@@ -480,7 +539,7 @@ impl ZenohOutlet {
                     .map_err(|e| RosError::Zenoh(format!("cannot start a publishing thread: {e}")))?,
             );
         }
-        let n = keys.len();
+        let n = names.keys.len();
         Ok(ZenohOutlet {
             frames: Some(frames),
             events: Some(events),
@@ -492,11 +551,11 @@ impl ZenohOutlet {
             given: vec![0; n],
             dropped: vec![0; n],
             sequence: vec![0; n],
-            gids,
+            gids: names.gids,
             events_topic: topics.events,
             names: topics.list.iter().map(|t| t.name.clone()).collect(),
-            keys,
-            tokens,
+            keys: names.keys,
+            tokens: names.tokens,
             _matching: listeners,
             _liveliness: liveliness,
         })

@@ -5,8 +5,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
-#[path = "support/python.rs"]
-mod python;
+skin_test_support::python_checks!(); // mod python: python_with, run
 
 use serde_json::{Value, json};
 use skin_ros::cdr::CdrWriter;

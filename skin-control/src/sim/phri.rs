@@ -12,10 +12,10 @@
 
 use super::reach::integrate;
 use super::scene::{Scene, SceneError};
-use super::world::{Solid, World};
+use super::world::{BodyPart, Solid, World};
 use crate::contact_tasks::Contact;
 use crate::hri::{ContactGate, HriKind, HriParams, interaction_task};
-use crate::path_following::PathFollowing;
+use crate::path_following::{PathFollowing, PathReference};
 use crate::task_stack::{Regularisation, Task, TaskStack};
 use nalgebra::{DMatrix, DVector, Point3, Vector3};
 
@@ -177,33 +177,15 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         .try_normalize(1e-9)
         .unwrap_or(Vector3::y());
     let up = Vector3::z();
-    let mut path = PathFollowing::new(
-        &[
-            hand0,
-            hand0 + side * 0.2,
-            hand0 + side * 0.2 - up * 0.1,
-            hand0 - up * 0.1,
-        ],
-        script.path_speed,
-        2.0,
-    )
-    .map_err(|e| bad("path", e.to_string()))?;
+    let mut path = rectangle_path(hand0, side, up, script.path_speed).map_err(|e| bad("path", e))?;
     let f = forearm(&world).ok_or_else(|| bad("robot", "no link to touch".into()))?;
     let part = world.parts()[f].clone();
     let mut stack = TaskStack::new(n, Regularisation::default());
     let mut gate = FingerGate::new(3, 0.07, dt);
-    // Task 1's speed: from 0 at 1 N (mean contact force) to V_max = 0.3 m/s at 10 N.
-    let params = HriParams {
-        v_max: 0.3,
-        force_min: 1.0,
-        force_max: 10.0,
-        ..HriParams::default()
-    };
+    let params = push_params();
     let mut q = start.to_vec();
     let mut samples = Vec::new();
-    // The touches are placed where the forearm is when each one starts.
-    let mut bump_at: Option<(Point3<f64>, Vector3<f64>)> = None;
-    let mut push_at: Option<(Point3<f64>, Vector3<f64>, Vector3<f64>)> = None;
+    let mut touches = Touches::default();
     let steps = (script.duration / dt).round() as usize;
     for k in 0..steps {
         let t = k as f64 * dt;
@@ -211,38 +193,7 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         let pose = at
             .link_pose(&part.link)
             .map_err(|e| bad("robot", e.to_string()))?;
-        // Forearm mid-point, axis, and the horizontal direction across it (towards the path's
-        // side, so the push helps nothing by accident).
-        let mid = pose * Point3::from((part.a.coords + part.b.coords) / 2.0);
-        let axis = (pose.rotation * (part.b - part.a)).normalize();
-        let across = axis.cross(&up).try_normalize(1e-9).unwrap_or(side);
-        let mut touching: Vec<Solid> = Vec::new();
-        let (b0, bd) = script.bump;
-        if t >= b0 && t < b0 + bd {
-            let (c, dir) = *bump_at.get_or_insert((mid, across));
-            // In and out along a half sine, `bump_depth` at the middle.
-            let depth = script.bump_depth * (std::f64::consts::PI * (t - b0) / bd).sin();
-            let r = 0.1;
-            let centre = c + dir * (part.radius + r - depth);
-            touching.push(Solid::capsule(&(centre - up * 0.1), &(centre + up * 0.1), r));
-        }
-        let (p0, pd) = script.push;
-        if t >= p0 && t < p0 + pd {
-            let (c, ax, dir) = *push_at.get_or_insert((mid, axis, -across));
-            // The fingers start 5 mm off the skin, advance at push_speed, then let go.
-            let r = 0.008;
-            let travel = script.push_speed * (t - p0);
-            let front = c + dir * (part.radius + r + 0.005 - travel);
-            for i in 0..3 {
-                let along = ax * (FINGER_SPACING * (i as f64 - 1.0));
-                let across_fingers = ax.cross(&dir).normalize() * 0.05;
-                touching.push(Solid::capsule(
-                    &(front + along - across_fingers),
-                    &(front + along + across_fingers),
-                    r,
-                ));
-            }
-        }
+        let touching = touches.solids(script, t, &pose, &part, side);
         let sensing = world.sense(&at, &touching);
         let hand = world.hand(&at);
         let path_ref = path.reference(&hand);
@@ -250,7 +201,6 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         let hand_jac = at
             .jacobian(world.tip(), &Point3::origin())
             .map_err(|e| bad("robot", e.to_string()))?;
-        let mut tasks: Vec<Task> = Vec::new();
         let touched = &sensing.contacts;
         if touched.is_empty() {
             gate.idle();
@@ -267,19 +217,7 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
             path_error: path_ref.error,
             progress: path_ref.progress,
         };
-        let mut task1: Option<(DMatrix<f64>, f64)> = None;
-        if let Some((kind, task)) = hri {
-            if matches!(kind, HriKind::MoveAlongPush { .. }) {
-                let speed = task.reference.rows(0, 3).norm();
-                task1 = Some((task.jacobian.rows(0, 3).into_owned(), speed));
-            }
-            tasks.push(task);
-        }
-        tasks.push(Task {
-            jacobian: hand_jac.rows(0, 3).into_owned(),
-            reference: DVector::from_column_slice(path_ref.velocity.as_slice()),
-            activation: 1.0,
-        });
+        let (tasks, task1) = step_tasks(hri, &hand_jac, &path_ref);
         let qdot = stack.solve(&tasks).unwrap_or_else(|_| DVector::zeros(n));
         if let Some((jac, speed)) = task1 {
             sample.task1 = true;
@@ -294,6 +232,117 @@ pub fn run(scene: &Scene, start: &[f64], script: &PhriScript) -> Result<PhriRun,
         script: *script,
         link: part.link,
     })
+}
+
+/// Task 1's speed: from 0 at 1 N (mean contact force) to V_max = 0.3 m/s at 10 N.
+fn push_params() -> HriParams {
+    HriParams {
+        v_max: 0.3,
+        force_min: 1.0,
+        force_max: 10.0,
+        ..HriParams::default()
+    }
+}
+
+/// The path of the run: three sides of a 20 x 10 cm rectangle from `hand0`, along `side` and
+/// down `up`, followed at `speed`.
+fn rectangle_path(
+    hand0: Point3<f64>,
+    side: Vector3<f64>,
+    up: Vector3<f64>,
+    speed: f64,
+) -> Result<PathFollowing, String> {
+    PathFollowing::new(
+        &[
+            hand0,
+            hand0 + side * 0.2,
+            hand0 + side * 0.2 - up * 0.1,
+            hand0 - up * 0.1,
+        ],
+        speed,
+        2.0,
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// The scripted touches. Each is placed where the forearm is when it starts, and stays there.
+#[derive(Default)]
+struct Touches {
+    bump_at: Option<(Point3<f64>, Vector3<f64>)>,
+    push_at: Option<(Point3<f64>, Vector3<f64>, Vector3<f64>)>,
+}
+
+impl Touches {
+    /// The solids touching the forearm `part` (at `pose`) at time `t`: the bump, the push's
+    /// fingers, or neither.
+    fn solids(
+        &mut self,
+        script: &PhriScript,
+        t: f64,
+        pose: &nalgebra::Isometry3<f64>,
+        part: &BodyPart,
+        side: Vector3<f64>,
+    ) -> Vec<Solid> {
+        let up = Vector3::z();
+        // Forearm mid-point, axis, and the horizontal direction across it (towards the path's
+        // side, so the push helps nothing by accident).
+        let mid = pose * Point3::from((part.a.coords + part.b.coords) / 2.0);
+        let axis = (pose.rotation * (part.b - part.a)).normalize();
+        let across = axis.cross(&up).try_normalize(1e-9).unwrap_or(side);
+        let mut touching: Vec<Solid> = Vec::new();
+        let (b0, bd) = script.bump;
+        if t >= b0 && t < b0 + bd {
+            let (c, dir) = *self.bump_at.get_or_insert((mid, across));
+            // In and out along a half sine, `bump_depth` at the middle.
+            let depth = script.bump_depth * (std::f64::consts::PI * (t - b0) / bd).sin();
+            let r = 0.1;
+            let centre = c + dir * (part.radius + r - depth);
+            touching.push(Solid::capsule(&(centre - up * 0.1), &(centre + up * 0.1), r));
+        }
+        let (p0, pd) = script.push;
+        if t >= p0 && t < p0 + pd {
+            let (c, ax, dir) = *self.push_at.get_or_insert((mid, axis, -across));
+            // The fingers start 5 mm off the skin, advance at push_speed, then let go.
+            let r = 0.008;
+            let travel = script.push_speed * (t - p0);
+            let front = c + dir * (part.radius + r + 0.005 - travel);
+            for i in 0..3 {
+                let along = ax * (FINGER_SPACING * (i as f64 - 1.0));
+                let across_fingers = ax.cross(&dir).normalize() * 0.05;
+                touching.push(Solid::capsule(
+                    &(front + along - across_fingers),
+                    &(front + along + across_fingers),
+                    r,
+                ));
+            }
+        }
+        touching
+    }
+}
+
+/// One step's tasks, by priority: the interaction task when the gate let a touch lead, then the
+/// path (the hand's linear velocity). With them, task 1's Jacobian rows and reference speed when
+/// it moves the arm along a push, for the sample.
+fn step_tasks(
+    hri: Option<(HriKind, Task)>,
+    hand_jac: &DMatrix<f64>,
+    path_ref: &PathReference,
+) -> (Vec<Task>, Option<(DMatrix<f64>, f64)>) {
+    let mut tasks: Vec<Task> = Vec::new();
+    let mut task1: Option<(DMatrix<f64>, f64)> = None;
+    if let Some((kind, task)) = hri {
+        if matches!(kind, HriKind::MoveAlongPush { .. }) {
+            let speed = task.reference.rows(0, 3).norm();
+            task1 = Some((task.jacobian.rows(0, 3).into_owned(), speed));
+        }
+        tasks.push(task);
+    }
+    tasks.push(Task {
+        jacobian: hand_jac.rows(0, 3).into_owned(),
+        reference: DVector::from_column_slice(path_ref.velocity.as_slice()),
+        activation: 1.0,
+    });
+    (tasks, task1)
 }
 
 /// The starting posture of the run on the built-in arm: the hand in front at shoulder height.

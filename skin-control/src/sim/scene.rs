@@ -285,21 +285,23 @@ impl Scene {
             field,
             why: why.into(),
         };
-        // Bounds keep the collision geometry (parry) and the simulation loop in the range they
-        // are made for: a 1e100 m capsule makes parry's penetration search index out of bounds,
-        // a 1e9 Hz rate runs for hours.
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() <= WORLD_M);
-        let positive = |x: f64| x.is_finite() && x > 0.0 && x <= WORLD_M;
+        self.check_obstacles(&bad)?;
+        self.check_trials(&bad)?;
+        self.check_settings(&bad)
+    }
+
+    /// Obstacles within the world's bounds, with positive sizes.
+    fn check_obstacles(&self, bad: &dyn Fn(String, &str) -> SceneError) -> Result<(), SceneError> {
         for (i, o) in self.obstacles.iter().enumerate() {
             match o {
                 Obstacle::Capsule { a, b, radius } => {
-                    if !finite(a) || !finite(b) {
+                    if !within_world(a) || !within_world(b) {
                         return Err(bad(
                             format!("obstacles[{i}]"),
                             "end points must be finite, within 100 m",
                         ));
                     }
-                    if !positive(*radius) {
+                    if !positive_within_world(*radius) {
                         return Err(bad(
                             format!("obstacles[{i}].radius"),
                             "must be positive, at most 100 m",
@@ -311,13 +313,13 @@ impl Scene {
                     half_extents,
                     rpy,
                 } => {
-                    if !finite(center) || !finite(rpy) {
+                    if !within_world(center) || !within_world(rpy) {
                         return Err(bad(
                             format!("obstacles[{i}]"),
                             "centre and rpy must be finite, within 100 m",
                         ));
                     }
-                    if !half_extents.iter().all(|&h| positive(h)) {
+                    if !half_extents.iter().all(|&h| positive_within_world(h)) {
                         return Err(bad(
                             format!("obstacles[{i}].half_extents"),
                             "must be positive, at most 100 m",
@@ -326,6 +328,12 @@ impl Scene {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Goals and starts: how many (a study of thousands of trials is hours already), and each
+    /// within the world's bounds.
+    fn check_trials(&self, bad: &dyn Fn(String, &str) -> SceneError) -> Result<(), SceneError> {
         if self.goals.is_empty() || self.goals.len() > MAX_TRIALS {
             return Err(bad("goals".into(), &format!("give 1 to {MAX_TRIALS} goals")));
         }
@@ -336,7 +344,7 @@ impl Scene {
             ));
         }
         for (i, g) in self.goals.iter().enumerate() {
-            if !finite(g) {
+            if !within_world(g) {
                 return Err(bad(format!("goals[{i}]"), "must be finite, within 100 m"));
             }
         }
@@ -348,18 +356,23 @@ impl Scene {
                 return Err(bad("starts".into(), &format!("at most {MAX_TRIALS} starts")));
             }
             for (i, s) in starts.iter().enumerate() {
-                if !finite(s) {
+                if !within_world(s) {
                     return Err(bad(format!("starts[{i}]"), "must be finite, within 100 rad"));
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The robot's home and radii, and the simulation's settings, each in its range.
+    fn check_settings(&self, bad: &dyn Fn(String, &str) -> SceneError) -> Result<(), SceneError> {
         if let Some(h) = &self.home
-            && !finite(h)
+            && !within_world(h)
         {
             return Err(bad("home".into(), "must be finite, within 100 rad"));
         }
         if let Some(r) = &self.radii
-            && !r.iter().all(|&x| positive(x))
+            && !r.iter().all(|&x| positive_within_world(x))
         {
             return Err(bad("radii".into(), "must be positive, at most 100 m"));
         }
@@ -390,6 +403,20 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+// Bounds keep the collision geometry (parry) and the simulation loop in the range they are made
+// for: a 1e100 m capsule makes parry's penetration search index out of bounds, a 1e9 Hz rate runs
+// for hours.
+
+/// Every value finite and within [`WORLD_M`].
+fn within_world(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite() && x.abs() <= WORLD_M)
+}
+
+/// Finite, positive and at most [`WORLD_M`].
+fn positive_within_world(x: f64) -> bool {
+    x.is_finite() && x > 0.0 && x <= WORLD_M
 }
 
 /// The largest coordinate or length a scene may hold, m (and angle, rad).

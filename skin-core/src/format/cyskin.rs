@@ -86,6 +86,31 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super:
         }
     };
     let skin = file.skin;
+    check_counts(&skin, path)?;
+    let repeated = repeated_ids(&skin.taxels, path)?;
+    let taxels = taxels(&skin.taxels, &repeated, path)?;
+    let frame_to_parent = parent_frame(&skin.parent_frames, path)?;
+    let link = LinkSkin {
+        name: file.info.map(|i| i.name).unwrap_or_default(),
+        taxels,
+        faces: skin.faces,
+        frame_to_parent,
+    };
+    check_link(path, &link)?;
+    let notes = repeated
+        .into_iter()
+        .map(|(id, taxels)| super::Note::PlaceholderIds {
+            path: path.to_owned(),
+            id: TaxelId(id),
+            taxels,
+        })
+        .collect();
+    Ok(super::Noted { value: link, notes })
+}
+
+/// The counts the file states (`n_taxels`, `n_faces`) against its lists: a file whose count
+/// disagrees was cut or edited by hand, and which of the two is right cannot be told.
+fn check_counts(skin: &Skin, path: &Path) -> Result<()> {
     if let Some(n) = skin.n_taxels
         && n != skin.taxels.len()
     {
@@ -104,10 +129,17 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super:
             format!("says {n} faces but the list has {}", faces.len()),
         ));
     }
-    // An id the file repeats tells no sensor apart: real Cyskin files give it (0, or 1) to
-    // mesh vertices without a known sensor. Each such taxel gets a placeholder id of its own.
+    Ok(())
+}
+
+/// The ids the file gives to more than one taxel, with how many, in id order.
+///
+/// An id the file repeats tells no sensor apart: real Cyskin files give it (0, or 1) to mesh
+/// vertices without a known sensor. Each such taxel gets a placeholder id of its own, and
+/// placeholder ids are 16-bit.
+fn repeated_ids(entries: &[TaxelEntry], path: &Path) -> Result<Vec<(u32, usize)>> {
     let mut count: HashMap<u32, usize> = HashMap::new();
-    for t in &skin.taxels {
+    for t in entries {
         *count.entry(t.id).or_default() += 1;
     }
     let mut repeated: Vec<(u32, usize)> = count.into_iter().filter(|&(_, n)| n > 1).collect();
@@ -120,9 +152,15 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super:
             format!("{placeholders} taxels share ids with others: too many for placeholder ids"),
         ));
     }
+    Ok(repeated)
+}
+
+/// The file's taxels, those with a `repeated` id under placeholder ids numbered in file order;
+/// cut taxels and other kinds than pressure are refused.
+fn taxels(entries: &[TaxelEntry], repeated: &[(u32, usize)], path: &Path) -> Result<Vec<crate::Taxel>> {
     let mut next_placeholder = 0u16;
-    let mut taxels = Vec::with_capacity(skin.taxels.len());
-    for (i, t) in skin.taxels.iter().enumerate() {
+    let mut taxels = Vec::with_capacity(entries.len());
+    for (i, t) in entries.iter().enumerate() {
         let id = if repeated.iter().any(|&(id, _)| id == t.id) {
             next_placeholder += 1;
             TaxelId::placeholder(next_placeholder - 1)
@@ -146,8 +184,12 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super:
         }
         taxels.push(make_taxel(path, &place, id, t.x, t.n)?);
     }
-    let frame_to_parent = skin
-        .parent_frames
+    Ok(taxels)
+}
+
+/// The first parent frame's transform (column-major in the file), which must be finite.
+fn parent_frame(frames: &[ParentFrame], path: &Path) -> Result<Option<nalgebra::Matrix4<f64>>> {
+    let frame_to_parent = frames
         .first()
         .map(|f| nalgebra::Matrix4::from_column_slice(&f.tf_matrix));
     if let Some(m) = &frame_to_parent
@@ -159,22 +201,7 @@ pub(crate) fn from_value(value: serde_json::Value, path: &Path) -> Result<super:
             "not finite",
         ));
     }
-    let link = LinkSkin {
-        name: file.info.map(|i| i.name).unwrap_or_default(),
-        taxels,
-        faces: skin.faces,
-        frame_to_parent,
-    };
-    check_link(path, &link)?;
-    let notes = repeated
-        .into_iter()
-        .map(|(id, taxels)| super::Note::PlaceholderIds {
-            path: path.to_owned(),
-            id: TaxelId(id),
-            taxels,
-        })
-        .collect();
-    Ok(super::Noted { value: link, notes })
+    Ok(frame_to_parent)
 }
 
 /// Serialises a link as a Cyskin calibration file (`info` + `skin`).

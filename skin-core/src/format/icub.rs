@@ -98,139 +98,19 @@ pub fn parse(text: &str, path: &Path, duplicates: Duplicates) -> Result<IcubPosi
 
 /// Reads an iCub taxel file from any text input, line by line; `path` is used in error messages.
 pub fn from_reader(reader: impl BufRead, path: &Path, duplicates: Duplicates) -> Result<IcubPositions> {
-    let mut lines = Lines::new(reader, path);
-    let mut name = String::new();
-    let mut rows: Vec<(usize, [f64; 6])> = Vec::new();
-    let mut in_calibration = false;
-    // `taxel2Repr ( r0 r1 ... )`: each slot's representative taxel, negative for a slot that is
-    // no taxel (-1 unused, -2 a thermal pad).
-    let (mut in_repr, mut repr_text) = (false, String::new());
-    while let Some(line) = lines.next_line()? {
-        let lineno = line.number();
-        let trimmed = line.trim();
-        if trimmed.is_empty() || trimmed.starts_with('#') || trimmed.starts_with("//") {
-            continue;
-        }
-        if !in_calibration {
-            if trimmed == "[calibration]" {
-                in_calibration = true;
-            } else if let Some(rest) = trimmed.strip_prefix("taxel2Repr") {
-                in_repr = true;
-                repr_text.push_str(rest);
-            } else if in_repr {
-                repr_text.push(' ');
-                repr_text.push_str(trimmed);
-            } else if let Some(rest) = trimmed.strip_prefix("name") {
-                name = rest.trim().to_string();
-            }
-            if in_repr && repr_text.contains(')') {
-                in_repr = false;
-            }
-            continue;
-        }
-        if trimmed.starts_with('[') {
-            break; // another section follows the taxel rows
-        }
-        let mut row = [0.0f64; 6];
-        let mut count = 0;
-        for (k, field) in trimmed.split_whitespace().enumerate() {
-            if k >= 6 {
-                count = 7;
-                break;
-            }
-            row[k] = field.parse().map_err(|_| {
-                Error::invalid(
-                    path,
-                    format!("line {lineno}"),
-                    format!("value {} (\"{}\") is not a number", k + 1, super::excerpt(field)),
-                )
-            })?;
-            count = k + 1;
-        }
-        if count != 6 {
-            return Err(Error::invalid(
-                path,
-                format!("line {lineno}"),
-                format!(
-                    "expected 6 values (x y z nx ny nz), found {}",
-                    trimmed.split_whitespace().count()
-                ),
-            ));
-        }
-        rows.push((lineno, row));
+    let file = Sections::read(reader, path)?;
+    let mut placed = Placed::default();
+    for (slot, (lineno, r)) in file.rows.iter().enumerate() {
+        placed.add(slot, *lineno, r, &file, path, duplicates)?;
     }
-    if !in_calibration {
-        return Err(Error::invalid(path, "header", "no [calibration] section"));
-    }
-
-    let repr: Vec<i64> = repr_text
-        .trim()
-        .trim_start_matches('(')
-        .split(')')
-        .next()
-        .unwrap_or_default()
-        .split_whitespace()
-        .map(|v| v.parse::<i64>().unwrap_or(0))
-        .collect();
-    let mut taxels = Vec::new();
-    let mut zero_slots = Vec::new();
-    let mut not_taxels = Vec::new();
-    let mut estimated_normals = Vec::new();
-    // Positions are written with a few decimals: group them on a 0.1 µm grid.
-    let mut groups: HashMap<(i64, i64, i64), usize> = HashMap::new();
-    let mut dup_groups: Vec<DuplicateGroup> = Vec::new();
-    let mut group_of_first: HashMap<usize, usize> = HashMap::new();
-    for (slot, (lineno, r)) in rows.iter().enumerate() {
-        if r.iter().all(|&v| v == 0.0) {
-            zero_slots.push(slot);
-            continue;
-        }
-        if repr.get(slot).is_some_and(|&v| v < 0) {
-            not_taxels.push(slot);
-            continue;
-        }
-        let place = format!("line {lineno} (taxel {slot})");
-        // A position with an all-zero normal: the normal is estimated once all are read.
-        let no_normal = r[3..].iter().all(|&v| v == 0.0);
-        let normal = if no_normal {
-            [0.0, 0.0, 1.0]
-        } else {
-            [r[3], r[4], r[5]]
-        };
-        let taxel = make_taxel(path, &place, TaxelId(slot as u32), [r[0], r[1], r[2]], normal)?;
-        let k = (
-            (r[0] * 1e7).round() as i64,
-            (r[1] * 1e7).round() as i64,
-            (r[2] * 1e7).round() as i64,
-        );
-        match groups.get(&k) {
-            None => {
-                groups.insert(k, slot);
-                if no_normal {
-                    estimated_normals.push(taxels.len());
-                }
-                taxels.push(taxel);
-            }
-            Some(&first) => {
-                let g = *group_of_first.entry(first).or_insert_with(|| {
-                    dup_groups.push(DuplicateGroup {
-                        slots: vec![first],
-                        lines: vec![rows[first].0],
-                    });
-                    dup_groups.len() - 1
-                });
-                dup_groups[g].slots.push(slot);
-                dup_groups[g].lines.push(*lineno);
-                if duplicates == Duplicates::Merge {
-                    continue;
-                }
-                if no_normal {
-                    estimated_normals.push(taxels.len());
-                }
-                taxels.push(taxel);
-            }
-        }
-    }
+    let Placed {
+        mut taxels,
+        zero_slots,
+        not_taxels,
+        estimated_normals,
+        dup_groups,
+        ..
+    } = placed;
     if duplicates == Duplicates::Reject
         && let Some(g) = dup_groups.first()
     {
@@ -260,9 +140,174 @@ pub fn from_reader(reader: impl BufRead, path: &Path, duplicates: Duplicates) ->
             .iter()
             .map(|&i| taxels[i].id.0 as usize)
             .collect(),
-        skin: LinkSkin::new(name, taxels),
+        skin: LinkSkin::new(file.name, taxels),
         zero_slots,
         duplicates: dup_groups,
         not_taxels,
     })
+}
+
+/// What an iCub taxel file says: its name, the rows of its `[calibration]` section (with their
+/// line numbers), and each slot's representative from `taxel2Repr`.
+struct Sections {
+    name: String,
+    rows: Vec<(usize, [f64; 6])>,
+    /// Negative for a slot that is no taxel (-1 unused, -2 a thermal pad); 0 where unsaid.
+    repr: Vec<i64>,
+}
+
+impl Sections {
+    fn read(reader: impl BufRead, path: &Path) -> Result<Sections> {
+        let mut lines = Lines::new(reader, path);
+        let mut name = String::new();
+        let mut rows: Vec<(usize, [f64; 6])> = Vec::new();
+        let mut in_calibration = false;
+        // `taxel2Repr ( r0 r1 ... )`: each slot's representative taxel, negative for a slot that
+        // is no taxel (-1 unused, -2 a thermal pad).
+        let (mut in_repr, mut repr_text) = (false, String::new());
+        while let Some(line) = lines.next_line()? {
+            let lineno = line.number();
+            let trimmed = line.trim();
+            if trimmed.is_empty() || trimmed.starts_with('#') || trimmed.starts_with("//") {
+                continue;
+            }
+            if !in_calibration {
+                if trimmed == "[calibration]" {
+                    in_calibration = true;
+                } else if let Some(rest) = trimmed.strip_prefix("taxel2Repr") {
+                    in_repr = true;
+                    repr_text.push_str(rest);
+                } else if in_repr {
+                    repr_text.push(' ');
+                    repr_text.push_str(trimmed);
+                } else if let Some(rest) = trimmed.strip_prefix("name") {
+                    name = rest.trim().to_string();
+                }
+                if in_repr && repr_text.contains(')') {
+                    in_repr = false;
+                }
+                continue;
+            }
+            if trimmed.starts_with('[') {
+                break; // another section follows the taxel rows
+            }
+            rows.push((lineno, row(trimmed, lineno, path)?));
+        }
+        if !in_calibration {
+            return Err(Error::invalid(path, "header", "no [calibration] section"));
+        }
+        let repr: Vec<i64> = repr_text
+            .trim()
+            .trim_start_matches('(')
+            .split(')')
+            .next()
+            .unwrap_or_default()
+            .split_whitespace()
+            .map(|v| v.parse::<i64>().unwrap_or(0))
+            .collect();
+        Ok(Sections { name, rows, repr })
+    }
+}
+
+/// One taxel row, `x y z nx ny nz`, of line `lineno`.
+fn row(trimmed: &str, lineno: usize, path: &Path) -> Result<[f64; 6]> {
+    let mut row = [0.0f64; 6];
+    let mut count = 0;
+    for (k, field) in trimmed.split_whitespace().enumerate() {
+        if k >= 6 {
+            count = 7;
+            break;
+        }
+        row[k] = field.parse().map_err(|_| {
+            Error::invalid(
+                path,
+                format!("line {lineno}"),
+                format!("value {} (\"{}\") is not a number", k + 1, super::excerpt(field)),
+            )
+        })?;
+        count = k + 1;
+    }
+    if count != 6 {
+        return Err(Error::invalid(
+            path,
+            format!("line {lineno}"),
+            format!(
+                "expected 6 values (x y z nx ny nz), found {}",
+                trimmed.split_whitespace().count()
+            ),
+        ));
+    }
+    Ok(row)
+}
+
+/// The file's slots sorted out: the taxels kept, the slots that are none, the taxels whose
+/// normal is to be estimated, and the groups of slots at one position.
+#[derive(Default)]
+struct Placed {
+    taxels: Vec<crate::Taxel>,
+    zero_slots: Vec<usize>,
+    not_taxels: Vec<usize>,
+    estimated_normals: Vec<usize>,
+    // Positions are written with a few decimals: grouped on a 0.1 µm grid.
+    groups: HashMap<(i64, i64, i64), usize>,
+    dup_groups: Vec<DuplicateGroup>,
+    group_of_first: HashMap<usize, usize>,
+}
+
+impl Placed {
+    /// Slot `slot`, row `r` of line `lineno`.
+    fn add(
+        &mut self,
+        slot: usize,
+        lineno: usize,
+        r: &[f64; 6],
+        file: &Sections,
+        path: &Path,
+        duplicates: Duplicates,
+    ) -> Result<()> {
+        if r.iter().all(|&v| v == 0.0) {
+            self.zero_slots.push(slot);
+            return Ok(());
+        }
+        if file.repr.get(slot).is_some_and(|&v| v < 0) {
+            self.not_taxels.push(slot);
+            return Ok(());
+        }
+        let place = format!("line {lineno} (taxel {slot})");
+        // A position with an all-zero normal: the normal is estimated once all are read.
+        let no_normal = r[3..].iter().all(|&v| v == 0.0);
+        let normal = if no_normal {
+            [0.0, 0.0, 1.0]
+        } else {
+            [r[3], r[4], r[5]]
+        };
+        let taxel = make_taxel(path, &place, TaxelId(slot as u32), [r[0], r[1], r[2]], normal)?;
+        let k = (
+            (r[0] * 1e7).round() as i64,
+            (r[1] * 1e7).round() as i64,
+            (r[2] * 1e7).round() as i64,
+        );
+        if let Some(&first) = self.groups.get(&k) {
+            let dup_groups = &mut self.dup_groups;
+            let g = *self.group_of_first.entry(first).or_insert_with(|| {
+                dup_groups.push(DuplicateGroup {
+                    slots: vec![first],
+                    lines: vec![file.rows[first].0],
+                });
+                dup_groups.len() - 1
+            });
+            self.dup_groups[g].slots.push(slot);
+            self.dup_groups[g].lines.push(lineno);
+            if duplicates == Duplicates::Merge {
+                return Ok(());
+            }
+        } else {
+            self.groups.insert(k, slot);
+        }
+        if no_normal {
+            self.estimated_normals.push(self.taxels.len());
+        }
+        self.taxels.push(taxel);
+        Ok(())
+    }
 }

@@ -323,55 +323,7 @@ fn build(sensors: Vec<Sensor>, path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
             .ok()
             .filter(|&k| k <= u32::from(u16::MAX))
             .ok_or_else(|| Error::invalid(path, &place, "more than 65,536 tactile sensors"))?;
-        // Each taxel's data index and pose in the sensor frame.
-        let mut poses: Vec<(u32, Isometry3<f64>, String)> = Vec::new();
-        if !s.taxels.is_empty() {
-            if s.array.is_some() {
-                notes.push(Note::UrdfTactile {
-                    path: path.to_owned(),
-                    sensor: s.name.clone(),
-                    what: "has both a taxel list and an array: the array is ignored".into(),
-                });
-            }
-            let mut seen = std::collections::HashSet::new();
-            let mut repeated = Vec::new();
-            for (idx, pose, line) in &s.taxels {
-                if seen.insert(*idx) {
-                    poses.push((
-                        *idx,
-                        *pose,
-                        format!("line {line} (sensor \"{}\" taxel {idx})", s.name),
-                    ));
-                } else {
-                    repeated.push(*idx);
-                }
-            }
-            if !repeated.is_empty() {
-                notes.push(Note::UrdfTactile {
-                    path: path.to_owned(),
-                    sensor: s.name.clone(),
-                    what: format!("repeats taxel idx {repeated:?}: the first taxel of each idx is kept"),
-                });
-            }
-        } else if let Some(a) = &s.array {
-            for idx in 0..a.rows * a.cols {
-                let (row, col) = if a.column_major {
-                    (idx % a.rows, idx / a.rows)
-                } else {
-                    (idx / a.cols, idx % a.cols)
-                };
-                let x = row as f64 * a.spacing[0] - a.offset[0];
-                let y = col as f64 * a.spacing[1] - a.offset[1];
-                let place = format!("{place} array taxel {idx}");
-                poses.push((idx as u32, Isometry3::translation(x, y, 0.0), place));
-            }
-        } else {
-            notes.push(Note::UrdfTactile {
-                path: path.to_owned(),
-                sensor: s.name.clone(),
-                what: "has neither an array nor taxels: no taxel".into(),
-            });
-        }
+        let poses = sensor_poses(s, &place, path, &mut notes);
         let at = match links.iter().position(|l| l.name == link) {
             Some(i) => i,
             None => {
@@ -397,4 +349,64 @@ fn build(sensors: Vec<Sensor>, path: &Path) -> Result<Noted<Vec<LinkSkin>>> {
         super::check_link(path, l)?;
     }
     Ok(Noted { value: links, notes })
+}
+
+/// Each taxel's data index, pose in the sensor frame and place (for errors) of sensor `s`: its
+/// taxel list (the first taxel of a repeated idx kept), else its array, else none; what was
+/// ignored is said in `notes`.
+fn sensor_poses(
+    s: &Sensor,
+    place: &str,
+    path: &Path,
+    notes: &mut Vec<Note>,
+) -> Vec<(u32, Isometry3<f64>, String)> {
+    let mut poses: Vec<(u32, Isometry3<f64>, String)> = Vec::new();
+    if !s.taxels.is_empty() {
+        if s.array.is_some() {
+            notes.push(Note::UrdfTactile {
+                path: path.to_owned(),
+                sensor: s.name.clone(),
+                what: "has both a taxel list and an array: the array is ignored".into(),
+            });
+        }
+        let mut seen = std::collections::HashSet::new();
+        let mut repeated = Vec::new();
+        for (idx, pose, line) in &s.taxels {
+            if seen.insert(*idx) {
+                poses.push((
+                    *idx,
+                    *pose,
+                    format!("line {line} (sensor \"{}\" taxel {idx})", s.name),
+                ));
+            } else {
+                repeated.push(*idx);
+            }
+        }
+        if !repeated.is_empty() {
+            notes.push(Note::UrdfTactile {
+                path: path.to_owned(),
+                sensor: s.name.clone(),
+                what: format!("repeats taxel idx {repeated:?}: the first taxel of each idx is kept"),
+            });
+        }
+    } else if let Some(a) = &s.array {
+        for idx in 0..a.rows * a.cols {
+            let (row, col) = if a.column_major {
+                (idx % a.rows, idx / a.rows)
+            } else {
+                (idx / a.cols, idx % a.cols)
+            };
+            let x = row as f64 * a.spacing[0] - a.offset[0];
+            let y = col as f64 * a.spacing[1] - a.offset[1];
+            let place = format!("{place} array taxel {idx}");
+            poses.push((idx as u32, Isometry3::translation(x, y, 0.0), place));
+        }
+    } else {
+        notes.push(Note::UrdfTactile {
+            path: path.to_owned(),
+            sensor: s.name.clone(),
+            what: "has neither an array nor taxels: no taxel".into(),
+        });
+    }
+    poses
 }

@@ -57,6 +57,71 @@ pub struct TaxelSamples {
     pub responses: Vec<f64>,
 }
 
+/// One row of the CSV form, its fields checked.
+struct Row {
+    contact: u64,
+    xyz: [f64; 3],
+    taxel: u32,
+    response: f64,
+}
+
+impl Row {
+    /// Line `number` of the file (not the header), split at its commas.
+    fn parse(line: &str, number: usize, path: &Path) -> Result<Row> {
+        let i = number - 1;
+        let place = |field: &str| format!("line {}, field {field}", i + 1);
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != 6 {
+            return Err(Error::invalid(
+                path,
+                format!("line {}", i + 1),
+                format!("{} fields, expected 6 ({CSV_HEADER})", cells.len()),
+            ));
+        }
+        let contact: u64 = cells[0].parse().map_err(|_| {
+            Error::invalid(
+                path,
+                place("contact"),
+                format!("\"{}\" is not a contact number", excerpt(cells[0])),
+            )
+        })?;
+        // A finite number within `limit` in column `k`, or an error naming the field.
+        let finite = |k: usize, limit: f64, what: &str| {
+            cells[k]
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && v.abs() <= limit)
+                .ok_or_else(|| {
+                    Error::invalid(
+                        path,
+                        place(FIELDS[k]),
+                        format!("\"{}\" is not {what} within ±{limit:e}", excerpt(cells[k])),
+                    )
+                })
+        };
+        let metres = "a finite number of metres";
+        let xyz = [
+            finite(1, MAX_POSITION_M, metres)?,
+            finite(2, MAX_POSITION_M, metres)?,
+            finite(3, MAX_POSITION_M, metres)?,
+        ];
+        let taxel: u32 = cells[4].parse().map_err(|_| {
+            Error::invalid(
+                path,
+                place("taxel"),
+                format!("\"{}\" is not a taxel id", excerpt(cells[4])),
+            )
+        })?;
+        let response = finite(5, f64::from(MAX_READING), "a finite number")?;
+        Ok(Row {
+            contact,
+            xyz,
+            taxel,
+            response,
+        })
+    }
+}
+
 impl ProbeDataset {
     /// Reads the CSV form, line by line (gzip-compressed too).
     pub fn read(path: &Path) -> Result<ProbeDataset> {
@@ -95,49 +160,12 @@ impl ProbeDataset {
                 continue;
             }
             let place = |field: &str| format!("line {}, field {field}", i + 1);
-            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-            if cells.len() != 6 {
-                return Err(Error::invalid(
-                    path,
-                    format!("line {}", i + 1),
-                    format!("{} fields, expected 6 ({CSV_HEADER})", cells.len()),
-                ));
-            }
-            let contact: u64 = cells[0].parse().map_err(|_| {
-                Error::invalid(
-                    path,
-                    place("contact"),
-                    format!("\"{}\" is not a contact number", excerpt(cells[0])),
-                )
-            })?;
-            // A finite number within `limit` in column `k`, or an error naming the field.
-            let finite = |k: usize, limit: f64, what: &str| {
-                cells[k]
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite() && v.abs() <= limit)
-                    .ok_or_else(|| {
-                        Error::invalid(
-                            path,
-                            place(FIELDS[k]),
-                            format!("\"{}\" is not {what} within ±{limit:e}", excerpt(cells[k])),
-                        )
-                    })
-            };
-            let metres = "a finite number of metres";
-            let xyz = [
-                finite(1, MAX_POSITION_M, metres)?,
-                finite(2, MAX_POSITION_M, metres)?,
-                finite(3, MAX_POSITION_M, metres)?,
-            ];
-            let taxel: u32 = cells[4].parse().map_err(|_| {
-                Error::invalid(
-                    path,
-                    place("taxel"),
-                    format!("\"{}\" is not a taxel id", excerpt(cells[4])),
-                )
-            })?;
-            let response = finite(5, f64::from(MAX_READING), "a finite number")?;
+            let Row {
+                contact,
+                xyz,
+                taxel,
+                response,
+            } = Row::parse(&line, i + 1, path)?;
             let centroid = Point3::from(xyz);
             let k = *index.entry(contact).or_insert_with(|| {
                 dataset.contacts.push(ProbeContact {

@@ -99,6 +99,50 @@ pub(crate) enum Outward {
     AwayFrom(Point3<f64>),
 }
 
+/// The plane fitted to the contacts, its normal turned to the outside: the mean centroid and a
+/// right-handed frame (v1, v2 in the plane, v3 outward); or why there is no plane.
+fn oriented_plane(
+    centroids: &[Point3<f64>],
+    outward: &Outward,
+) -> Result<(Point3<f64>, [Vector3<f64>; 3]), String> {
+    let (mean, [v1, _, mut v3], _) = plane(centroids)?;
+    let side = match outward {
+        Outward::Along(d) => v3.dot(d),
+        Outward::AwayFrom(c) => v3.dot(&(mean - c)),
+    };
+    if side < 0.0 {
+        v3 = -v3;
+    }
+    let v2 = v3.cross(&v1); // keep (v1, v2, v3) right-handed after a flip
+    Ok((mean, [v1, v2, v3]))
+}
+
+/// Why the fitted centre is not a measurement, when it lies farther than the options allow from
+/// the nearest contact (`xs`, mm in the plane).
+///
+/// A centre far outside the contacts that made the taxel answer is an extrapolation, not a
+/// measurement. This is checked before convergence: a fit that ran off far from its contacts
+/// cannot be placed by them whether or not it stopped within the budget (where a runaway stops
+/// is rounding, so the verdict must not depend on it), and more iterations would not help.
+fn ran_off(xs: &[[f64; 2]], fit: &GaussianFit, options: &CalibrationOptions) -> Option<String> {
+    let reach = xs
+        .iter()
+        .map(|x| ((x[0] - fit.beta[0]).powi(2) + (x[1] - fit.beta[1]).powi(2)).sqrt())
+        .fold(f64::INFINITY, f64::min);
+    // Not `<=`: a NaN distance is no evidence of a runaway.
+    if !(reach > options.max_extrapolation_mm) {
+        return None;
+    }
+    Some(if fit.converged {
+        format!("the fitted centre is {reach:.1} mm from the nearest contact")
+    } else {
+        format!(
+            "the fit ran off {reach:.1} mm from the nearest contact (not converged after {} iterations)",
+            fit.iterations
+        )
+    })
+}
+
 /// The pose of one taxel from its samples (responses all non-zero).
 pub(crate) fn estimate(
     centroids: &[Point3<f64>],
@@ -113,18 +157,10 @@ pub(crate) fn estimate(
             need: options.min_responses.max(5),
         });
     }
-    let (mean, [v1, _, mut v3], _) = match plane(centroids) {
+    let (mean, [v1, v2, v3]) = match oriented_plane(centroids, outward) {
         Ok(p) => p,
         Err(why) => return Pose::flagged(Status::Degenerate(why)),
     };
-    let side = match outward {
-        Outward::Along(d) => v3.dot(d),
-        Outward::AwayFrom(c) => v3.dot(&(mean - c)),
-    };
-    if side < 0.0 {
-        v3 = -v3;
-    }
-    let v2 = v3.cross(&v1); // keep (v1, v2, v3) right-handed after a flip
     // Millimetres about the mean, responses relative to the largest: the stopping rule then means
     // the same for every taxel.
     let t_max = responses.iter().copied().fold(0.0, f64::max);
@@ -147,23 +183,7 @@ pub(crate) fn estimate(
     let Some(fit) = GaussianFit::fit(&xs, &ts, start, &fit_options) else {
         return Pose::flagged(Status::Degenerate("the fit left the real numbers".into()));
     };
-    // A centre far outside the contacts that made the taxel answer is an extrapolation, not a
-    // measurement. This is checked before convergence: a fit that ran off far from its contacts
-    // cannot be placed by them whether or not it stopped within the budget (where a runaway stops
-    // is rounding, so the verdict must not depend on it), and more iterations would not help.
-    let reach = xs
-        .iter()
-        .map(|x| ((x[0] - fit.beta[0]).powi(2) + (x[1] - fit.beta[1]).powi(2)).sqrt())
-        .fold(f64::INFINITY, f64::min);
-    if reach > options.max_extrapolation_mm {
-        let why = if fit.converged {
-            format!("the fitted centre is {reach:.1} mm from the nearest contact")
-        } else {
-            format!(
-                "the fit ran off {reach:.1} mm from the nearest contact (not converged after {} iterations)",
-                fit.iterations
-            )
-        };
+    if let Some(why) = ran_off(&xs, &fit, options) {
         return Pose {
             fit: Some(fit),
             ..Pose::flagged(Status::Degenerate(why))

@@ -139,50 +139,10 @@ pub(crate) fn hand<R: Rng>(
     let palm = !fingertips_only && rng.random_bool(p_palm);
     let mut patches = Vec::with_capacity(16);
 
-    // Twisting shears the fingers sideways; pushing loads one side of the hand.
-    let skew = match action {
-        Interaction::TwistCw => rng.random_range(5.0f64..15.0).to_radians(),
-        Interaction::TwistCcw => -rng.random_range(5.0f64..15.0).to_radians(),
-        _ => rng.random_range(-4.0f64..4.0).to_radians(),
-    };
-    let side = rng.random_range(3.0..8.0) / l;
-    let gradient = match action {
-        Interaction::PushLeft => Vector2::new(side, 0.0),
-        Interaction::PushRight => Vector2::new(-side, 0.0),
-        Interaction::PushAway => Vector2::new(0.0, -side * 0.6),
-        Interaction::TwistCw => Vector2::new(side * 0.5, side * 0.3),
-        Interaction::TwistCcw => Vector2::new(-side * 0.5, side * 0.3),
-        Interaction::Grasp | Interaction::Pull => {
-            Vector2::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0)) / l
-        }
-    };
+    let (skew, gradient) = shear(action, l, rng);
 
     if palm {
-        // Three pads (Fig. 4.2): the ball under the finger bases, the thenar eminence at the
-        // thumb and the hypothenar at the outer edge. The hollow in between presses less.
-        let load = rng.random_range(0.6..1.0);
-        let gamma = rng.random_range(0.3..0.8);
-        let pads = [
-            (Point2::new(0.0, 0.49 * l), (0.5 * w, 0.085 * l), 1.0),
-            (Point2::new(0.24 * w, 0.2 * l), (0.24 * w, 0.17 * l), 0.9),
-            (Point2::new(-0.27 * w, 0.22 * l), (0.2 * w, 0.18 * l), 0.8),
-            (Point2::new(0.0, 0.33 * l), (0.38 * w, 0.17 * l), 0.45),
-        ];
-        for (c, (u, v), k) in pads {
-            // A person leaning in with the heel of the hand lifts the palm's top, and vice versa.
-            let k = k * rng.random_range(0.7..1.3);
-            patches.push(Patch::new(
-                Shape::Ellipse {
-                    c,
-                    dir: Vector2::x(),
-                    u,
-                    v,
-                },
-                load * k,
-                gamma,
-                Part::Palm as u8,
-            ));
-        }
+        palm_pads(l, w, rng, &mut patches);
     }
 
     let (fmin, fmax) = flex_range;
@@ -202,6 +162,139 @@ pub(crate) fn hand<R: Rng>(
         } else {
             (rng.random_range(fmin..=fmax) + subject.flex * 0.3).min(1.0)
         };
+        let digit = Digit {
+            part,
+            base: (bx, by),
+            len,
+            width,
+            splay_deg,
+            thumb,
+        };
+        let shape = HandShape {
+            subject,
+            l,
+            w,
+            skew,
+            palm,
+        };
+        digit.press(&shape, flex, rng, &mut patches);
+    }
+
+    let centre = Vector2::new(0.0, 0.4 * l);
+    let rot = Rotation2::new(at.angle);
+    let shift = at.centre.coords - rot * centre;
+    for patch in &mut patches {
+        if !subject.right_handed {
+            patch.shape = patch.shape.mirrored();
+        }
+        patch.shape = patch.shape.moved(&rot, shift);
+        let g = if subject.right_handed {
+            gradient
+        } else {
+            Vector2::new(-gradient.x, gradient.y)
+        };
+        patch.gradient = rot * g;
+        patch.origin = at.centre;
+    }
+    HandContact {
+        patches,
+        fingertips_only,
+    }
+}
+
+/// How the action shears and loads the hand: the fingers' sideways skew (rad) and the load's
+/// gradient across the hand (per metre, `l` the hand's length).
+fn shear<R: Rng>(action: Interaction, l: f64, rng: &mut R) -> (f64, Vector2<f64>) {
+    // Twisting shears the fingers sideways; pushing loads one side of the hand.
+    let skew = match action {
+        Interaction::TwistCw => rng.random_range(5.0f64..15.0).to_radians(),
+        Interaction::TwistCcw => -rng.random_range(5.0f64..15.0).to_radians(),
+        _ => rng.random_range(-4.0f64..4.0).to_radians(),
+    };
+    let side = rng.random_range(3.0..8.0) / l;
+    let gradient = match action {
+        Interaction::PushLeft => Vector2::new(side, 0.0),
+        Interaction::PushRight => Vector2::new(-side, 0.0),
+        Interaction::PushAway => Vector2::new(0.0, -side * 0.6),
+        Interaction::TwistCw => Vector2::new(side * 0.5, side * 0.3),
+        Interaction::TwistCcw => Vector2::new(-side * 0.5, side * 0.3),
+        Interaction::Grasp | Interaction::Pull => {
+            Vector2::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0)) / l
+        }
+    };
+    (skew, gradient)
+}
+
+/// The palm's pads of a hand of length `l` and palm width `w`, added to `patches`.
+fn palm_pads<R: Rng>(l: f64, w: f64, rng: &mut R, patches: &mut Vec<Patch>) {
+    // Three pads (Fig. 4.2): the ball under the finger bases, the thenar eminence at the
+    // thumb and the hypothenar at the outer edge. The hollow in between presses less.
+    let load = rng.random_range(0.6..1.0);
+    let gamma = rng.random_range(0.3..0.8);
+    let pads = [
+        (Point2::new(0.0, 0.49 * l), (0.5 * w, 0.085 * l), 1.0),
+        (Point2::new(0.24 * w, 0.2 * l), (0.24 * w, 0.17 * l), 0.9),
+        (Point2::new(-0.27 * w, 0.22 * l), (0.2 * w, 0.18 * l), 0.8),
+        (Point2::new(0.0, 0.33 * l), (0.38 * w, 0.17 * l), 0.45),
+    ];
+    for (c, (u, v), k) in pads {
+        // A person leaning in with the heel of the hand lifts the palm's top, and vice versa.
+        let k = k * rng.random_range(0.7..1.3);
+        patches.push(Patch::new(
+            Shape::Ellipse {
+                c,
+                dir: Vector2::x(),
+                u,
+                v,
+            },
+            load * k,
+            gamma,
+            Part::Palm as u8,
+        ));
+    }
+}
+
+/// What the digits of one hand share: its subject, length `l` and palm width `w` (m), the
+/// fingers' skew (rad), and whether the palm touches.
+#[derive(Clone, Copy)]
+struct HandShape<'a> {
+    subject: &'a Subject,
+    l: f64,
+    w: f64,
+    skew: f64,
+    palm: bool,
+}
+
+/// One digit of [`DIGITS`]: its part, base (x / palm width, y / L), length, width, splay.
+#[derive(Clone, Copy)]
+struct Digit {
+    part: Part,
+    base: (f64, f64),
+    len: f64,
+    width: f64,
+    splay_deg: f64,
+    thumb: bool,
+}
+
+impl Digit {
+    /// The digit's phalanges that touch, bent by `flex` (0 straight, 1 curled), on `hand`;
+    /// added to `patches`.
+    fn press<R: Rng>(&self, hand: &HandShape<'_>, flex: f64, rng: &mut R, patches: &mut Vec<Patch>) {
+        let Digit {
+            part,
+            base: (bx, by),
+            len,
+            width,
+            splay_deg,
+            thumb,
+        } = *self;
+        let HandShape {
+            subject,
+            l,
+            w,
+            skew,
+            palm,
+        } = *hand;
         let angle = (splay_deg * (0.3 + subject.splay) + rng.random_range(-4.0..4.0)).to_radians()
             + if thumb { 0.0 } else { skew };
         let dir = Rotation2::new(angle) * Vector2::y();
@@ -238,26 +331,5 @@ pub(crate) fn hand<R: Rng>(
             }
             p = q;
         }
-    }
-
-    let centre = Vector2::new(0.0, 0.4 * l);
-    let rot = Rotation2::new(at.angle);
-    let shift = at.centre.coords - rot * centre;
-    for patch in &mut patches {
-        if !subject.right_handed {
-            patch.shape = patch.shape.mirrored();
-        }
-        patch.shape = patch.shape.moved(&rot, shift);
-        let g = if subject.right_handed {
-            gradient
-        } else {
-            Vector2::new(-gradient.x, gradient.y)
-        };
-        patch.gradient = rot * g;
-        patch.origin = at.centre;
-    }
-    HandContact {
-        patches,
-        fingertips_only,
     }
 }

@@ -276,8 +276,24 @@ impl Synthesizer {
         }
         let partial = self.on_skin_fraction(&patches, reach) < 0.85;
 
-        // Readings in whole raw counts: scaled to a peak, with noise, a few spikes, and the
-        // dead band.
+        let pressures = self.readings(&raw, &mut parts, rng);
+        let (image, mask) = self.image_and_mask(&pressures, &parts);
+        Sample {
+            kind,
+            subject,
+            partial,
+            fingertips_only,
+            pressures,
+            taxel_parts: parts,
+            image,
+            mask,
+        }
+    }
+
+    /// Readings in whole raw counts from the contact's `raw` pressures: scaled to a peak, with
+    /// noise, a few spikes, and the dead band (which also clears those taxels' `parts`).
+    fn readings(&self, raw: &[f64], parts: &mut [u8], rng: &mut ChaCha8Rng) -> Vec<f32> {
+        let n = raw.len();
         let top = raw.iter().copied().fold(0.0, f64::max).max(1e-12);
         let (lo, hi) = self.options.peak;
         let peak = rng.random_range(lo.min(hi)..=hi.max(lo)) as f64;
@@ -295,24 +311,13 @@ impl Synthesizer {
             }
         }
         let dead_band = self.options.dead_band;
-        for (p, part) in pressures.iter_mut().zip(&mut parts) {
+        for (p, part) in pressures.iter_mut().zip(parts.iter_mut()) {
             if *p < dead_band {
                 *p = 0.0;
                 *part = 0;
             }
         }
-
-        let (image, mask) = self.image_and_mask(&pressures, &parts);
-        Sample {
-            kind,
-            subject,
-            partial,
-            fingertips_only,
-            pressures,
-            taxel_parts: parts,
-            image,
-            mask,
-        }
+        pressures
     }
 
     /// The fraction of the patches' area (sampled every 5 mm within `reach` of their centre)

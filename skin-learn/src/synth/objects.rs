@@ -97,160 +97,24 @@ pub(crate) fn object<R: Rng>(
     body_scale: f64,
     rng: &mut R,
 ) -> Vec<Patch> {
-    let cm = 0.01;
-    let x = Vector2::x();
-    let o = Point2::origin();
-    // Softness: a rigid object is a dome (0.5) or flat (0.2), a soft one spreads (0.8-1).
-    let gamma = |rng: &mut R, lo: f64, hi: f64| rng.random_range(lo..hi);
     let mut patches = match contact {
-        ObjectKind::Ball => {
-            let r = rng.random_range(1.0..6.0) * cm;
-            let squash = rng.random_range(0.85..1.0);
-            vec![Patch::new(
-                Shape::Ellipse {
-                    c: o,
-                    dir: x,
-                    u: r,
-                    v: r * squash,
-                },
-                1.0,
-                gamma(rng, 0.3, 1.0),
-                0,
-            )]
-        }
+        ObjectKind::Ball => vec![ball(rng)],
         ObjectKind::Edge => {
-            let half = rng.random_range(5.0..25.0) * cm;
-            vec![Patch::new(
-                Shape::Capsule {
-                    a: Point2::new(-half, 0.0),
-                    b: Point2::new(half, 0.0),
-                    r: rng.random_range(0.4..1.2) * cm,
-                },
-                1.0,
-                gamma(rng, 0.3, 0.8),
-                0,
-            )]
+            let half = rng.random_range(5.0..25.0) * CM;
+            vec![capsule(rng, half, 0.4..1.2, (0.3, 0.8))]
         }
         ObjectKind::Bar => {
-            let half = rng.random_range(5.0..20.0) * cm;
-            vec![Patch::new(
-                Shape::Capsule {
-                    a: Point2::new(-half, 0.0),
-                    b: Point2::new(half, 0.0),
-                    r: rng.random_range(0.75..2.5) * cm,
-                },
-                1.0,
-                gamma(rng, 0.3, 0.9),
-                0,
-            )]
+            let half = rng.random_range(5.0..20.0) * CM;
+            vec![capsule(rng, half, 0.75..2.5, (0.3, 0.9))]
         }
-        ObjectKind::Plate => vec![Patch::new(
-            Shape::Rect {
-                c: o,
-                dir: x,
-                u: rng.random_range(2.5..12.0) * cm,
-                v: rng.random_range(2.5..10.0) * cm,
-            },
-            1.0,
-            gamma(rng, 0.1, 0.4),
-            0,
-        )],
-        ObjectKind::Corner => {
-            // Two edges of a box meeting at the origin, at 60-120 degrees; the load peaks at the
-            // corner when the box is tilted onto it.
-            let angle = rng.random_range(60.0f64..120.0).to_radians();
-            let r = rng.random_range(0.4..1.0) * cm;
-            let (la, lb) = (rng.random_range(4.0..15.0) * cm, rng.random_range(4.0..15.0) * cm);
-            let tip = Point2::new(0.0, 0.0);
-            let b = Rotation2::new(angle) * Vector2::x();
-            vec![
-                Patch::new(
-                    Shape::Capsule {
-                        a: tip,
-                        b: tip + x * la,
-                        r,
-                    },
-                    1.0,
-                    0.5,
-                    0,
-                ),
-                Patch::new(
-                    Shape::Capsule {
-                        a: tip,
-                        b: tip + b * lb,
-                        r,
-                    },
-                    1.0,
-                    0.5,
-                    0,
-                ),
-            ]
-        }
-        ObjectKind::Tool => {
-            let half = rng.random_range(6.0..14.0) * cm;
-            let grip = rng.random_range(1.0..1.8) * cm;
-            let head_u = rng.random_range(1.0..3.5) * cm;
-            let head_v = rng.random_range(0.8..5.0) * cm;
-            vec![
-                Patch::new(
-                    Shape::Capsule {
-                        a: Point2::new(-half, 0.0),
-                        b: Point2::new(half, 0.0),
-                        r: grip,
-                    },
-                    rng.random_range(0.5..1.0),
-                    0.5,
-                    0,
-                ),
-                Patch::new(
-                    Shape::Rect {
-                        c: Point2::new(half + head_u, 0.0),
-                        dir: x,
-                        u: head_u,
-                        v: head_v,
-                    },
-                    1.0,
-                    0.3,
-                    0,
-                ),
-            ]
-        }
+        ObjectKind::Plate => vec![plate(rng)],
+        ObjectKind::Corner => corner(rng),
+        ObjectKind::Tool => tool(rng),
         ObjectKind::Forearm
         | ObjectKind::Arm
         | ObjectKind::Shoulder
         | ObjectKind::Torso
-        | ObjectKind::Back => {
-            let (u, v) = match contact {
-                ObjectKind::Forearm => (rng.random_range(9.0..14.0), rng.random_range(2.5..4.5)),
-                ObjectKind::Arm => (rng.random_range(11.0..17.0), rng.random_range(3.5..6.0)),
-                ObjectKind::Shoulder => (rng.random_range(5.0..9.0), rng.random_range(4.0..7.0)),
-                _ => (rng.random_range(12.0..25.0), rng.random_range(9.0..18.0)),
-            };
-            let (u, v) = (u * cm * body_scale, v * cm * body_scale);
-            // Soft tissue over bone: a broad load with a few firmer spots (elbow, ribs, spine).
-            let mut p = vec![Patch::new(
-                Shape::Ellipse { c: o, dir: x, u, v },
-                rng.random_range(0.5..0.8),
-                gamma(rng, 0.6, 1.0),
-                0,
-            )];
-            for _ in 0..rng.random_range(0..3) {
-                let c = Point2::new(rng.random_range(-0.6..0.6) * u, rng.random_range(-0.5..0.5) * v);
-                let s = rng.random_range(0.2..0.45) * v;
-                p.push(Patch::new(
-                    Shape::Ellipse {
-                        c,
-                        dir: x,
-                        u: s * rng.random_range(1.0..2.0),
-                        v: s,
-                    },
-                    1.0,
-                    0.8,
-                    0,
-                ));
-            }
-            p
-        }
+        | ObjectKind::Back => body_part(contact, body_scale, rng),
     };
     // An object seldom presses evenly: tilt its load.
     let tilt = Vector2::new(rng.random_range(-8.0..8.0), rng.random_range(-8.0..8.0));
@@ -261,4 +125,160 @@ pub(crate) fn object<R: Rng>(
         patch.gradient = rot * tilt;
     }
     patches
+}
+
+/// Centimetres, in metres.
+const CM: f64 = 0.01;
+
+/// Softness: a rigid object is a dome (0.5) or flat (0.2), a soft one spreads (0.8-1).
+fn gamma<R: Rng>(rng: &mut R, lo: f64, hi: f64) -> f64 {
+    rng.random_range(lo..hi)
+}
+
+/// A ball's print: a disc of 1-6 cm radius, a little squashed.
+fn ball<R: Rng>(rng: &mut R) -> Patch {
+    let r = rng.random_range(1.0..6.0) * CM;
+    let squash = rng.random_range(0.85..1.0);
+    Patch::new(
+        Shape::Ellipse {
+            c: Point2::origin(),
+            dir: Vector2::x(),
+            u: r,
+            v: r * squash,
+        },
+        1.0,
+        gamma(rng, 0.3, 1.0),
+        0,
+    )
+}
+
+/// A long thin capsule of half-length `half` (m) and a radius in `r_cm` (cm), pressed with a
+/// softness in `soft`: an edge or a bar.
+fn capsule<R: Rng>(rng: &mut R, half: f64, r_cm: std::ops::Range<f64>, soft: (f64, f64)) -> Patch {
+    Patch::new(
+        Shape::Capsule {
+            a: Point2::new(-half, 0.0),
+            b: Point2::new(half, 0.0),
+            r: rng.random_range(r_cm) * CM,
+        },
+        1.0,
+        gamma(rng, soft.0, soft.1),
+        0,
+    )
+}
+
+/// A plate pressed flat: a rectangle of 2.5-12 by 2.5-10 cm (half sides).
+fn plate<R: Rng>(rng: &mut R) -> Patch {
+    Patch::new(
+        Shape::Rect {
+            c: Point2::origin(),
+            dir: Vector2::x(),
+            u: rng.random_range(2.5..12.0) * CM,
+            v: rng.random_range(2.5..10.0) * CM,
+        },
+        1.0,
+        gamma(rng, 0.1, 0.4),
+        0,
+    )
+}
+
+/// A box's corner: two capsules from one point.
+fn corner<R: Rng>(rng: &mut R) -> Vec<Patch> {
+    let (cm, x) = (CM, Vector2::x());
+    // Two edges of a box meeting at the origin, at 60-120 degrees; the load peaks at the
+    // corner when the box is tilted onto it.
+    let angle = rng.random_range(60.0f64..120.0).to_radians();
+    let r = rng.random_range(0.4..1.0) * cm;
+    let (la, lb) = (rng.random_range(4.0..15.0) * cm, rng.random_range(4.0..15.0) * cm);
+    let tip = Point2::new(0.0, 0.0);
+    let b = Rotation2::new(angle) * Vector2::x();
+    vec![
+        Patch::new(
+            Shape::Capsule {
+                a: tip,
+                b: tip + x * la,
+                r,
+            },
+            1.0,
+            0.5,
+            0,
+        ),
+        Patch::new(
+            Shape::Capsule {
+                a: tip,
+                b: tip + b * lb,
+                r,
+            },
+            1.0,
+            0.5,
+            0,
+        ),
+    ]
+}
+
+/// A tool: a grip (capsule) and a head (rectangle) at its end.
+fn tool<R: Rng>(rng: &mut R) -> Vec<Patch> {
+    let (cm, x) = (CM, Vector2::x());
+    let half = rng.random_range(6.0..14.0) * cm;
+    let grip = rng.random_range(1.0..1.8) * cm;
+    let head_u = rng.random_range(1.0..3.5) * cm;
+    let head_v = rng.random_range(0.8..5.0) * cm;
+    vec![
+        Patch::new(
+            Shape::Capsule {
+                a: Point2::new(-half, 0.0),
+                b: Point2::new(half, 0.0),
+                r: grip,
+            },
+            rng.random_range(0.5..1.0),
+            0.5,
+            0,
+        ),
+        Patch::new(
+            Shape::Rect {
+                c: Point2::new(half + head_u, 0.0),
+                dir: x,
+                u: head_u,
+                v: head_v,
+            },
+            1.0,
+            0.3,
+            0,
+        ),
+    ]
+}
+
+/// A body part other than a hand (forearm, arm, shoulder, torso, back), sized by `body_scale`.
+fn body_part<R: Rng>(contact: ObjectKind, body_scale: f64, rng: &mut R) -> Vec<Patch> {
+    let (cm, x, o) = (CM, Vector2::x(), Point2::origin());
+    let (u, v) = match contact {
+        ObjectKind::Forearm => (rng.random_range(9.0..14.0), rng.random_range(2.5..4.5)),
+        ObjectKind::Arm => (rng.random_range(11.0..17.0), rng.random_range(3.5..6.0)),
+        ObjectKind::Shoulder => (rng.random_range(5.0..9.0), rng.random_range(4.0..7.0)),
+        _ => (rng.random_range(12.0..25.0), rng.random_range(9.0..18.0)),
+    };
+    let (u, v) = (u * cm * body_scale, v * cm * body_scale);
+    // Soft tissue over bone: a broad load with a few firmer spots (elbow, ribs, spine).
+    let mut p = vec![Patch::new(
+        Shape::Ellipse { c: o, dir: x, u, v },
+        rng.random_range(0.5..0.8),
+        gamma(rng, 0.6, 1.0),
+        0,
+    )];
+    for _ in 0..rng.random_range(0..3) {
+        let c = Point2::new(rng.random_range(-0.6..0.6) * u, rng.random_range(-0.5..0.5) * v);
+        let s = rng.random_range(0.2..0.45) * v;
+        p.push(Patch::new(
+            Shape::Ellipse {
+                c,
+                dir: x,
+                u: s * rng.random_range(1.0..2.0),
+                v: s,
+            },
+            1.0,
+            0.8,
+            0,
+        ));
+    }
+    p
 }

@@ -1,6 +1,5 @@
 //! Third-party data for tests, read from `../shared/data` beside the project (never copied into
-//! it). Included by the test crates with `#[path = "../../test-support/shared_data.rs"] mod
-//! shared_data;`.
+//! it).
 
 use std::path::PathBuf;
 

@@ -1,6 +1,5 @@
 //! The thesis' full arm for benches: three links of 1,165 taxels each (3,495), half-cylinder
-//! covers of radius 80 mm on an 8 mm lattice, ids in Cyskin modules of 11. Included with
-//! `#[path = "../../test-support/full_arm.rs"] mod full_arm;`.
+//! covers of radius 80 mm on an 8 mm lattice, ids in Cyskin modules of 11 (feature `full-arm`).
 
 use nalgebra::{Point3, Unit, Vector3};
 use skin_core::{LinkSkin, Taxel, TaxelId};

@@ -1,12 +1,9 @@
-//! Hostile variants of valid files, for the readers' fuzz tests. Included by the test crates with
-//! `#[path = "../../test-support/mutate.rs"] mod mutate;`.
+//! Hostile variants of valid files, for the readers' fuzz tests (feature `fuzz`).
 //!
 //! Arbitrary bytes mostly fail at the first character; the bugs that hurt users sit one step
 //! further, in a file that is nearly right. So a valid file is taken and edited a few times:
 //! a number becomes 1e308, NaN, -1 or 2^64, a line is repeated or lost, the text is cut short,
 //! bytes are flipped, structure characters are inserted.
-
-#![allow(dead_code)]
 
 use proptest::prelude::*;
 

@@ -1,5 +1,4 @@
-//! Recordings made partial for tests: included by the test crates with
-//! `#[path = "../../test-support/recordings.rs"] mod recordings;`.
+//! Recordings made partial for tests (feature `recordings`).
 
 /// `rec` without the columns at `columns` (indices into its taxel ids, any order).
 pub fn without_columns(rec: &skin_core::Recording, columns: &[usize]) -> skin_core::Recording {

@@ -1,8 +1,7 @@
 //! A long candump log made as it is read: a log (the fixture session's) repeated with its
 //! timestamps shifted, one copy after the other, never held whole. It counts the bytes it has
 //! handed out, so a test can tell how much of the log a reader had taken when something happened.
-//! `tools/long_log.py` writes the same log to a file for the benchmarks. Included with
-//! `#[path = "../../test-support/long_log.rs"] mod long_log;`.
+//! `tools/long_log.py` writes the same log to a file for the benchmarks.
 
 use std::io::Read;
 use std::sync::Arc;
@@ -67,6 +66,11 @@ impl RepeatedLog {
             .map(|(t, rest)| stamp(*t).len() + rest.len())
             .sum();
         one as u64 * self.copies
+    }
+
+    /// Whether it holds no byte at all.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 
