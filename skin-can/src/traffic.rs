@@ -42,10 +42,11 @@ pub enum TrafficError {
     Neither {
         /// The file.
         path: PathBuf,
-        /// Its first line's fault as a candump line.
-        log: crate::Error,
+        /// Its first line's fault as a candump line (boxed: the two faults together would make
+        /// every `Result` of this type large).
+        log: Box<crate::Error>,
         /// Its fault as a raw recording.
-        recording: skin_core::Error,
+        recording: Box<skin_core::Error>,
     },
 }
 
@@ -77,8 +78,8 @@ impl Traffic {
             (Ok(rec), _) => Ok(Traffic::Recording(rec)),
             (Err(recording), Some(log)) => Err(TrafficError::Neither {
                 path: path.to_owned(),
-                log,
-                recording,
+                log: Box::new(log),
+                recording: Box::new(recording),
             }),
             // Not text of lines at all (binary, UTF-16, not UTF-8): the reader says which.
             (Err(recording), None) => Err(recording.into()),

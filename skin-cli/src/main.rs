@@ -24,8 +24,6 @@ mod eval_cmd;
 mod flatten_cmd;
 mod image_cmd;
 mod live_cmd;
-#[cfg(test)]
-use skin_test_support::mutate;
 mod numbers;
 mod output;
 mod phri_cmd;

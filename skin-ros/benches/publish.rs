@@ -72,7 +72,7 @@ fn bench(c: &mut Criterion) {
                     let n = left.min(1000);
                     let start = std::time::Instant::now();
                     for _ in 0..n {
-                        sink.frame(&frame).unwrap();
+                        let _ = sink.frame(&frame).unwrap();
                     }
                     spent += start.elapsed();
                     left -= n;
