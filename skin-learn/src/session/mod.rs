@@ -430,6 +430,7 @@ impl Session {
         let ids: Vec<Vec<_>> = self.links.iter().map(LinkSkin::ids).collect();
         let layout = LayoutFrames::new(busmap, &ids, Missing::HoldLast)?;
         // Taxels on no bus never read: bridged like a recording's missing columns.
+        let mut deads = Vec::new();
         for k in 0..self.links.len() {
             let dead: Vec<usize> = layout
                 .uncovered()
@@ -438,6 +439,10 @@ impl Session {
                 .map(|&(_, i)| i)
                 .collect();
             self.pipeline.set_dead(k, &dead)?;
+            deads.push(dead);
+        }
+        if let Some(st) = &mut self.stitching {
+            st.set_dead(&deads)?;
         }
         self.can = Some(CanInput {
             interfaces: busmap.buses.iter().map(|b| b.interface.clone()).collect(),
@@ -558,6 +563,9 @@ impl Session {
             frame_images: false,
         };
         let mut session = Session::new(links, pipeline, options)?.with_source(&config.path);
+        if let Some(s) = stitching {
+            session = session.with_stitching(s);
+        }
         if let (Some(busmap), Some(busmap_path)) = (&busmap, &busmap_path) {
             session = session.with_can(busmap).map_err(|e| match e {
                 SessionError::Can(skin_can::Error::NotInLayout { taxel }) => SessionError::NotInLayout {
@@ -569,9 +577,6 @@ impl Session {
             })?;
         }
         session.layout_notes = layout_notes;
-        if let Some(s) = stitching {
-            session = session.with_stitching(s);
-        }
         if let Some(p) = &truth_path {
             session = session.with_script(Script::read(p)?);
         }
@@ -776,6 +781,9 @@ impl Session {
         // again without them (and made whole again for a recording that has them all).
         for (k, c) in columns.iter().enumerate() {
             self.pipeline.set_dead(k, &c.dead())?;
+        }
+        if let Some(st) = &mut self.stitching {
+            st.set_dead(&columns.iter().map(Columns::dead).collect::<Vec<_>>())?;
         }
         let mut raw: Vec<Vec<f32>> = self.links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
         let (mut first, mut last) = (None, 0.0);
@@ -1070,8 +1078,8 @@ impl Session {
         }
         st.joined = !spans.is_empty();
         if self.options.frame_images && (0..self.links.len()).any(|l| self.pipeline.touching(l)) {
-            let (grey, (rows, cols)) = st.image()?;
-            fill(&mut self.image, grey, rows, cols);
+            let view = st.image()?;
+            fill(&mut self.image, view.pixels(), view.size().rows, view.size().cols);
             sink.frame_image(FrameView::Stitched, cycle, &self.image)
                 .map_err(SessionError::Sink)?;
         }
