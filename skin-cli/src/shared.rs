@@ -7,8 +7,8 @@ use skin_can::live::LiveOptions;
 use skin_can::{AssemblyStats, BusMap};
 use skin_core::format::poses::Postures;
 use skin_core::format::{Noted, recording};
-use skin_core::{Columns, LinkSkin, Recording, TaxelId};
-use skin_geom::{TactileImager, TactileMap};
+use skin_core::{Columns, LinkSkin, Recording};
+use skin_geom::{DeadTaxels, TactileImager, TactileMap};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -107,8 +107,8 @@ pub(crate) fn load_inputs(
     let names = output_names(paths)?;
     let mut inputs = Vec::with_capacity(paths.len());
     let mut maps = vec![map.clone()];
-    // One reduced map per set of missing taxels (recordings of one rig share theirs).
-    let mut reduced: HashMap<Vec<TaxelId>, usize> = HashMap::new();
+    // One reduced map per set of dead taxels (recordings of one rig share theirs).
+    let mut reduced: HashMap<DeadTaxels, usize> = HashMap::new();
     for (p, name) in paths.iter().zip(names) {
         let rec = recording::read(p)?;
         let full = rec.columns(&map.ids);
@@ -137,14 +137,15 @@ pub(crate) fn load_inputs(
                 full.missing.len(),
                 full.missing[0]
             );
+            let dead = DeadTaxels::of_columns(&full);
             let k =
-                match reduced.get(&full.missing) {
+                match reduced.get(&dead) {
                     Some(&k) => k,
                     None => {
-                        maps.push(skin_geom::faults::without_taxels(map, &full.dead()).with_context(
-                            || format!("{}: the map without the taxels it lacks", p.display()),
-                        )?);
-                        reduced.insert(full.missing.clone(), maps.len() - 1);
+                        maps.push(dead.remove_from(map).with_context(|| {
+                            format!("{}: the map without the taxels it lacks", p.display())
+                        })?);
+                        reduced.insert(dead, maps.len() - 1);
                         maps.len() - 1
                     }
                 };

@@ -4,12 +4,11 @@
 use crate::shared::read_postures;
 use anyhow::{Context, Result};
 use skin_core::format::recording;
-use skin_geom::raster::to_grey;
+use skin_core::{Columns, LinkSkin, Recording};
 use skin_geom::{
-    FlattenOptions, Normalisation, StitchOptions, StitchReport, StitchedRasterizer, Stitcher, TactileMap,
-    dilate_disk, erode_disk, write_png,
+    DeadTaxels, FlattenOptions, PostureChain, StitchOptions, TactileMap, dilate_disk, erode_disk, write_png,
 };
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Stitch the tactile maps of a chain of links into one image, posture by posture (thesis Ch. 6).
 ///
@@ -63,7 +62,6 @@ pub fn run(args: Args) -> Result<()> {
     let sources = crate::output::Inputs::new([&args.layout, &args.poses].into_iter().chain(&args.frames));
     let out = crate::output::open_dir(&args.output, "skin stitch", args.force, &sources)?;
     let stems = crate::shared::output_names(&args.frames)?;
-    let threshold = args.threshold as f32;
     let links = crate::shared::load_links(&args.layout)?;
     let names: Vec<&str> = links.iter().map(|l| l.name.as_str()).collect();
     let postures = read_postures(&args.poses, &args.layout, &names)?;
@@ -73,19 +71,57 @@ pub fn run(args: Args) -> Result<()> {
             TactileMap::flatten(l, &FlattenOptions::default()).with_context(|| format!("link \"{}\"", l.name))
         })
         .collect::<Result<_>>()?;
-    // The middle posture is the reference: boundaries, charts and the first warm start.
-    let reference = &postures.postures[postures.postures.len() / 2].poses;
     let options = StitchOptions {
         max_edge: args.max_edge_mm * 1e-3,
         ..StitchOptions::default()
     };
-    let joints = maps.len().saturating_sub(1);
-    let full_maps = maps.clone();
-    // Solve every posture once (a posture is static).
-    let mut full = Chain::new(maps, reference, options, &postures.postures, args.step_mm)
+    // Every posture solved once (a posture is static).
+    let mut chain = PostureChain::new(maps, postures, options, args.step_mm)
         .with_context(|| args.layout.display().to_string())?;
-    for j in 0..joints {
-        if let Some((a, b)) = full.stitcher.boundary(j) {
+    say_solves(&chain, &names, options.max_edge);
+    if args.svg {
+        for (p, report) in chain.postures().postures.iter().zip(chain.solves()) {
+            let name = format!("stitched_{}.svg", file_name(&p.name));
+            let svg = skin_geom::stitched_svg(chain.stitcher().maps(), &report.placements);
+            std::fs::write(out.path().join(&name), svg.as_bytes())
+                .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
+        }
+    }
+    for (rec_path, stem) in args.frames.iter().zip(&stems) {
+        let rec = recording::read(rec_path)?;
+        let columns: Vec<Columns> = chain
+            .stitcher()
+            .maps()
+            .iter()
+            .map(|m| rec.columns(&m.ids))
+            .collect();
+        // Taxels without a column are dead: the chain is stitched again without them (as Test B
+        // removes taxels), so images interpolate across them.
+        let dead: Vec<DeadTaxels> = columns.iter().map(DeadTaxels::of_columns).collect();
+        say_dead(rec_path, &links, chain.stitcher().maps(), &dead);
+        chain
+            .set_dead(dead)
+            .with_context(|| format!("{}: the chain without the taxels it lacks", rec_path.display()))?;
+        write_frames(&mut chain, (&rec, rec_path), &columns, out.path(), stem, &args)?;
+        crate::say!(
+            "{}: {} stitched frames -> {}",
+            rec_path.display(),
+            rec.frames.len(),
+            args.output.join(stem).display()
+        );
+    }
+    out.commit()?;
+    if args.svg {
+        crate::say!("wrote the stitched maps to {}", args.output.display());
+    }
+    Ok(())
+}
+
+/// Prints each joint's boundary, and each posture's solve.
+fn say_solves(chain: &PostureChain, names: &[&str], max_edge: f64) {
+    let stitcher = chain.stitcher();
+    for j in 0..names.len().saturating_sub(1) {
+        if let Some((a, b)) = stitcher.boundary(j) {
             crate::say!(
                 "joint {j} ({} - {}): {} + {} boundary taxels",
                 names[j],
@@ -95,11 +131,9 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    for (p, report) in postures.postures.iter().zip(&full.solved) {
+    for (p, report) in chain.postures().postures.iter().zip(chain.solves()) {
         for (j, s) in report.joints.iter().enumerate() {
-            let (worst, n) = full
-                .stitcher
-                .edge_fidelity(j, &p.poses, &report.placements, options.max_edge);
+            let (worst, n) = stitcher.edge_fidelity(j, &p.poses, &report.placements, max_edge);
             crate::say!(
                 "posture \"{}\", joint {j}: {} edges, cost {:.3} mm^2 in {} iterations{}; stitched edges keep their 3D length within {:.1}% ({n} pairs)",
                 p.name,
@@ -116,135 +150,56 @@ pub fn run(args: Args) -> Result<()> {
                 100.0 * worst
             );
         }
-        if args.svg {
-            let name = format!("stitched_{}.svg", file_name(&p.name));
-            std::fs::write(
-                out.path().join(&name),
-                skin_geom::stitch::stitched_svg(full.stitcher.maps(), &report.placements).as_bytes(),
-            )
-            .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
-        }
     }
-    // The chain without the taxels a recording lacks, for as long as recordings lack the same.
-    let mut holed: Option<(Vec<Vec<usize>>, Chain)> = None;
-    for (rec_path, stem) in args.frames.iter().zip(&stems) {
-        let rec = recording::read(rec_path)?;
-        // Taxels without a column are dead: the chain is stitched again without them (as Test B
-        // removes taxels), so images interpolate across them.
-        let dead: Vec<Vec<usize>> = full_maps.iter().map(|m| rec.columns(&m.ids).dead()).collect();
-        let chain = if dead.iter().all(Vec::is_empty) {
-            &mut full
-        } else {
-            for ((link, d), map) in links.iter().zip(&dead).zip(&full_maps) {
-                if let Some(&first) = d.first() {
-                    crate::say!(
-                        "{}: {} taxel(s) of link \"{}\" are not recorded (first: {}): dead, the images bridge them",
-                        rec_path.display(),
-                        d.len(),
-                        link.name,
-                        map.ids[first]
-                    );
-                }
-            }
-            match &mut holed {
-                Some((d, chain)) if *d == dead => chain,
-                slot => {
-                    let reduced = full_maps
-                        .iter()
-                        .zip(&dead)
-                        .map(|(m, d)| {
-                            skin_geom::faults::without_taxels(m, d)
-                                .with_context(|| format!("{}: link \"{}\"", rec_path.display(), m.name))
-                        })
-                        .collect::<Result<Vec<_>>>()?;
-                    let chain = Chain::new(reduced, reference, options, &postures.postures, args.step_mm)
-                        .with_context(|| format!("{} without the taxels it lacks", args.layout.display()))?;
-                    &mut slot.insert((dead, chain)).1
-                }
-            }
-        };
-        let Chain {
-            stitcher,
-            solved,
-            raster,
-        } = chain;
-        let columns: Vec<_> = stitcher.maps().iter().map(|m| rec.columns(&m.ids)).collect();
-        let dir = out.path().join(stem);
-        std::fs::create_dir_all(&dir)
-            .with_context(|| format!("cannot write into {}", args.output.display()))?;
-        let files = crate::shared::frame_stems(rec_path, &rec);
-        let mut placed: Option<usize> = None;
-        let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.of_taxel.len()]).collect();
-        let (mut image, mut grey) = (Vec::new(), Vec::new());
-        for (file, frame) in files.iter().zip(&rec.frames) {
-            let k = postures.at(frame.time);
-            if placed != Some(k) {
-                raster.place(&solved[k].placements, &solved[k].bridges)?;
-                placed = Some(k);
-            }
-            for (p, c) in pressures.iter_mut().zip(&columns) {
-                c.gather(&frame.values, threshold, p);
-            }
-            let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
-            raster.render(&views, &mut image)?;
-            let (rows, cols) = (raster.rows(), raster.cols());
-            grey.resize(rows * cols, 0);
-            to_grey(&image, Normalisation::ContactMax, &mut grey);
-            if args.morph {
-                let morphed = dilate_disk(&erode_disk(&grey, rows, cols, 2), rows, cols, 4);
-                write_png(&dir.join(format!("{file}.png")), &morphed, rows, cols)
-            } else {
-                write_png(&dir.join(format!("{file}.png")), &grey, rows, cols)
-            }
-            .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
-        }
-        crate::say!(
-            "{}: {} stitched frames -> {}",
-            rec_path.display(),
-            rec.frames.len(),
-            args.output.join(stem).display()
-        );
-    }
-    out.commit()?;
-    if args.svg {
-        crate::say!("wrote the stitched maps to {}", args.output.display());
-    }
-    Ok(())
 }
 
-/// A stitched chain: its maps, every posture's solve, and the rasterizer over them.
-struct Chain {
-    stitcher: Stitcher,
-    solved: Vec<StitchReport>,
-    raster: StitchedRasterizer,
-}
-
-impl Chain {
-    /// The chain of `maps` stitched at every posture (`reference`: the posture that sets the
-    /// boundaries and the first warm start).
-    fn new(
-        maps: Vec<TactileMap>,
-        reference: &[nalgebra::Isometry3<f64>],
-        options: StitchOptions,
-        postures: &[skin_core::format::poses::Posture],
-        step_mm: f64,
-    ) -> Result<Chain> {
-        let mut stitcher = Stitcher::new(maps, reference, options)?;
-        let mut solved = Vec::new();
-        for p in postures {
-            solved.push(
-                stitcher
-                    .reset(&p.poses)
-                    .with_context(|| format!("posture \"{}\"", p.name))?,
+/// Says which taxels of each link the recording lacks.
+fn say_dead(rec_path: &Path, links: &[LinkSkin], maps: &[TactileMap], dead: &[DeadTaxels]) {
+    for ((link, d), map) in links.iter().zip(dead).zip(maps) {
+        if let Some(&first) = d.indices().first() {
+            crate::say!(
+                "{}: {} taxel(s) of link \"{}\" are not recorded (first: {}): dead, the images bridge them",
+                rec_path.display(),
+                d.len(),
+                link.name,
+                map.ids[first]
             );
         }
-        let raster = StitchedRasterizer::new(stitcher.maps(), step_mm)?;
-        Ok(Chain {
-            stitcher,
-            solved,
-            raster,
-        })
     }
+}
+
+/// One stitched tactile image per frame of `rec` (`columns`: its columns of each whole map), at
+/// the posture of the frame's time: `<root>/<stem>/<frame>.png`.
+fn write_frames(
+    chain: &mut PostureChain,
+    (rec, rec_path): (&Recording, &Path),
+    columns: &[Columns],
+    root: &Path,
+    stem: &str,
+    args: &Args,
+) -> Result<()> {
+    let dir = root.join(stem);
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot write into {}", args.output.display()))?;
+    let threshold = args.threshold as f32;
+    let files = crate::shared::frame_stems(rec_path, rec);
+    let mut pressures: Vec<Vec<f32>> = columns.iter().map(|c| vec![0.0; c.of_taxel.len()]).collect();
+    for (file, frame) in files.iter().zip(&rec.frames) {
+        for (p, c) in pressures.iter_mut().zip(columns) {
+            c.gather(&frame.values, threshold, p);
+        }
+        chain.set_frame(frame.time, &pressures, threshold)?;
+        let image = chain.image()?;
+        let (rows, cols) = (image.size().rows, image.size().cols);
+        let png = dir.join(format!("{file}.png"));
+        if args.morph {
+            let morphed = dilate_disk(&erode_disk(image.pixels(), rows, cols, 2), rows, cols, 4);
+            write_png(&png, &morphed, rows, cols)
+        } else {
+            write_png(&png, image.pixels(), rows, cols)
+        }
+        .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
+    }
+    Ok(())
 }
 
 fn file_name(name: &str) -> String {

@@ -8,7 +8,7 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{Point2, Point3};
-use skin_geom::flatten::Lscm;
+use skin_geom::Lscm;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //! poses and joined by the bridge triangles across the joints ([`crate::StitchReport`]), searched
 //! as one skin, so a hand across the elbow is one contact, not one per link.
 
-use crate::{Error, Result, TactileMap};
+use crate::{BridgeTriangle, Error, Result, TactileMap};
 use nalgebra::{Isometry3, Point3};
 use skin_core::{Contact, ContactFinder};
 use std::path::Path;
@@ -56,7 +56,7 @@ impl ChainContacts {
     pub fn new(
         maps: &[TactileMap],
         poses: &[Isometry3<f64>],
-        bridges: &[[(usize, usize); 3]],
+        bridges: &[BridgeTriangle],
     ) -> Result<ChainContacts> {
         if poses.len() != maps.len() {
             return Err(Error::Length {
@@ -82,10 +82,13 @@ impl ChainContacts {
         }
         offsets.push(positions.len());
         for b in bridges {
-            if b.iter().any(|&(l, i)| l >= maps.len() || i >= maps[l].ids.len()) {
+            if b.corners
+                .iter()
+                .any(|c| c.link >= maps.len() || c.taxel >= maps[c.link].ids.len())
+            {
                 return Err(Error::Chain(crate::ChainError::Bridge(*b)));
             }
-            faces.push(b.map(|(l, i)| offsets[l] + i));
+            faces.push(b.corners.map(|c| offsets[c.link] + c.taxel));
         }
         let n = positions.len();
         Ok(ChainContacts {
@@ -169,13 +172,14 @@ mod tests {
         // The second patch 8 mm past the first's last column: column 3 of one meets column 0 of
         // the other, bridged row by row.
         let poses = [Isometry3::identity(), Translation3::new(0.032, 0.0, 0.0).into()];
-        let bridges: Vec<[(usize, usize); 3]> = (0..3)
+        let bridges: Vec<BridgeTriangle> = (0..3)
             .flat_map(|r| {
                 [
                     [(0, r * 4 + 3), (1, r * 4), (0, r * 4 + 7)],
                     [(1, r * 4), (1, r * 4 + 4), (0, r * 4 + 7)],
                 ]
             })
+            .map(BridgeTriangle::new)
             .collect();
         // Pressed: link 0 columns 2-3 and link 1 columns 0-1 of rows 1-2.
         let mut p0 = vec![0.0f32; 16];
@@ -207,6 +211,6 @@ mod tests {
         // Frames that do not fit the chain are errors.
         assert!(joined.find(&[&p0], 5.0, 2).is_err());
         assert!(joined.find(&[&p0, &p1[..3]], 5.0, 2).is_err());
-        assert!(ChainContacts::new(&maps, &poses, &[[(0, 0), (2, 0), (1, 1)]]).is_err());
+        assert!(ChainContacts::new(&maps, &poses, &[BridgeTriangle::new([(0, 0), (2, 0), (1, 1)])]).is_err());
     }
 }

@@ -117,6 +117,14 @@ pub enum Error {
     /// A chain of links that cannot be stitched as given.
     #[error("{0}")]
     Chain(ChainError),
+    /// Stitching a chain at one of its postures failed.
+    #[error("posture \"{posture}\": {source}")]
+    Posture {
+        /// The posture's name.
+        posture: String,
+        /// What failed.
+        source: Box<Error>,
+    },
     /// Writing an output file failed.
     #[error("{path}: {message}")]
     Output {
@@ -161,9 +169,15 @@ pub enum ChainError {
         /// The link.
         link: String,
     },
+    /// Poses with no posture.
+    #[error("the poses give no posture")]
+    NoPosture,
+    /// Contacts asked of a chain built without its contact search.
+    #[error("the chain was built without contact search")]
+    NoContactSearch,
     /// A bridge triangle naming a taxel no map has.
-    #[error("bridge triangle {0:?} names a taxel no map has")]
-    Bridge([(usize, usize); 3]),
+    #[error("bridge triangle {0} names a taxel no map has")]
+    Bridge(crate::BridgeTriangle),
 }
 
 /// `Result` with this crate's [`Error`].

@@ -107,7 +107,7 @@ impl Decimation {
 /// recording, no bus slot, a placeholder id) are handled as Test B handles removed ones, the
 /// survivors re-triangulated in the map plane where the map had skin, so an image interpolates
 /// across a dead taxel instead of showing a hole. Indices out of range are ignored.
-pub fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
+pub(crate) fn without_taxels(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
     keep_only(map, &alive(map.points.len(), dead))
 }
 
@@ -126,7 +126,7 @@ fn alive(n: usize, dead: &[usize]) -> Vec<usize> {
 /// again without the `dead` ones, as [`without_taxels`] makes them: a dead taxel belongs to no
 /// triangle, so contacts join across it and images interpolate across it, while readings keep
 /// the layout's order. What a running session needs when a recording lacks some taxels.
-pub fn bridging_dead(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
+pub(crate) fn bridging_dead(map: &TactileMap, dead: &[usize]) -> Result<TactileMap> {
     let keep = alive(map.points.len(), dead);
     let reduced = keep_only(map, &keep)?;
     Ok(TactileMap {

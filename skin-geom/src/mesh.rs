@@ -146,35 +146,14 @@ impl SkinMesh {
         };
         let (faces, source) = match (&link.faces, options.use_given_faces) {
             (Some(given), true) if !given.is_empty() => {
-                for (f, face) in given.iter().enumerate() {
-                    if let Some(&bad) = face.iter().find(|&&v| v >= ids.len()) {
-                        return Err(Error::FaceIndex {
-                            face: f,
-                            index: bad,
-                            taxels: ids.len(),
-                        });
-                    }
-                }
-                let faces: Vec<[usize; 3]> = given.iter().map(|f| f.map(|t| taxel_vertex[t])).collect();
-                (faces, MeshSource::Given)
+                (given_faces(given, &taxel_vertex)?, MeshSource::Given)
             }
             _ => {
-                let (chart, uv) = choose_chart(&vertices, &normals)?;
-                // A flat cloud is its plane, whatever its normals say: a normal far off the
-                // plane would make every triangle look as if it cut across the surface.
-                if let Chart::Plane { normal } = chart
-                    && crate::chart::is_flat(&vertices)
-                {
-                    let plane = Unit::new_normalize(Vector3::from(normal));
-                    for (v, n) in normals.iter_mut().enumerate() {
-                        if n.dot(&plane) < 0.5 {
-                            *n = plane;
-                            report.normals_off_plane.push(ids[vertex_taxel[v]]);
-                        }
-                    }
-                }
-                let faces = crate::triangulate::delaunay(&uv)?;
-                (faces, MeshSource::Triangulated { chart })
+                let welded = Welded {
+                    ids: &ids,
+                    vertex_taxel: &vertex_taxel,
+                };
+                triangulated(&vertices, &mut normals, welded, &mut report)?
             }
         };
         let mut mesh = TriMesh { vertices, faces };
@@ -188,18 +167,7 @@ impl SkinMesh {
             ));
         }
         check_manifold(&mesh, &ids, &vertex_taxel)?;
-        let mut used = vec![false; mesh.vertices.len()];
-        for f in &mesh.faces {
-            for &v in f {
-                used[v] = true;
-            }
-        }
-        report.isolated = used
-            .iter()
-            .enumerate()
-            .filter(|(_, u)| !**u)
-            .map(|(v, _)| ids[vertex_taxel[v]])
-            .collect();
+        report.isolated = isolated(&mesh, &ids, &vertex_taxel);
         Ok(SkinMesh {
             mesh,
             normals,
@@ -210,6 +178,68 @@ impl SkinMesh {
             report,
         })
     }
+}
+
+/// Given triangles (taxel indices), checked and turned into vertex indices.
+fn given_faces(given: &[[usize; 3]], taxel_vertex: &[usize]) -> Result<Vec<[usize; 3]>> {
+    for (f, face) in given.iter().enumerate() {
+        if let Some(&bad) = face.iter().find(|&&v| v >= taxel_vertex.len()) {
+            return Err(Error::FaceIndex {
+                face: f,
+                index: bad,
+                taxels: taxel_vertex.len(),
+            });
+        }
+    }
+    Ok(given.iter().map(|f| f.map(|t| taxel_vertex[t])).collect())
+}
+
+/// The ids of the taxels and the taxel of each welded vertex.
+#[derive(Clone, Copy)]
+struct Welded<'a> {
+    ids: &'a [TaxelId],
+    vertex_taxel: &'a [usize],
+}
+
+/// Delaunay triangles of the vertices in the chart that fits them; on a flat cloud, normals far
+/// off its plane take the plane's (reported).
+fn triangulated(
+    vertices: &[Point3<f64>],
+    normals: &mut [Unit<Vector3<f64>>],
+    welded: Welded<'_>,
+    report: &mut MeshReport,
+) -> Result<(Vec<[usize; 3]>, MeshSource)> {
+    let (chart, uv) = choose_chart(vertices, normals)?;
+    // A flat cloud is its plane, whatever its normals say: a normal far off the plane would make
+    // every triangle look as if it cut across the surface.
+    if let Chart::Plane { normal } = chart
+        && crate::chart::is_flat(vertices)
+    {
+        let plane = Unit::new_normalize(Vector3::from(normal));
+        for (v, n) in normals.iter_mut().enumerate() {
+            if n.dot(&plane) < 0.5 {
+                *n = plane;
+                report.normals_off_plane.push(welded.ids[welded.vertex_taxel[v]]);
+            }
+        }
+    }
+    let faces = crate::triangulate::delaunay(&uv)?;
+    Ok((faces, MeshSource::Triangulated { chart }))
+}
+
+/// The taxels of the vertices in no triangle.
+fn isolated(mesh: &TriMesh, ids: &[TaxelId], vertex_taxel: &[usize]) -> Vec<TaxelId> {
+    let mut used = vec![false; mesh.vertices.len()];
+    for f in &mesh.faces {
+        for &v in f {
+            used[v] = true;
+        }
+    }
+    used.iter()
+        .enumerate()
+        .filter(|(_, u)| !**u)
+        .map(|(v, _)| ids[vertex_taxel[v]])
+        .collect()
 }
 
 /// Merges taxels closer than [`WELD_DISTANCE`] into one vertex.

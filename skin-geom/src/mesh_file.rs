@@ -147,8 +147,7 @@ fn load_obj(path: &Path) -> Result<MeshFileLink> {
 }
 
 fn load_gltf(path: &Path) -> Result<MeshFileLink> {
-    use gltf::json::accessor::{ComponentType, Type};
-    use gltf::json::mesh::{Mode, Semantic};
+    use gltf::json::mesh::Mode;
     use gltf::json::validation::Checked;
     let bytes = skin_core::text::read_bytes(path, MAX_MESH_BYTES)?;
     // The gltf crate's validation and accessor reader index by the file's numbers without
@@ -168,6 +167,28 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
     }
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| mesh_error(path, format!("glTF: {e}")))?;
+    let buffers = gltf_buffers(path, &gltf)?;
+    let root = gltf.document.as_json();
+    let mut mesh = MeshFileLink {
+        vertices: Vec::new(),
+        faces: Vec::new(),
+    };
+    for (m, json_mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in json_mesh.primitives.iter().enumerate() {
+            // Points and lines are not a surface.
+            if prim.mode != Checked::Valid(Mode::Triangles) {
+                continue;
+            }
+            let place = format!("mesh {m} primitive {p}");
+            add_primitive(path, (root, &buffers), prim, &place, &mut mesh)?;
+        }
+    }
+    Ok(mesh)
+}
+
+/// The file's buffers: its binary chunk, or the files their uris name (checked to hold the
+/// bytes they declare).
+fn gltf_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
     let root = gltf.document.as_json();
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for (k, buffer) in root.buffers.iter().enumerate() {
@@ -202,66 +223,67 @@ fn load_gltf(path: &Path) -> Result<MeshFileLink> {
         }
         buffers.push(data);
     }
-    let mut mesh = MeshFileLink {
-        vertices: Vec::new(),
-        faces: Vec::new(),
-    };
-    for (m, json_mesh) in root.meshes.iter().enumerate() {
-        for (p, prim) in json_mesh.primitives.iter().enumerate() {
-            // Points and lines are not a surface.
-            if prim.mode != Checked::Valid(Mode::Triangles) {
-                continue;
-            }
-            let place = format!("mesh {m} primitive {p}");
-            let positions = prim
-                .attributes
-                .get(&Checked::Valid(Semantic::Positions))
-                .ok_or_else(|| mesh_error(path, format!("glTF: {place} has no positions")))?;
-            let base = mesh.vertices.len();
-            let (_, items) = elements(
-                path,
-                root,
-                &buffers,
-                positions.value(),
-                &place,
-                &[(ComponentType::F32, Type::Vec3)],
-            )?;
-            mesh.vertices.extend(items.iter().map(|b| {
-                let c = |k: usize| {
-                    f64::from(f32::from_le_bytes([
-                        b[4 * k],
-                        b[4 * k + 1],
-                        b[4 * k + 2],
-                        b[4 * k + 3],
-                    ]))
-                };
-                Point3::new(c(0), c(1), c(2))
-            }));
-            let count = mesh.vertices.len() - base;
-            let indices: Vec<usize> = match prim.indices {
-                Some(ix) => {
-                    let allowed = [ComponentType::U8, ComponentType::U16, ComponentType::U32]
-                        .map(|c| (c, Type::Scalar));
-                    let (kind, items) = elements(path, root, &buffers, ix.value(), &place, &allowed)?;
-                    items
-                        .iter()
-                        .map(|b| match kind {
-                            ComponentType::U8 => usize::from(b[0]),
-                            ComponentType::U16 => usize::from(u16::from_le_bytes([b[0], b[1]])),
-                            _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
-                        })
-                        .collect()
-                }
-                None => (0..count).collect(),
-            };
-            mesh.faces.extend(
-                indices
-                    .chunks_exact(3)
-                    .map(|f| [base + f[0], base + f[1], base + f[2]]),
-            );
+    Ok(buffers)
+}
+
+/// Adds the triangles of primitive `prim` (named `place` in errors) to `mesh`.
+fn add_primitive(
+    path: &Path,
+    (root, buffers): (&gltf::json::Root, &[Vec<u8>]),
+    prim: &gltf::json::mesh::Primitive,
+    place: &str,
+    mesh: &mut MeshFileLink,
+) -> Result<()> {
+    use gltf::json::accessor::{ComponentType, Type};
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::Checked;
+    let positions = prim
+        .attributes
+        .get(&Checked::Valid(Semantic::Positions))
+        .ok_or_else(|| mesh_error(path, format!("glTF: {place} has no positions")))?;
+    let base = mesh.vertices.len();
+    let (_, items) = elements(
+        path,
+        root,
+        buffers,
+        positions.value(),
+        place,
+        &[(ComponentType::F32, Type::Vec3)],
+    )?;
+    mesh.vertices.extend(items.iter().map(|b| {
+        let c = |k: usize| {
+            f64::from(f32::from_le_bytes([
+                b[4 * k],
+                b[4 * k + 1],
+                b[4 * k + 2],
+                b[4 * k + 3],
+            ]))
+        };
+        Point3::new(c(0), c(1), c(2))
+    }));
+    let count = mesh.vertices.len() - base;
+    let indices: Vec<usize> = match prim.indices {
+        Some(ix) => {
+            let allowed =
+                [ComponentType::U8, ComponentType::U16, ComponentType::U32].map(|c| (c, Type::Scalar));
+            let (kind, items) = elements(path, root, buffers, ix.value(), place, &allowed)?;
+            items
+                .iter()
+                .map(|b| match kind {
+                    ComponentType::U8 => usize::from(b[0]),
+                    ComponentType::U16 => usize::from(u16::from_le_bytes([b[0], b[1]])),
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+                })
+                .collect()
         }
-    }
-    Ok(mesh)
+        None => (0..count).collect(),
+    };
+    mesh.faces.extend(
+        indices
+            .chunks_exact(3)
+            .map(|f| [base + f[0], base + f[1], base + f[2]]),
+    );
+    Ok(())
 }
 
 /// The bytes of each element of accessor `index`, after checking that the accessor, its view and

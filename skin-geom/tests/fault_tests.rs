@@ -253,7 +253,9 @@ fn a_dead_taxel_is_imaged_across_not_as_a_hole() {
                 .total_cmp(&(map.points[b] - centre).norm())
         })
         .unwrap();
-    let without = skin_geom::faults::without_taxels(map, &[dead]).unwrap();
+    let without = skin_geom::DeadTaxels::new(&[dead], map.ids.len())
+        .remove_from(map)
+        .unwrap();
     assert_eq!(without.ids.len(), map.ids.len() - 1);
     assert!(!without.ids.contains(&map.ids[dead]));
     assert_eq!(without.report.distortion.flipped_faces, 0);
@@ -276,12 +278,17 @@ fn a_dead_taxel_is_imaged_across_not_as_a_hole() {
     assert!((across - 100.0).abs() < 1e-3, "{across}");
     // Nothing dead: the same taxels; indices out of range are ignored.
     assert_eq!(
-        skin_geom::faults::without_taxels(map, &[usize::MAX]).unwrap().ids,
+        skin_geom::DeadTaxels::new(&[usize::MAX], map.ids.len())
+            .remove_from(map)
+            .unwrap()
+            .ids,
         map.ids
     );
     // Bridged in place: every taxel keeps its index, the dead one is in no triangle, and the
     // image over the map, with the dead taxel reading 0, shows no dip.
-    let bridged = skin_geom::faults::bridging_dead(map, &[dead]).unwrap();
+    let bridged = skin_geom::DeadTaxels::new(&[dead], map.ids.len())
+        .bridge_in(map)
+        .unwrap();
     assert_eq!((&bridged.ids, &bridged.points), (&map.ids, &map.points));
     assert!(bridged.faces.iter().all(|f| !f.contains(&dead)));
     assert_eq!(bridged.faces.len(), without.faces.len());

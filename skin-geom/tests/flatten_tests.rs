@@ -246,7 +246,7 @@ fn sparse_lscm_matches_a_dense_least_squares_solve() {
     let faces = &mesh.mesh.faces;
     let pins = [0, verts.len() - 1];
     let pin_uv = [Point2::new(0.0, 0.0), Point2::new(0.07, 0.01)];
-    let lscm = skin_geom::flatten::Lscm::new(verts.len(), faces, pins).unwrap();
+    let lscm = skin_geom::Lscm::new(verts.len(), faces, pins).unwrap();
     let sparse = lscm.solve(verts, pin_uv).unwrap();
     let dense = dense_lscm(verts, faces, pins, pin_uv);
     let worst = sparse

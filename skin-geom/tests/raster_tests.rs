@@ -6,7 +6,7 @@
 use nalgebra::{Point2, Point3, Unit, Vector3};
 use proptest::prelude::*;
 use skin_core::{LinkSkin, Taxel, TaxelId};
-use skin_geom::raster::to_grey;
+use skin_geom::to_grey;
 use skin_geom::{FlattenOptions, Grid, Normalisation, Rasterizer, Resizer, TactileImager, TactileMap};
 
 /// A half-cylinder link of radius 60 mm with ~8 mm pitch.

@@ -102,7 +102,7 @@ fn stitched_boundary_edges_keep_their_3d_length_at_every_posture() {
             "no joint 1"
         );
         // The drawing has every triangle of both maps.
-        let svg = skin_geom::stitch::stitched_svg(st.maps(), &report.placements);
+        let svg = skin_geom::stitched_svg(st.maps(), &report.placements);
         let faces: usize = st.maps().iter().map(|m| m.faces.len()).sum();
         assert_eq!(svg.matches("<polygon").count(), faces);
         assert!(!svg.contains("NaN") && !svg.contains("inf"), "{svg:.300}");

@@ -329,7 +329,7 @@ impl TouchPipeline {
 
     /// Declares the taxels of `link` (indices, layout order) that have no readings: they are
     /// handled as the thesis' Test B handles removed taxels, the link's triangles made again
-    /// without them ([`skin_geom::faults::bridging_dead`]), so a press over a dead taxel stays one
+    /// without them ([`skin_geom::DeadTaxels::bridge_in`]), so a press over a dead taxel stays one
     /// contact and its image has no hole. Frames still give one pressure per taxel (a dead one's
     /// is ignored). An empty list restores the whole mesh. Costs a triangulation: call it when the
     /// input changes, not per frame.
@@ -338,23 +338,17 @@ impl TouchPipeline {
         let Some(l) = self.links.get_mut(link) else {
             return Err(TouchError::NoLink { link, links });
         };
-        let mut dead: Vec<usize> = dead.iter().copied().filter(|&i| i < l.map.ids.len()).collect();
-        dead.sort_unstable();
-        dead.dedup();
-        if dead == l.dead {
+        let dead = skin_geom::DeadTaxels::new(dead, l.map.ids.len());
+        if dead.indices() == l.dead {
             return Ok(());
         }
-        let map = if dead.is_empty() {
-            l.map.clone()
-        } else {
-            skin_geom::faults::bridging_dead(&l.map, &dead).map_err(|source| TouchError::Map {
-                link: l.name.clone(),
-                source,
-            })?
-        };
+        let map = dead.bridge_in(&l.map).map_err(|source| TouchError::Map {
+            link: l.name.clone(),
+            source,
+        })?;
         let (rows, cols) = l.imager.output_size();
         (l.finder, l.imager) = search_and_image(&map, &self.options, ImageSize { rows, cols })?;
-        l.dead = dead;
+        l.dead = dead.indices().to_vec();
         Ok(())
     }
 

@@ -87,7 +87,8 @@ pub struct Outlets {
     mcap: Option<crate::McapOutlet>,
     #[cfg(feature = "zenoh")]
     zenoh: Option<crate::ZenohOutlet>,
-    /// How long [`Outlets::drain`] waits, seconds.
+    /// How long [`Outlets::drain`] waits for the live publisher, seconds.
+    #[cfg(feature = "zenoh")]
     drain_s: f64,
 }
 
@@ -101,7 +102,9 @@ impl Outlets {
         inputs: &Inputs,
         note: &mut dyn FnMut(String),
     ) -> Result<Outlets, RosError> {
+        #[cfg_attr(not(feature = "zenoh"), allow(clippy::needless_update))]
         let mut outlets = Outlets {
+            #[cfg(feature = "zenoh")]
             drain_s: options.drain_s,
             ..Outlets::default()
         };

@@ -74,6 +74,10 @@ fn build(
         frame_images: false,
     };
     let mut session = Session::new(links, pipeline, options)?.with_source(&config.path);
+    // The stitching first, so that the bus map's dead taxels reach it too.
+    if let Some(s) = stitching {
+        session = session.with_stitching(s);
+    }
     if let (Some(busmap), Some(busmap_path)) = (&busmap, &files.busmap) {
         session = session.with_can(busmap).map_err(|e| match e {
             SessionError::Can(skin_can::Error::NotInLayout { taxel }) => ConfigError::NotInLayout {
@@ -86,9 +90,6 @@ fn build(
         })?;
     }
     session.setup.layout_notes = layout_notes;
-    if let Some(s) = stitching {
-        session = session.with_stitching(s);
-    }
     if let Some(p) = &files.truth {
         session = session.with_script(Script::read(p)?);
     }

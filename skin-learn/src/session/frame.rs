@@ -171,14 +171,10 @@ impl Session {
         }
         st.joined = !spans.is_empty();
         if self.setup.options.frame_images && (0..links.len()).any(|l| self.pipeline.touching(l)) {
-            let (grey, (rows, cols)) = st.image()?;
-            let size = skin_core::image::ImageSize { rows, cols };
-            if let Ok(view) = skin_core::image::ImageView::new(grey, size) {
-                self.image.set(view);
-                send(&mut self.stopped, sink, |s| {
-                    s.frame_image(FrameView::Stitched, cycle, &self.image)
-                })?;
-            }
+            self.image.set(st.image()?);
+            send(&mut self.stopped, sink, |s| {
+                s.frame_image(FrameView::Stitched, cycle, &self.image)
+            })?;
         }
         Ok(())
     }

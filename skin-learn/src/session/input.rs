@@ -187,6 +187,9 @@ impl Session {
         for (k, c) in columns.iter().enumerate() {
             self.pipeline.set_dead(k, &c.dead())?;
         }
+        if let Some(st) = &mut self.setup.stitching {
+            st.set_dead(&columns.iter().map(Columns::dead).collect::<Vec<_>>())?;
+        }
         Ok(columns)
     }
 

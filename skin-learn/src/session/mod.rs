@@ -219,7 +219,9 @@ impl Session {
     pub fn with_can(mut self, busmap: &BusMap) -> Result<Session, SessionError> {
         let ids: Vec<Vec<_>> = self.setup.links.iter().map(LinkSkin::ids).collect();
         let layout = LayoutFrames::new(busmap, &ids, Missing::HoldLast)?;
-        // Taxels on no bus never read: bridged like a recording's missing columns.
+        // Taxels on no bus never read: bridged like a recording's missing columns, on each link
+        // and on the stitched chain.
+        let mut deads = Vec::new();
         for k in 0..self.setup.links.len() {
             let dead: Vec<usize> = layout
                 .uncovered()
@@ -228,6 +230,10 @@ impl Session {
                 .map(|&(_, i)| i)
                 .collect();
             self.pipeline.set_dead(k, &dead)?;
+            deads.push(dead);
+        }
+        if let Some(st) = &mut self.setup.stitching {
+            st.set_dead(&deads)?;
         }
         self.setup.can = Some(CanInput {
             interfaces: busmap.buses.iter().map(|b| b.interface.clone()).collect(),

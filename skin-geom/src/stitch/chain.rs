@@ -1,0 +1,308 @@
+//! A chain of links stitched at the postures of a poses file.
+
+use super::{StitchOptions, StitchReport, StitchedRasterizer, Stitcher};
+use crate::dead_taxels::DeadTaxels;
+use crate::raster::{Normalisation, to_grey};
+use crate::tactile_map::TactileMap;
+use crate::{ChainContacts, ChainError, ChainIndex, Error, Result};
+use skin_core::Contact;
+use skin_core::format::poses::Postures;
+use skin_core::image::{ImageSize, ImageView};
+
+/// A chain of links stitched at the postures of a poses file: each posture solved once (a posture
+/// is static), the maps placed and rendered as one tactile image, contacts chained across the
+/// joints, and the chain stitched again without the taxels an input lacks.
+#[derive(Debug)]
+pub struct PostureChain {
+    /// The whole maps, chain order.
+    maps: Vec<TactileMap>,
+    postures: Postures,
+    options: StitchOptions,
+    step_mm: f64,
+    /// Whether contacts are searched over the chain ([`PostureChain::with_contacts`]).
+    contacts: bool,
+    /// The chain of the whole maps.
+    whole: Solved,
+    /// The chain without the taxels the input lacks, kept while inputs lack the same ones.
+    holed: Option<(Vec<DeadTaxels>, Solved)>,
+    /// The input's dead taxels, per link.
+    dead: Vec<DeadTaxels>,
+    /// The posture of the last frame.
+    posture: usize,
+    /// The last frame's pressures, thresholded, per link of the chain in use.
+    pressures: Vec<Vec<f32>>,
+    threshold: f32,
+    image: Vec<f32>,
+    grey: Vec<u8>,
+}
+
+/// One chain of maps solved at every posture.
+#[derive(Debug)]
+struct Solved {
+    stitcher: Stitcher,
+    reports: Vec<StitchReport>,
+    raster: StitchedRasterizer,
+    /// Per posture, the contact search over all links (empty without contacts).
+    finders: Vec<ChainContacts>,
+    /// Per link, the whole map's index of each of its taxels.
+    survivors: Vec<Vec<usize>>,
+    /// The posture the rasterizer is placed at.
+    placed: Option<usize>,
+}
+
+/// `source` said to have happened at `posture`.
+fn at(posture: &str) -> impl Fn(Error) -> Error + '_ {
+    move |source| Error::Posture {
+        posture: posture.to_owned(),
+        source: Box::new(source),
+    }
+}
+
+/// The chain in use: the whole one, or the one without the dead taxels when some are.
+fn in_use<'a>(
+    whole: &'a mut Solved,
+    holed: &'a mut Option<(Vec<DeadTaxels>, Solved)>,
+    dead: &[DeadTaxels],
+) -> &'a mut Solved {
+    match holed {
+        Some((_, holed)) if !dead.iter().all(DeadTaxels::is_empty) => holed,
+        _ => whole,
+    }
+}
+
+impl Solved {
+    /// Stitches `maps` at every posture of `postures`, the middle one setting the boundaries and
+    /// the first warm start.
+    fn new(
+        maps: Vec<TactileMap>,
+        survivors: Vec<Vec<usize>>,
+        postures: &Postures,
+        options: StitchOptions,
+        step_mm: f64,
+    ) -> Result<Solved> {
+        let Some(reference) = postures.postures.get(postures.postures.len() / 2) else {
+            return Err(Error::Chain(ChainError::NoPosture));
+        };
+        let mut stitcher = Stitcher::new(maps, &reference.poses, options).map_err(at(&reference.name))?;
+        let mut reports = Vec::with_capacity(postures.postures.len());
+        for p in &postures.postures {
+            reports.push(stitcher.reset(&p.poses).map_err(at(&p.name))?);
+        }
+        let raster = StitchedRasterizer::new(stitcher.maps(), step_mm)?;
+        Ok(Solved {
+            stitcher,
+            reports,
+            raster,
+            finders: Vec::new(),
+            survivors,
+            placed: None,
+        })
+    }
+
+    /// Builds the contact search of every posture.
+    fn find_contacts(&mut self, postures: &Postures) -> Result<()> {
+        self.finders.clear();
+        for (p, report) in postures.postures.iter().zip(&self.reports) {
+            let finder =
+                ChainContacts::new(self.stitcher.maps(), &p.poses, &report.bridges).map_err(at(&p.name))?;
+            self.finders.push(finder);
+        }
+        Ok(())
+    }
+}
+
+impl PostureChain {
+    /// Stitches `maps` (chain order, with their taxels' 3D positions) at each posture of
+    /// `postures` (one pose per map), for images of `step_mm` pixels. The middle posture sets each
+    /// joint's boundary taxels and the first warm start. An error at a posture names it
+    /// ([`Error::Posture`]).
+    pub fn new(
+        maps: Vec<TactileMap>,
+        postures: Postures,
+        options: StitchOptions,
+        step_mm: f64,
+    ) -> Result<PostureChain> {
+        let survivors = maps.iter().map(|m| (0..m.ids.len()).collect()).collect();
+        let whole = Solved::new(maps.clone(), survivors, &postures, options, step_mm)?;
+        Ok(PostureChain {
+            pressures: maps.iter().map(|m| vec![0.0; m.ids.len()]).collect(),
+            dead: vec![DeadTaxels::default(); maps.len()],
+            maps,
+            postures,
+            options,
+            step_mm,
+            contacts: false,
+            whole,
+            holed: None,
+            posture: 0,
+            threshold: 0.0,
+            image: Vec::new(),
+            grey: Vec::new(),
+        })
+    }
+
+    /// Also searches contacts over the chain, joined across the joints
+    /// ([`PostureChain::contacts`]).
+    pub fn with_contacts(mut self) -> Result<PostureChain> {
+        self.contacts = true;
+        self.whole.find_contacts(&self.postures)?;
+        if let Some((_, holed)) = &mut self.holed {
+            holed.find_contacts(&self.postures)?;
+        }
+        Ok(self)
+    }
+
+    /// The postures.
+    pub fn postures(&self) -> &Postures {
+        &self.postures
+    }
+
+    /// The stitcher of the whole maps (boundaries, edge fidelity).
+    pub fn stitcher(&self) -> &Stitcher {
+        &self.whole.stitcher
+    }
+
+    /// Every posture's solve of the whole maps, in the postures' order.
+    pub fn solves(&self) -> &[StitchReport] {
+        &self.whole.reports
+    }
+
+    /// The dead taxels of each link.
+    pub fn dead(&self) -> &[DeadTaxels] {
+        &self.dead
+    }
+
+    /// Declares the dead taxels of each link (chain order): from now on the chain is stitched
+    /// without them, so contacts join across them and images interpolate across them. Frames
+    /// still give one pressure per taxel of the whole maps. Stitching again costs every posture's
+    /// solve: the chain of the last dead set is kept, so inputs lacking the same taxels share it.
+    pub fn set_dead(&mut self, dead: Vec<DeadTaxels>) -> Result<()> {
+        if dead.len() != self.maps.len() {
+            return Err(Error::Length {
+                what: "dead-taxel lists for the chain's links",
+                got: dead.len(),
+                expected: self.maps.len(),
+            });
+        }
+        let reuse = matches!(&self.holed, Some((d, _)) if *d == dead);
+        if !dead.iter().all(DeadTaxels::is_empty) && !reuse {
+            let maps = self
+                .maps
+                .iter()
+                .zip(&dead)
+                .map(|(m, d)| d.remove_from(m))
+                .collect::<Result<Vec<_>>>()?;
+            let survivors = self
+                .maps
+                .iter()
+                .zip(&dead)
+                .map(|(m, d)| d.survivors(m.ids.len()))
+                .collect();
+            let mut solved = Solved::new(maps, survivors, &self.postures, self.options, self.step_mm)?;
+            if self.contacts {
+                solved.find_contacts(&self.postures)?;
+            }
+            self.holed = Some((dead.clone(), solved));
+        }
+        self.dead = dead;
+        let chain = in_use(&mut self.whole, &mut self.holed, &self.dead);
+        self.pressures = chain.survivors.iter().map(|s| vec![0.0; s.len()]).collect();
+        Ok(())
+    }
+
+    /// Takes a frame at `time` (s; the posture in effect then is used): one pressure slice per
+    /// link, one reading per taxel of its whole map (a dead taxel's is ignored); readings at or
+    /// below `threshold` count as none.
+    pub fn set_frame(&mut self, time: f64, pressures: &[impl AsRef<[f32]>], threshold: f32) -> Result<()> {
+        if pressures.len() != self.maps.len() {
+            return Err(Error::Length {
+                what: "pressure slices for the chain's links",
+                got: pressures.len(),
+                expected: self.maps.len(),
+            });
+        }
+        for (p, m) in pressures.iter().zip(&self.maps) {
+            if p.as_ref().len() != m.ids.len() {
+                return Err(Error::Length {
+                    what: "pressures of a link for its taxels",
+                    got: p.as_ref().len(),
+                    expected: m.ids.len(),
+                });
+            }
+        }
+        self.posture = self.postures.at(time);
+        self.threshold = threshold;
+        let Self {
+            holed,
+            whole,
+            dead,
+            pressures: out,
+            ..
+        } = self;
+        let chain = in_use(whole, holed, dead);
+        for ((out, s), p) in out.iter_mut().zip(&chain.survivors).zip(pressures) {
+            let p = p.as_ref();
+            for (o, &i) in out.iter_mut().zip(s) {
+                let v = p[i];
+                *o = if v > threshold { v } else { 0.0 };
+            }
+        }
+        Ok(())
+    }
+
+    /// The contacts of the last frame over the whole chain, at its posture; contacts of fewer
+    /// than `min_taxels` are dropped. A contact's taxels index the chain of the maps in use (the
+    /// whole maps less their dead taxels), which the [`ChainIndex`] maps back to links; its
+    /// centroid is in the poses' common frame. Fails unless built [`PostureChain::with_contacts`].
+    pub fn contacts(&mut self, min_taxels: usize) -> Result<(&[Contact], &ChainIndex)> {
+        let (k, threshold) = (self.posture, self.threshold);
+        let Self {
+            holed,
+            whole,
+            dead,
+            pressures,
+            ..
+        } = self;
+        let chain = in_use(whole, holed, dead);
+        let Some(finder) = chain.finders.get_mut(k) else {
+            return Err(Error::Chain(ChainError::NoContactSearch));
+        };
+        finder.find(pressures, threshold, min_taxels)
+    }
+
+    /// The stitched tactile image of the last frame at its posture: grey levels normalised by the
+    /// frame's largest reading (eq. 3.1).
+    pub fn image(&mut self) -> Result<ImageView<'_, u8>> {
+        let k = self.posture;
+        let Self {
+            holed,
+            whole,
+            dead,
+            pressures,
+            image,
+            grey,
+            ..
+        } = self;
+        let chain = in_use(whole, holed, dead);
+        if chain.placed != Some(k) {
+            let report = &chain.reports[k];
+            chain.raster.place(&report.placements, &report.bridges)?;
+            chain.placed = Some(k);
+        }
+        let views: Vec<&[f32]> = pressures.iter().map(Vec::as_slice).collect();
+        chain.raster.render(&views, image)?;
+        grey.resize(image.len(), 0);
+        to_grey(image, Normalisation::ContactMax, grey);
+        let (rows, cols) = (chain.raster.rows(), chain.raster.cols());
+        let size = ImageSize::new(rows, cols).map_err(|_| Error::ImageSize {
+            rows,
+            cols,
+            why: "too large (at most 4096 pixels a side): use a coarser grid step",
+        })?;
+        ImageView::new(grey, size).map_err(|_| Error::Length {
+            what: "grey values for the image's pixels",
+            got: grey.len(),
+            expected: rows * cols,
+        })
+    }
+}
