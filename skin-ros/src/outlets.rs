@@ -102,7 +102,9 @@ impl Outlets {
         inputs: &Inputs,
         note: &mut dyn FnMut(String),
     ) -> Result<Outlets, RosError> {
+        // A build with neither outlet neither sets nor changes a field.
         #[cfg_attr(not(feature = "zenoh"), allow(clippy::needless_update))]
+        #[cfg_attr(not(any(feature = "mcap", feature = "zenoh")), allow(unused_mut))]
         let mut outlets = Outlets {
             #[cfg(feature = "zenoh")]
             drain_s: options.drain_s,
