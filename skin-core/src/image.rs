@@ -14,8 +14,9 @@
 use std::fmt;
 use std::str::FromStr;
 
-/// The size of a tactile image, pixels: `rows` high, `cols` wide. Each side is 1 to
-/// [`ImageSize::MAX_SIDE`] pixels.
+/// The size of a tactile image, pixels: `rows` high, `cols` wide. A size a user gives (a flag,
+/// a file) is checked by [`ImageSize::new`] or parsed: each side 1 to [`ImageSize::MAX_SIDE`]
+/// pixels. A stitched canvas, bounded by its pixel count instead, may be longer on a side.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ImageSize {
     /// Rows (height).

@@ -294,11 +294,9 @@ impl PostureChain {
         grey.resize(image.len(), 0);
         to_grey(image, Normalisation::ContactMax, grey);
         let (rows, cols) = (chain.raster.rows(), chain.raster.cols());
-        let size = ImageSize::new(rows, cols).map_err(|_| Error::ImageSize {
-            rows,
-            cols,
-            why: "too large (at most 4096 pixels a side): use a coarser grid step",
-        })?;
+        // Not `ImageSize::new`: the canvas is bounded by its pixel count when placed, and may
+        // be longer on a side than a tactile image a user asks for.
+        let size = ImageSize { rows, cols };
         ImageView::new(grey, size).map_err(|_| Error::Length {
             what: "grey values for the image's pixels",
             got: grey.len(),

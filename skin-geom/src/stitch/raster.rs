@@ -5,7 +5,9 @@ use crate::stitch::{BridgeTriangle, Placement};
 use crate::tactile_map::TactileMap;
 use crate::{ChainError, Error, Result};
 use nalgebra::{Point2, Vector2};
-use skin_core::image::ImageSize;
+
+/// The most pixels a stitched canvas may have (its lookup holds two indices a pixel).
+const MAX_CANVAS_PIXELS: usize = 50_000_000;
 
 /// One tactile image over a chain of stitched maps.
 ///
@@ -115,11 +117,13 @@ impl StitchedRasterizer {
         }
         let cols = (((hi.x - lo.x) / self.step).ceil() as usize).max(1);
         let rows = (((hi.y - lo.y) / self.step).ceil() as usize).max(1);
-        if rows > ImageSize::MAX_SIDE || cols > ImageSize::MAX_SIDE {
+        // The canvas of a whole arm at a fine step may be long and thin, past the side limit of a
+        // tactile image: what bounds it is the memory its lookup takes.
+        if rows.saturating_mul(cols) > MAX_CANVAS_PIXELS {
             return Err(Error::ImageSize {
                 rows,
                 cols,
-                why: "the stitched maps span too many pixels (at most 4096 a side): placements far apart?",
+                why: "the stitched maps span too many pixels: placements far apart?",
             });
         }
         self.rows = rows;
