@@ -13,6 +13,7 @@ use std::process::{Command, Stdio};
 
 skin_test_support::skin_binary!(); // skin(args) runs this package's binary; root()
 
+use skin_test_support::cli::{free_port, names};
 use skin_test_support::shared_data;
 
 skin_test_support::python_checks!(); // mod python: python_with, run
@@ -45,15 +46,6 @@ fn ok(out: &std::process::Output) {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 /// Frames after the baseline in the fixture session (620 frames, 20 learn the baseline).
@@ -252,15 +244,6 @@ fn bad_endpoints_and_prefixes_are_one_clear_line() {
         );
     }
     assert!(!dir.path().join("out").exists());
-}
-
-/// A loopback port nothing listens on now.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 #[test]

@@ -8,17 +8,10 @@
 
 use skin_ros::topics::Topics;
 use skin_ros::{Outlet, ZenohOptions, ZenohOutlet};
+use skin_test_support::cli::free_port;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::Wait;
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// What a subscriber received: (key expression, payload), in order.
 type Received = Arc<Mutex<Vec<(String, Vec<u8>)>>>;
