@@ -36,6 +36,7 @@ pub fn count<const MIN: u64, const MAX: u64>(s: &str) -> Result<usize, String> {
 }
 
 /// The number of worker threads: 1 to 256 (more only costs memory and start-up time).
+#[cfg(feature = "onnx")] // only the commands that run models use it
 pub fn threads(s: &str) -> Result<usize, String> {
     count::<1, 256>(s)
 }

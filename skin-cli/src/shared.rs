@@ -46,6 +46,7 @@ pub(crate) fn load_map(path: &Path) -> Result<TactileMap> {
 /// One recording, with its readings reordered to map order.
 pub(crate) struct Input {
     /// The recording.
+    #[cfg_attr(not(feature = "onnx"), allow(dead_code))] // named by the commands that run models
     pub(crate) path: PathBuf,
     pub(crate) dir: PathBuf,
     pub(crate) rec: Recording,
@@ -60,6 +61,7 @@ pub(crate) struct Input {
 /// Runs `each(input, frame, pressures, grey)` on every frame of `inputs` with a reading above
 /// `threshold` (readings at or below it count as zero), imaged by `imagers[input.map]`; returns
 /// how many frames had no contact.
+#[cfg(feature = "onnx")] // only the commands that run models use it
 pub(crate) fn each_touched_frame(
     inputs: &[Input],
     imagers: &mut [TactileImager],
@@ -83,6 +85,7 @@ pub(crate) fn each_touched_frame(
 }
 
 /// The imagers of a model's input (`size`: rows, cols) for `maps` ([`TactileImager::for_model`]).
+#[cfg(feature = "onnx")] // only the commands that run models use it
 pub(crate) fn model_imagers(
     maps: &[TactileMap],
     size: (usize, usize),
@@ -291,6 +294,7 @@ pub(crate) fn interfaces(map: &BusMap, given: &[String]) -> Vec<String> {
 /// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
 /// item of the acquisition, and the assembler's counts after each poll, to `each`, until Ctrl-C,
 /// `duration` seconds, or `each` returns false.
+#[cfg(feature = "onnx")] // only the commands that run models use it
 pub(crate) fn each_live(
     map: &BusMap,
     names: &[String],
