@@ -2,6 +2,9 @@
 //! take them, the images a model reads, the names images get, and the CAN traffic tallies of
 //! `replay` and `live`. A command imports from here, never from another command.
 
+// What only the model commands use is built with them; its imports go unused without.
+#![cfg_attr(not(feature = "onnx"), allow(unused_imports))]
+
 use anyhow::{Context, Result, bail};
 use skin_can::live::LiveOptions;
 use skin_can::{AssemblyStats, BusMap};
