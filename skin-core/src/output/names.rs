@@ -8,8 +8,14 @@ use std::path::{Path, PathBuf};
 /// where two inputs share a stem; [`OutputError::SameName`] where even that leaves two alike,
 /// so that no output is written over another.
 pub fn output_names(paths: &[PathBuf]) -> Result<Vec<String>> {
+    // A gzip-compressed input is named as the file inside it: `sample_19.txt.gz` -> `sample_19`.
     let stem = |p: &Path| {
-        p.file_stem()
+        let inner = match p.extension() {
+            Some(e) if e.eq_ignore_ascii_case("gz") => p.file_stem().map(Path::new).unwrap_or(p),
+            _ => p,
+        };
+        inner
+            .file_stem()
             .and_then(|s| s.to_str())
             .unwrap_or("input")
             .to_string()
@@ -55,6 +61,13 @@ mod tests {
             output_names(&[p("a/x.txt"), p("b/x.txt")]).unwrap(),
             ["a_x", "b_x"]
         );
+        assert_eq!(
+            output_names(&[p("a/x.txt.gz"), p("b/y.log.GZ"), p("c/z.gz")]).unwrap(),
+            ["x", "y", "z"]
+        );
+        // A file and its compressed copy would share a name: told apart by folder, or refused.
+        let e = output_names(&[p("a/x.txt"), p("a/x.txt.gz")]).unwrap_err();
+        assert!(e.to_string().contains("both would be written as a_x"), "{e}");
         let e = output_names(&[p("a/x.txt"), p("a/x.txt")]).unwrap_err();
         assert!(e.to_string().contains("both would be written as a_x"), "{e}");
     }
