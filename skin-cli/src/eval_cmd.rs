@@ -67,6 +67,19 @@ pub struct Args {
     mirrors: bool,
 }
 
+/// The test set's scores, through the maps the dataset was made on.
+fn score_test_set(model: &mut Model, data: &Dataset, test: &[usize], segmenting: bool) -> Result<()> {
+    let (images, truths) = test_images(model, data, test)?;
+    let taxels = if segmenting {
+        taxel_truth(data, test)?
+    } else {
+        None
+    };
+    let s = score(model, data, test, &images, &truths, taxels.as_ref())?;
+    crate::say!("{}", s.to_string().trim_end());
+    Ok(())
+}
+
 pub fn run(args: Args) -> Result<()> {
     let scale = crate::shared::input_scale(&args.model, args.input_scale);
     let model = match Classifier::load(&args.model, scale) {
@@ -105,15 +118,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     let mut model = model;
     if !(args.test_a || args.test_b) {
-        let (images, truths) = test_images(&model, &data, &test)?;
-        let taxels = if segmenting {
-            taxel_truth(&data, &test)?
-        } else {
-            None
-        };
-        let s = score(&mut model, &data, &test, &images, &truths, taxels.as_ref())?;
-        crate::say!("{}", s.to_string().trim_end());
-        return Ok(());
+        return score_test_set(&mut model, &data, &test, segmenting);
     }
 
     // Robustness (Ch. 5): regenerate the test images through degraded maps.

@@ -5,6 +5,7 @@ use anyhow::{Context, Result, bail};
 use skin_can::FRAMES_CSV_HEADER as CSV_HEADER;
 use skin_can::candump::CandumpReader;
 use skin_can::{BusMap, WireFormat};
+use skin_core::TaxelId;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -82,6 +83,19 @@ fn check_layout(map: &BusMap, map_path: &Path, layout: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The frames' CSV, built aside, with its header: time, completeness, then one column a taxel.
+fn create_csv(path: &Path, inputs: &crate::output::Inputs, ids: &[TaxelId]) -> Result<OutputFile> {
+    let mut file = OutputFile::create(path, inputs)?;
+    let mut header = String::from(CSV_HEADER);
+    for id in ids {
+        let _ = write!(header, ",{id}");
+    }
+    header.push('\n');
+    file.write_all(header.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(file)
+}
+
 pub fn run(args: Args) -> Result<()> {
     if !(args.window_ms.is_finite() && args.window_ms >= 0.001) {
         bail!(
@@ -110,17 +124,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut log = CandumpReader::open(&args.log)?;
     let ids = map.taxel_ids();
     let mut csv = match &args.output {
-        Some(path) => {
-            let mut file = OutputFile::create(path, &inputs)?;
-            let mut header = String::from(CSV_HEADER);
-            for id in &ids {
-                let _ = write!(header, ",{id}");
-            }
-            header.push('\n');
-            file.write_all(header.as_bytes())
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            Some(file)
-        }
+        Some(path) => Some(create_csv(path, &inputs, &ids)?),
         None => None,
     };
     let window_us = (args.window_ms * 1000.0).round() as u64;

@@ -1182,6 +1182,49 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         out
     };
     let plain = eval(&[]);
+    eval_case_rows(&plain, hands);
+    let plain_acc = eval_side_known(&plain, hands);
+    eval_part_naming(&plain, plain_acc);
+    eval_error_bins(&plain);
+    eval_per_taxel(&plain);
+    let mirrors = eval(&["--mirrors"]);
+    // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
+    let scores = |out: &str| -> Vec<String> {
+        let line = out.lines().nth(2).unwrap_or_default();
+        line.split_whitespace().take(4).map(str::to_owned).collect()
+    };
+    assert_eq!(scores(&plain).len(), 4, "{plain}");
+    assert_ne!(
+        scores(&plain),
+        scores(&mirrors),
+        "--mirrors changed nothing:\n{mirrors}"
+    );
+    // A dataset of images and masks only is scored per pixel, and says why not per taxel.
+    std::fs::remove_file(data.join("taxel_parts.txt")).unwrap();
+    let without = eval(&[]);
+    assert!(
+        without.contains("per taxel: not scored") && scores(&without) == scores(&plain),
+        "{without}"
+    );
+    segment_colours_hand_pixels(tmp.path(), &data, m);
+    // A classifier has no pixels to mirror.
+    let classifier = root().join("fixtures/models/handsnet.onnx");
+    let o = skin(&[
+        "eval",
+        "--model",
+        classifier.to_str().unwrap(),
+        "--dataset",
+        d,
+        "--mirrors",
+    ]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("--mirrors is for a segmenter"), "{err}");
+}
+
+/// The segmenter's rows by case: every hand image is in one of the view cases.
+#[cfg(feature = "onnx")]
+fn eval_case_rows(plain: &str, hands: usize) {
     // Each case row: its name, then images, Acc and mIoU.
     let images = |out: &str, case: &str| -> usize {
         let line = out
@@ -1195,13 +1238,19 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
             .unwrap_or_else(|| panic!("{line}"))
     };
     assert_eq!(
-        images(&plain, "thumb or palm in view") + images(&plain, "fingers only in view"),
+        images(plain, "thumb or palm in view") + images(plain, "fingers only in view"),
         hands,
         "{plain}"
     );
-    assert_eq!(images(&plain, "pixels off part borders"), hands, "{plain}");
-    assert!(images(&plain, "whole hand on the skin") <= hands);
-    assert!(images(&plain, "all six parts in view") <= images(&plain, "thumb or palm in view"));
+    assert_eq!(images(plain, "pixels off part borders"), hands, "{plain}");
+    assert!(images(plain, "whole hand on the skin") <= hands);
+    assert!(images(plain, "all six parts in view") <= images(plain, "thumb or palm in view"));
+}
+
+/// The scores as if each hand's side were known: no fewer pixels right than against the masks
+/// alone. Returns the plain pixel accuracy, %.
+#[cfg(feature = "onnx")]
+fn eval_side_known(plain: &str, hands: usize) -> f64 {
     // As if each hand's side were known: each image scored against the better fitting of its
     // mask and the mirror hand's, so no fewer pixels are right than against the masks alone.
     let side = plain
@@ -1237,6 +1286,11 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         .parse()
         .unwrap();
     assert!(side_acc >= plain_acc, "{side}\n{plain}");
+    plain_acc
+}
+
+#[cfg(feature = "onnx")]
+fn eval_part_naming(plain: &str, plain_acc: f64) {
     // Part regions named wrong: no more than there are regions, their share of the errors and
     // the rest's add up, and correcting their names loses no pixel.
     let naming = plain
@@ -1260,6 +1314,10 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
     let (in_misnamed, elsewhere) = (in_naming("they hold"), in_naming("the other"));
     assert!((in_misnamed + elsewhere - 100.0).abs() < 0.02, "{naming}");
     assert!(in_naming("named right: Acc") >= plain_acc, "{naming}\n{plain}");
+}
+
+#[cfg(feature = "onnx")]
+fn eval_error_bins(plain: &str) {
     // Where the errors lie: every wrong pixel is in one distance bin.
     let row = |name: &str| -> Vec<f64> {
         let line = plain
@@ -1289,6 +1347,10 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
         wrong > 0.0 && (share.iter().sum::<f64>() - 100.0).abs() < 0.1,
         "{plain}"
     );
+}
+
+#[cfg(feature = "onnx")]
+fn eval_per_taxel(plain: &str) {
     // Per taxel: the segmentation read at each pressed taxel, against taxel_parts.txt; the
     // true masks read the same way give (almost) every taxel its own part.
     let per_taxel = plain
@@ -1299,30 +1361,15 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
     assert!(after("per taxel (") > 0.0, "{per_taxel}");
     assert!(after("the same way: Acc") >= 98.0, "{per_taxel}");
     assert!((0.0..=100.0).contains(&after("does): Acc")), "{per_taxel}");
-    let mirrors = eval(&["--mirrors"]);
-    // Acc, mAcc, mIoU, fwIoU (the time is left out: it differs anyway).
-    let scores = |out: &str| -> Vec<String> {
-        let line = out.lines().nth(2).unwrap_or_default();
-        line.split_whitespace().take(4).map(str::to_owned).collect()
-    };
-    assert_eq!(scores(&plain).len(), 4, "{plain}");
-    assert_ne!(
-        scores(&plain),
-        scores(&mirrors),
-        "--mirrors changed nothing:\n{mirrors}"
-    );
-    // A dataset of images and masks only is scored per pixel, and says why not per taxel.
-    std::fs::remove_file(data.join("taxel_parts.txt")).unwrap();
-    let without = eval(&[]);
-    assert!(
-        without.contains("per taxel: not scored") && scores(&without) == scores(&plain),
-        "{without}"
-    );
+}
+
+#[cfg(feature = "onnx")]
+fn segment_colours_hand_pixels(tmp: &Path, data: &Path, m: &str) {
     // skin segment: a coloured part image per input, black where nothing pressed.
-    let entries = skin_learn::dataset::Dataset::read(&data).unwrap().entries;
+    let entries = skin_learn::dataset::Dataset::read(data).unwrap().entries;
     let hand = entries.iter().find(|e| e.hand).unwrap();
     let input = data.join("images").join(&hand.file);
-    let out = tmp.path().join("parts");
+    let out = tmp.join("parts");
     for extra in [&[][..], &["--mirrors"][..]] {
         let mut a = vec![
             "segment",
@@ -1358,19 +1405,6 @@ fn eval_scores_a_segmenter_by_case_and_over_mirrors() {
             "{extra:?}: {coloured} of {hand_px} hand pixels coloured"
         );
     }
-    // A classifier has no pixels to mirror.
-    let classifier = root().join("fixtures/models/handsnet.onnx");
-    let o = skin(&[
-        "eval",
-        "--model",
-        classifier.to_str().unwrap(),
-        "--dataset",
-        d,
-        "--mirrors",
-    ]);
-    let (_, err) = text(&o);
-    assert!(!o.status.success());
-    assert!(err.contains("--mirrors is for a segmenter"), "{err}");
 }
 
 #[test]

@@ -330,175 +330,43 @@ fn numbers_are_checked_before_they_size_anything() {
     let rec = root().join("fixtures/forearm/touches.txt");
     let d = tempfile::tempdir().unwrap();
     let o_dir = d.path().join("o");
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    // Each command line ({L}: a layout, {R}: a recording, {O}: an output folder) and what its
+    // error must say.
+    let cases = [
+        ("busmap --layout {L} --buses 4294967295", "1 to 256"),
+        ("busmap --layout {L} --buses 100", "would leave buses empty"),
+        ("synth --layout {L} --count 4000000000 -o {O}", "1 to 1000000"),
+        ("synth --layout {L} --count 10 --size 50000x50000 -o {O}", "4096"),
+        ("image --map {L} {R} --size 100000x100000 -o {O}", "4096"),
+        ("image --map {L} {R} --step-mm 0.0001 -o {O}", "0.01"),
+        ("image --map {L} {R} --threshold NaN -o {O}", "finite"),
+        ("stitch --layout {L} --poses {L} --threshold NaN -o {O}", "finite"),
         (
-            vec!["busmap", "--layout", s(&layout), "--buses", "4294967295"],
-            "1 to 256",
-        ),
-        (
-            vec!["busmap", "--layout", s(&layout), "--buses", "100"],
-            "would leave buses empty",
-        ),
-        (
-            vec![
-                "synth",
-                "--layout",
-                s(&layout),
-                "--count",
-                "4000000000",
-                "-o",
-                s(&o_dir),
-            ],
-            "1 to 1000000",
-        ),
-        (
-            vec![
-                "synth",
-                "--layout",
-                s(&layout),
-                "--count",
-                "10",
-                "--size",
-                "50000x50000",
-                "-o",
-                s(&o_dir),
-            ],
-            "4096",
-        ),
-        (
-            vec![
-                "image",
-                "--map",
-                s(&layout),
-                s(&rec),
-                "--size",
-                "100000x100000",
-                "-o",
-                s(&o_dir),
-            ],
-            "4096",
-        ),
-        (
-            vec![
-                "image",
-                "--map",
-                s(&layout),
-                s(&rec),
-                "--step-mm",
-                "0.0001",
-                "-o",
-                s(&o_dir),
-            ],
-            "0.01",
-        ),
-        (
-            vec![
-                "image",
-                "--map",
-                s(&layout),
-                s(&rec),
-                "--threshold",
-                "NaN",
-                "-o",
-                s(&o_dir),
-            ],
+            "stitch --layout {L} --poses {L} --max-edge-mm NaN -o {O}",
             "finite",
         ),
+        ("degrade --map {L} --remove NaN -o /dev/null", "finite"),
         (
-            vec![
-                "stitch",
-                "--layout",
-                s(&layout),
-                "--poses",
-                s(&layout),
-                "--threshold",
-                "NaN",
-                "-o",
-                s(&o_dir),
-            ],
-            "finite",
-        ),
-        (
-            vec![
-                "stitch",
-                "--layout",
-                s(&layout),
-                "--poses",
-                s(&layout),
-                "--max-edge-mm",
-                "NaN",
-                "-o",
-                s(&o_dir),
-            ],
-            "finite",
-        ),
-        (
-            vec![
-                "degrade",
-                "--map",
-                s(&layout),
-                "--remove",
-                "NaN",
-                "-o",
-                "/dev/null",
-            ],
-            "finite",
-        ),
-        (
-            vec![
-                "eval",
-                "--model",
-                s(&layout),
-                "--dataset",
-                s(&o_dir),
-                "--test-fraction=-0.5",
-            ],
+            "eval --model {L} --dataset {O} --test-fraction=-0.5",
             "from 0 to 1",
         ),
-        (
-            vec![
-                "eval",
-                "--model",
-                s(&layout),
-                "--dataset",
-                s(&o_dir),
-                "--test-fraction",
-                "2",
-            ],
-            "from 0 to 1",
-        ),
-        (
-            vec![
-                "eval",
-                "--model",
-                s(&layout),
-                "--dataset",
-                s(&o_dir),
-                "--patterns",
-                "0",
-            ],
-            "1 to 10000",
-        ),
-        (
-            vec![
-                "eval",
-                "--model",
-                s(&layout),
-                "--dataset",
-                s(&o_dir),
-                "--threads",
-                "100000",
-            ],
-            "1 to 256",
-        ),
-        (vec!["reach", "--trials", "0"], "1 to 100000"),
-        (
-            vec!["classify", "--model", s(&layout), s(&rec), "--threshold", "NaN"],
-            "finite",
-        ),
+        ("eval --model {L} --dataset {O} --test-fraction 2", "from 0 to 1"),
+        ("eval --model {L} --dataset {O} --patterns 0", "1 to 10000"),
+        ("eval --model {L} --dataset {O} --threads 100000", "1 to 256"),
+        ("reach --trials 0", "1 to 100000"),
+        ("classify --model {L} {R} --threshold NaN", "finite"),
     ];
-    for (args, want) in &cases {
-        let o = skin(args);
+    for (line, want) in cases {
+        let args: Vec<&str> = line
+            .split(' ')
+            .map(|w| match w {
+                "{L}" => s(&layout),
+                "{R}" => s(&rec),
+                "{O}" => s(&o_dir),
+                w => w,
+            })
+            .collect();
+        let o = skin(&args);
         assert!(!o.status.success(), "{args:?} succeeded");
         assert!(err(&o).contains(want), "{args:?}: {}", err(&o));
     }

@@ -82,8 +82,8 @@ impl Sink for Count {
     }
 }
 
-fn bench(c: &mut Criterion) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+/// The full arm: three links of 1,165 taxels on four buses.
+fn full_arm() -> Arm {
     let links: Vec<LinkSkin> = (0..3).map(link).collect();
     let ids: Vec<TaxelId> = links.iter().flat_map(|l| l.ids()).collect();
     assert_eq!(ids.len(), 3495);
@@ -95,22 +95,21 @@ fn bench(c: &mut Criterion) {
         .flat_map(|(l, link)| link.taxels.iter().enumerate().map(move |(i, t)| (t.id, (l, i))))
         .collect();
     let slots = map.taxel_ids().iter().map(|id| where_is[id]).collect();
-    let arm = Arm {
+    Arm {
         links,
         map,
         interfaces,
         slots,
-    };
-    let maps: Vec<TactileMap> = arm
-        .links
-        .iter()
-        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
-        .collect();
-    // End to end along y, 6 mm apart, stitched once (a posture held, as in `skin run`).
+    }
+}
+
+/// The three links end to end along y, 6 mm apart, stitched once (a posture held, as in
+/// `skin run`).
+fn stitched_in_a_row(maps: &[TactileMap]) -> Stitching {
     let poses: Vec<Isometry3<f64>> = (0..3)
         .map(|k| Translation3::new(0.0, k as f64 * 0.2623, 0.0).into())
         .collect();
-    let stitched = Stitcher::new(maps.clone(), &poses, StitchOptions::default())
+    let stitched = Stitcher::new(maps.to_vec(), &poses, StitchOptions::default())
         .unwrap()
         .reset(&poses)
         .unwrap();
@@ -123,17 +122,12 @@ fn bench(c: &mut Criterion) {
             poses,
         }],
     };
-    let stitching = Stitching::new(&maps, postures, Path::new("poses")).unwrap();
-    // A whole hand on the middle link, from the synthetic-data generator.
-    let hand = hand_on_middle_link(&arm.links, &maps[1]);
-    let offset = 300u16;
-    let quiet: Vec<Vec<u16>> = arm.links.iter().map(|l| vec![offset; l.taxels.len()]).collect();
-    let touched: Vec<Vec<u16>> = quiet
-        .iter()
-        .zip(&hand)
-        .map(|(q, h)| q.iter().zip(h).map(|(o, p)| o + p.round() as u16).collect())
-        .collect();
+    Stitching::new(maps, postures, Path::new("poses")).unwrap()
+}
 
+/// The arm's session: HandsNet deciding on the first frame of a touch, over the stitched maps.
+fn arm_session(arm: &Arm, maps: Vec<TactileMap>, stitching: Stitching) -> Session {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let model = root.join("fixtures/models/handsnet.onnx");
     let classifier = Classifier::load(&model, InputScale::Unit).unwrap();
     let options = TouchOptions {
@@ -144,11 +138,33 @@ fn bench(c: &mut Criterion) {
     };
     let models = Models::new(classifier, Classes::hand_or_not());
     let pipeline = TouchPipeline::new(maps, models, options).unwrap();
-    let mut session = Session::new(arm.links.clone(), pipeline, SessionOptions::default())
+    Session::new(arm.links.clone(), pipeline, SessionOptions::default())
         .unwrap()
         .with_can(&arm.map)
         .unwrap()
-        .with_stitching(stitching);
+        .with_stitching(stitching)
+}
+
+fn bench(c: &mut Criterion) {
+    let arm = full_arm();
+    let ids = arm.map.taxel_ids();
+    let maps: Vec<TactileMap> = arm
+        .links
+        .iter()
+        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
+        .collect();
+    let stitching = stitched_in_a_row(&maps);
+    // A whole hand on the middle link, from the synthetic-data generator.
+    let hand = hand_on_middle_link(&arm.links, &maps[1]);
+    let offset = 300u16;
+    let quiet: Vec<Vec<u16>> = arm.links.iter().map(|l| vec![offset; l.taxels.len()]).collect();
+    let touched: Vec<Vec<u16>> = quiet
+        .iter()
+        .zip(&hand)
+        .map(|(q, h)| q.iter().zip(h).map(|(o, p)| o + p.round() as u16).collect())
+        .collect();
+
+    let mut session = arm_session(&arm, maps, stitching);
     let mut sink = Count(0);
     let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
     let mut n = 0u64;

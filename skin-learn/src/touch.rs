@@ -19,7 +19,7 @@ use crate::model::{Class, Classes, ModelError, Models};
 use crate::parts::{PartContact, part_contacts};
 use nalgebra::Point3;
 use skin_core::image::{ImageSize, ImageView};
-use skin_core::{ContactFinder, Separation};
+use skin_core::{Contact, ContactFinder, Separation};
 use skin_geom::{TactileImager, TactileMap};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -226,6 +226,70 @@ struct Touch {
     peak: Footprint,
     classified_total: f64,
     decision: Option<Decision>,
+}
+
+impl Touch {
+    /// A touch that appeared at `time` with this first footprint; its frames are counted after.
+    fn new(id: u64, time: f64, footprint: Footprint) -> Self {
+        Touch {
+            id,
+            start: time,
+            last: time,
+            frames: 0,
+            quiet: 0,
+            peak_total: 0.0,
+            peak: footprint,
+            classified_total: 0.0,
+            decision: None,
+        }
+    }
+}
+
+/// The footprint of one link's contacts in a frame, with its total pressure (the sum over its
+/// taxels, which picks a touch's fullest frame); `None` when no taxel is in contact.
+fn footprint_of(contacts: &[Contact], area_per_taxel_cm2: f64) -> Option<(Footprint, f64)> {
+    let mut taxels = 0usize;
+    let mut total = 0.0f64;
+    let mut moment = nalgebra::Vector3::zeros();
+    for c in contacts {
+        let sum = f64::from(c.mean_pressure) * c.taxels.len() as f64;
+        taxels += c.taxels.len();
+        total += sum;
+        moment += c.centroid.coords * sum;
+    }
+    if taxels == 0 {
+        return None;
+    }
+    let footprint = Footprint {
+        contacts: contacts.len(),
+        taxels,
+        area_cm2: taxels as f64 * area_per_taxel_cm2,
+        mean_pressure: (total / taxels as f64) as f32,
+        centroid: Point3::from(moment / total),
+    };
+    Some((footprint, total))
+}
+
+/// The most likely class and its probability; a classifier that scores another number of
+/// classes than its card names is an error, not a guess.
+fn most_likely(probabilities: &[f32], classes: &Classes) -> Result<(Class, f32), TouchError> {
+    let (best, probability) =
+        probabilities
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(
+                (0, f32::NEG_INFINITY),
+                |best, (c, p)| if p > best.1 { (c, p) } else { best },
+            );
+    match classes.get(best) {
+        Some(c) if probabilities.len() == classes.len() => Ok((c.clone(), probability)),
+        _ => Err(TouchError::Model(ModelError::Run(format!(
+            "{} class scores from the classifier, for {} classes",
+            probabilities.len(),
+            classes.len()
+        )))),
+    }
 }
 
 struct Link {
@@ -523,23 +587,8 @@ impl TouchPipeline {
                 time,
                 why: format!("link {}: {e}", link.name),
             })?;
-        let mut footprint = Footprint {
-            contacts: contacts.len(),
-            taxels: 0,
-            area_cm2: 0.0,
-            mean_pressure: 0.0,
-            centroid: Point3::origin(),
-        };
-        let mut total = 0.0f64;
-        let mut moment = nalgebra::Vector3::zeros();
-        for c in contacts {
-            let sum = f64::from(c.mean_pressure) * c.taxels.len() as f64;
-            footprint.taxels += c.taxels.len();
-            total += sum;
-            moment += c.centroid.coords * sum;
-        }
-        self.times.contacts += t0.elapsed();
-        if footprint.taxels == 0 {
+        let Some((footprint, total)) = footprint_of(contacts, link.area_per_taxel_cm2) else {
+            self.times.contacts += t0.elapsed();
             if let Some(t) = &mut link.touch {
                 t.quiet += 1;
                 if t.quiet >= o.release_frames.max(1) {
@@ -547,10 +596,8 @@ impl TouchPipeline {
                 }
             }
             return Ok(());
-        }
-        footprint.area_cm2 = footprint.taxels as f64 * link.area_per_taxel_cm2;
-        footprint.mean_pressure = (total / footprint.taxels as f64) as f32;
-        footprint.centroid = Point3::from(moment / total);
+        };
+        self.times.contacts += t0.elapsed();
         let touch = match &mut link.touch {
             Some(t) => t,
             None => {
@@ -562,17 +609,7 @@ impl TouchPipeline {
                     time,
                     footprint,
                 }));
-                link.touch.insert(Touch {
-                    id,
-                    start: time,
-                    last: time,
-                    frames: 0,
-                    quiet: 0,
-                    peak_total: 0.0,
-                    peak: footprint,
-                    classified_total: 0.0,
-                    decision: None,
-                })
+                link.touch.insert(Touch::new(id, time, footprint))
             }
         };
         touch.frames += 1;
@@ -629,26 +666,7 @@ impl TouchPipeline {
         self.times.image += t1 - t0;
         self.times.classify += t2 - t1;
         self.times.runs.0 += 1;
-        let (class, probability) =
-            probabilities
-                .iter()
-                .copied()
-                .enumerate()
-                .fold(
-                    (0, f32::NEG_INFINITY),
-                    |best, (c, p)| if p > best.1 { (c, p) } else { best },
-                );
-        let classes = &self.models.classes;
-        let class = match classes.get(class) {
-            Some(c) if probabilities.len() == classes.len() => c.clone(),
-            _ => {
-                return Err(TouchError::Model(ModelError::Run(format!(
-                    "{} class scores from the classifier, for {} classes",
-                    probabilities.len(),
-                    classes.len()
-                ))));
-            }
-        };
+        let (class, probability) = most_likely(&probabilities, &self.models.classes)?;
         let mut parts = Vec::new();
         if class.is_hand()
             && let Some(segmenter) = &mut self.models.segmenter

@@ -215,13 +215,37 @@ fn exploration_goes_where_samples_are_missing() {
     assert!(samples.iter().all(|&s| s >= 16));
 }
 
+/// A CAD layout (every taxel of `truth` up to 3 mm off in the patch plane) and candidate probe
+/// points: 30 random points within 8 mm of every CAD taxel (what the segmented body offers);
+/// each is pressed at most once, so samples come from many places.
+fn cad_and_candidates(truth: &skin_core::LinkSkin) -> (Vec<Point3<f64>>, Vec<Point3<f64>>) {
+    use rand::{Rng, SeedableRng};
+    let n = truth.taxels[0].normal.into_inner();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let t1 = n.cross(&nalgebra::Vector3::x()).normalize();
+    let t2 = n.cross(&t1);
+    let cad: Vec<Point3<f64>> = truth
+        .taxels
+        .iter()
+        .map(|t| t.position + (t1 * rng.random_range(-1.0..1.0) + t2 * rng.random_range(-1.0..1.0)) * 0.003)
+        .collect();
+    let mut candidates = Vec::new();
+    for p in &cad {
+        for _ in 0..30 {
+            let a = rng.random_range(0.0..std::f64::consts::TAU);
+            let r = 0.008 * rng.random::<f64>().sqrt();
+            candidates.push(p + (t1 * a.cos() + t2 * a.sin()) * r);
+        }
+    }
+    (cad, candidates)
+}
+
 /// The whole procedure without a person choosing the points: the exploration rule picks where to
 /// press from rough (CAD) taxel positions, the approach-then-press controller drives a simulated
 /// probe into a spring-like skin until the force settles at 5 N, the simulated skin answers, and
 /// the dataset is calibrated.
 #[test]
 fn a_closed_loop_calibrates_a_patch_on_its_own() {
-    use rand::{Rng, SeedableRng};
     use skin_control::approach_press::{ApproachPress, Phase, PressOptions};
     use skin_learn::calibration::exploration::beyond_edges;
     use skin_learn::calibration::{
@@ -232,25 +256,7 @@ fn a_closed_loop_calibrates_a_patch_on_its_own() {
     let truth = skin_core::format::load_link(&path).unwrap().value;
     let normal = truth.taxels[0].normal;
     let n = normal.into_inner();
-    // The CAD layout: every taxel up to 3 mm off in the patch plane.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let t1 = n.cross(&nalgebra::Vector3::x()).normalize();
-    let t2 = n.cross(&t1);
-    let cad: Vec<Point3<f64>> = truth
-        .taxels
-        .iter()
-        .map(|t| t.position + (t1 * rng.random_range(-1.0..1.0) + t2 * rng.random_range(-1.0..1.0)) * 0.003)
-        .collect();
-    // Candidate probe points: 30 random points within 8 mm of every CAD taxel (what the
-    // segmented body offers); each is pressed at most once, so samples come from many places.
-    let mut candidates = Vec::new();
-    for p in &cad {
-        for _ in 0..30 {
-            let a = rng.random_range(0.0..std::f64::consts::TAU);
-            let r = 0.008 * rng.random::<f64>().sqrt();
-            candidates.push(p + (t1 * a.cos() + t2 * a.sin()) * r);
-        }
-    }
+    let (cad, mut candidates) = cad_and_candidates(&truth);
     let mut session = ProbeSimulator::default().session(&truth, 8);
     let stiffness = 10_000.0; // N/m: 0.5 mm of skin compression at 5 N
     let surface = truth.taxels[0].position;

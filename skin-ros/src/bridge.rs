@@ -12,11 +12,12 @@
 use crate::cdr::CdrWriter;
 use crate::clock::{Clock, RosTime};
 use crate::messages::{
-    self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, TouchEventMsg,
+    self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, Stamp, TouchEventMsg,
 };
 use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
-use skin_learn::session::{Event, Flow, ProcessedFrame, Sink};
+use skin_learn::parts::PartContact;
+use skin_learn::session::{Event, Flow, GreyImage, ProcessedFrame, Sink};
 use skin_learn::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
@@ -193,117 +194,15 @@ impl<O: Outlet> Sink for RosSink<O> {
 
     fn event(&mut self, event: &Event) -> std::io::Result<Flow> {
         let (stamp_ns, stamp) = self.clock.event(event.time()).map_err(std::io::Error::other)?;
-        let names = &self.names;
-        let frame_ids = &self.topics.frame_ids;
-        let frame_of = |link: &str| {
-            names
-                .iter()
-                .position(|n| n == link)
-                .and_then(|l| frame_ids.get(l))
-                .map_or("", String::as_str)
-        };
         self.json.clear();
         event.write_json(&mut self.json).map_err(std::io::Error::other)?;
         let json = std::str::from_utf8(&self.json).map_err(std::io::Error::other)?;
-        let mut m = TouchEventMsg {
-            json,
-            ..TouchEventMsg::default()
-        };
-        match event {
-            Event::Incomplete { missing, .. } => {
-                m.kind = EventKind::Incomplete;
-                m.missing = missing.iter().map(|x| (x.bus.as_str(), x.address)).collect();
-            }
-            Event::CounterReset { bus, cycle, .. } => {
-                m.kind = EventKind::CounterReset;
-                m.bus = bus;
-                m.cycle = *cycle;
-            }
-            Event::Appeared { link, touch } => {
-                m.kind = EventKind::Appeared;
-                m.link = link;
-                m.frame_id = frame_of(link);
-                m.touch = touch.id;
-                m.footprint = footprint(&touch.footprint);
-            }
-            Event::Classified { link, touch, .. } => {
-                let d = &touch.decision;
-                m.kind = EventKind::Classified;
-                m.link = link;
-                m.frame_id = frame_of(link);
-                m.touch = touch.id;
-                m.revised = touch.revised;
-                m.touch_class = d.class.name();
-                m.probability = d.probability;
-                m.parts = d
-                    .parts
-                    .iter()
-                    .map(|p| HandPartMsg {
-                        part: p.part.name(),
-                        taxels: p.taxels as u32,
-                        mean_pressure: p.mean_pressure,
-                        centroid: p.centroid.map(|c| c.coords.into()),
-                    })
-                    .collect();
-            }
-            Event::Released { link, touch } => {
-                let d = touch.decision.as_ref();
-                m.kind = EventKind::Released;
-                m.link = link;
-                m.frame_id = frame_of(link);
-                m.touch = touch.id;
-                m.duration = touch.duration;
-                m.frames = touch.frames as u32;
-                m.footprint = footprint(&touch.peak);
-                m.touch_class = d.map_or("", |d| d.class.name());
-                m.probability = d.map_or(f32::NAN, |d| d.probability);
-            }
-            Event::Gate { action, .. } => {
-                m.kind = EventKind::Gate;
-                m.action = action.name();
-            }
-            Event::AcrossJoint {
-                links,
-                taxels,
-                centroid,
-                ..
-            } => {
-                m.kind = EventKind::AcrossJoint;
-                m.links = links.iter().map(String::as_str).collect();
-                m.footprint.taxels = *taxels as u32;
-                m.footprint.centroid = *centroid;
-            }
-            Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
-            Event::BaselineCorrected {
-                time,
-                since,
-                link,
-                taxels,
-            } => {
-                m.kind = EventKind::BaselineCorrected;
-                m.link = link;
-                m.footprint.taxels = *taxels as u32;
-                m.duration = time - since;
-            }
-        }
+        let m = event_message(event, json, &self.names, &self.topics.frame_ids);
         messages::touch_event(&mut self.w, stamp, &m);
         let events = self.topics.events;
         self.outlet.publish(events, stamp_ns, self.w.bytes())?;
-        if let Event::Classified { link, image, .. } = event
-            && let Some(l) = self.link(link)
-        {
-            let frame_id = frame_of(link);
-            messages::image_mono8(
-                &mut self.w,
-                stamp,
-                frame_id,
-                image.rows,
-                image.cols,
-                &image.pixels,
-            );
-            let topic = self.topics.links[l].tactile_image;
-            self.publish(topic, stamp_ns)?;
-            self.pending_images[l] = self.topics.links[l].pressure_image.is_some();
+        if let Event::Classified { link, image, .. } = event {
+            self.publish_decision_image(link, image, stamp, stamp_ns)?;
         }
         Ok(GO)
     }
@@ -400,3 +299,134 @@ impl<I: Iterator> Iterator for ExactSize<I> {
 }
 
 impl<I: Iterator> ExactSizeIterator for ExactSize<I> {}
+
+impl<O: Outlet> RosSink<O> {
+    /// A decision's tactile image on its link's topic; its pressure image, when asked, follows
+    /// with the next frame (the frame that carries it).
+    fn publish_decision_image(
+        &mut self,
+        link: &str,
+        image: &GreyImage,
+        stamp: Stamp,
+        stamp_ns: u64,
+    ) -> std::io::Result<()> {
+        let Some(l) = self.link(link) else {
+            return Ok(());
+        };
+        let frame_id = frame_of(&self.names, &self.topics.frame_ids, link);
+        messages::image_mono8(
+            &mut self.w,
+            stamp,
+            frame_id,
+            image.rows,
+            image.cols,
+            &image.pixels,
+        );
+        let topic = self.topics.links[l].tactile_image;
+        self.publish(topic, stamp_ns)?;
+        self.pending_images[l] = self.topics.links[l].pressure_image.is_some();
+        Ok(())
+    }
+}
+
+/// A hand part's contact as `skin_msgs/HandPart` has it.
+fn hand_part(p: &PartContact) -> HandPartMsg<'_> {
+    HandPartMsg {
+        part: p.part.name(),
+        taxels: p.taxels as u32,
+        mean_pressure: p.mean_pressure,
+        centroid: p.centroid.map(|c| c.coords.into()),
+    }
+}
+
+/// The frame id of a link named as events name it; empty for a link the topics do not know.
+fn frame_of<'a>(names: &[String], frame_ids: &'a [String], link: &str) -> &'a str {
+    names
+        .iter()
+        .position(|n| n == link)
+        .and_then(|l| frame_ids.get(l))
+        .map_or("", String::as_str)
+}
+
+/// The `skin_msgs/TouchEvent` of an event, its JSON line included.
+fn event_message<'a>(
+    event: &'a Event,
+    json: &'a str,
+    names: &[String],
+    frame_ids: &'a [String],
+) -> TouchEventMsg<'a> {
+    let frame_of = |link: &str| frame_of(names, frame_ids, link);
+    let mut m = TouchEventMsg {
+        json,
+        ..TouchEventMsg::default()
+    };
+    match event {
+        Event::Incomplete { missing, .. } => {
+            m.kind = EventKind::Incomplete;
+            m.missing = missing.iter().map(|x| (x.bus.as_str(), x.address)).collect();
+        }
+        Event::CounterReset { bus, cycle, .. } => {
+            m.kind = EventKind::CounterReset;
+            m.bus = bus;
+            m.cycle = *cycle;
+        }
+        Event::Appeared { link, touch } => {
+            m.kind = EventKind::Appeared;
+            m.link = link;
+            m.frame_id = frame_of(link);
+            m.touch = touch.id;
+            m.footprint = footprint(&touch.footprint);
+        }
+        Event::Classified { link, touch, .. } => {
+            let d = &touch.decision;
+            m.kind = EventKind::Classified;
+            m.link = link;
+            m.frame_id = frame_of(link);
+            m.touch = touch.id;
+            m.revised = touch.revised;
+            m.touch_class = d.class.name();
+            m.probability = d.probability;
+            m.parts = d.parts.iter().map(hand_part).collect();
+        }
+        Event::Released { link, touch } => {
+            let d = touch.decision.as_ref();
+            m.kind = EventKind::Released;
+            m.link = link;
+            m.frame_id = frame_of(link);
+            m.touch = touch.id;
+            m.duration = touch.duration;
+            m.frames = touch.frames as u32;
+            m.footprint = footprint(&touch.peak);
+            m.touch_class = d.map_or("", |d| d.class.name());
+            m.probability = d.map_or(f32::NAN, |d| d.probability);
+        }
+        Event::Gate { action, .. } => {
+            m.kind = EventKind::Gate;
+            m.action = action.name();
+        }
+        Event::AcrossJoint {
+            links,
+            taxels,
+            centroid,
+            ..
+        } => {
+            m.kind = EventKind::AcrossJoint;
+            m.links = links.iter().map(String::as_str).collect();
+            m.footprint.taxels = *taxels as u32;
+            m.footprint.centroid = *centroid;
+        }
+        Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
+        Event::BaselineCorrected {
+            time,
+            since,
+            link,
+            taxels,
+        } => {
+            m.kind = EventKind::BaselineCorrected;
+            m.link = link;
+            m.footprint.taxels = *taxels as u32;
+            m.duration = time - since;
+        }
+    }
+    m
+}

@@ -51,11 +51,8 @@ fn marker(frame: &str, id: i32, action: i32, points: &[[f64; 3]], scale: [f64; 3
     })
 }
 
-fn cases() -> Value {
-    let mut w = CdrWriter::new();
-    let mut out = Vec::new();
-
-    // A link's cloud: positions, pressures and ids of three taxels.
+/// A link's cloud: positions, pressures and ids of three taxels.
+fn cloud_case(out: &mut Vec<Value>) {
     let positions = [[0.01f32, -0.02, 0.3], [0.0, 0.0, 0.0], [-1.5, 2.25, 1e-3]];
     let ids = [17u32, 18, 4095];
     let pressures = [0.0f32, 123.5, 4096.25];
@@ -78,9 +75,12 @@ fn cases() -> Value {
                "is_bigendian": false, "point_step": 20, "row_step": 60, "data": data, "is_dense": true}),
         &bytes,
     ));
+}
 
+/// A decision image (mono8) and a pressure image (32FC1).
+fn image_cases(w: &mut CdrWriter, out: &mut Vec<Value>) {
     let pixels: Vec<u8> = (0..12).map(|k| (k * 21) as u8).collect();
-    messages::image_mono8(&mut w, STAMP, "forearm", 3, 4, &pixels);
+    messages::image_mono8(w, STAMP, "forearm", 3, 4, &pixels);
     out.push(case(
         "decision image",
         "sensor_msgs/msg/Image",
@@ -89,7 +89,7 @@ fn cases() -> Value {
     ));
 
     let values = [0.0f32, 1.5, -2.0, 1e6, 3.25, 7.0];
-    messages::image_32fc1(&mut w, STAMP, "forearm", 2, 3, &values);
+    messages::image_32fc1(w, STAMP, "forearm", 2, 3, &values);
     let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
     out.push(case(
         "pressure image",
@@ -97,7 +97,10 @@ fn cases() -> Value {
         image("32FC1", 2, 3, 12, raw),
         w.bytes(),
     ));
+}
 
+/// Two contact arrows after the DELETEALL marker.
+fn arrow_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
     let arrows = [
         Arrow {
             frame_id: "forearm",
@@ -114,7 +117,7 @@ fn cases() -> Value {
             color: [1.0, 0.25, 0.125, 1.0],
         },
     ];
-    messages::arrows(&mut w, STAMP, arrows.iter().copied());
+    messages::arrows(w, STAMP, arrows.iter().copied());
     let mut markers = vec![marker("", 0, 3, &[], [0.0; 3], [0.0; 4])];
     for a in &arrows {
         markers.push(marker(
@@ -132,7 +135,10 @@ fn cases() -> Value {
         json!({"markers": markers}),
         w.bytes(),
     ));
+}
 
+/// Two contacts on two links.
+fn contacts_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
     let link_ids = [100u32, 101, 102, 103];
     let contacts = [
         ContactMsg {
@@ -156,7 +162,7 @@ fn cases() -> Value {
             ids: &link_ids,
         },
     ];
-    messages::contacts(&mut w, STAMP, contacts.iter().copied());
+    messages::contacts(w, STAMP, contacts.iter().copied());
     let contact_values: Vec<Value> = contacts
         .iter()
         .map(|c| {
@@ -171,7 +177,10 @@ fn cases() -> Value {
         json!({"header": header(""), "contacts": contact_values}),
         w.bytes(),
     ));
+}
 
+/// A classified touch event with every field set.
+fn event_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
     let event = TouchEventMsg {
         kind: EventKind::Classified,
         touch: 7,
@@ -210,7 +219,7 @@ fn cases() -> Value {
         cycle: 1 << 40,
         json: "{\"event\":\"classified\",\"class\":\"hand\"}",
     };
-    messages::touch_event(&mut w, STAMP, &event);
+    messages::touch_event(w, STAMP, &event);
     let parts: Vec<Value> = event
         .parts
         .iter()
@@ -231,6 +240,16 @@ fn cases() -> Value {
                "bus": "can0", "cycle": 1u64 << 40, "json": event.json}),
         w.bytes(),
     ));
+}
+
+fn cases() -> Value {
+    let mut w = CdrWriter::new();
+    let mut out = Vec::new();
+    cloud_case(&mut out);
+    image_cases(&mut w, &mut out);
+    arrow_case(&mut w, &mut out);
+    contacts_case(&mut w, &mut out);
+    event_case(&mut w, &mut out);
     let all = Interfaces::skin().expect("definitions");
     let hashes: serde_json::Map<String, Value> = all
         .names()

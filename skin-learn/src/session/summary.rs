@@ -2,7 +2,7 @@
 //! `summary.txt`).
 
 use super::{Session, SessionStats};
-use crate::script::Found;
+use crate::script::{Found, Score, Script};
 use crate::touch::Released;
 use std::fmt::{self, Display, Formatter};
 use std::time::Duration;
@@ -102,6 +102,23 @@ impl Display for Summary<'_> {
         for note in &s.notes {
             writeln!(out, "{note}")?;
         }
+        self.write_health(out)?;
+        // Each scripted touch's detected touch: the one overlapping it the longest.
+        let found = self.found();
+        let score = s.setup.script.as_ref().map(|script| script.score(&found));
+        self.write_touches(out, score.as_ref())?;
+        if let (Some(script), Some(score)) = (&s.setup.script, &score) {
+            Self::write_script(out, script, score, &found)?;
+        }
+        Ok(())
+    }
+}
+
+impl Summary<'_> {
+    /// Taxels that cannot be trusted, baselines learned under pressure or corrected since, and
+    /// contacts stitched across joints: one line each, only where there is something to say.
+    fn write_health(&self, out: &mut Formatter<'_>) -> fmt::Result {
+        let s = self.session;
         for (l, h) in s.base.health.iter().enumerate() {
             if !h.dead.is_empty() || !h.stuck.is_empty() {
                 let ids = |v: &[usize]| {
@@ -142,12 +159,15 @@ impl Display for Summary<'_> {
             writeln!(
                 out,
                 "contacts across joints (stitched maps): {}",
-                st.across_joints
+                s.stats().across_joints
             )?;
         }
-        // Each scripted touch's detected touch: the one overlapping it the longest.
-        let found = self.found();
-        let score = s.setup.script.as_ref().map(|script| script.score(&found));
+        Ok(())
+    }
+
+    /// The table of finished touches, with the scripted touch each one matched.
+    fn write_touches(&self, out: &mut Formatter<'_>, score: Option<&Score>) -> fmt::Result {
+        let s = self.session;
         write!(out, "{} touch(es):", s.done.len())?;
         write!(
             out,
@@ -171,7 +191,7 @@ impl Display for Summary<'_> {
                 ),
                 None => ("-".into(), "-".into(), String::new()),
             };
-            let script = match (&s.setup.script, &score) {
+            let script = match (&s.setup.script, score) {
                 (Some(script), Some(score)) => {
                     let name = score.scripted_of(j).map_or("(not scripted)".to_string(), |k| {
                         let t = &script.touches[k];
@@ -195,29 +215,37 @@ impl Display for Summary<'_> {
             );
             write!(out, "\n{}", row.trim_end())?;
         }
-        if let (Some(script), Some(score)) = (&s.setup.script, &score) {
-            write!(
-                out,
-                "\nscript: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
-                score.found(),
-                script.touches.len(),
-                score.right(),
-                100.0 * score.right() as f64 / script.touches.len().max(1) as f64,
-                score.extra(&found)
-            )?;
-            for (k, (t, m)) in script.touches.iter().zip(&score.matches).enumerate() {
-                match m {
-                    Some(j) if !score.correct[k] => {
-                        let got = found[*j].class.unwrap_or("-");
-                        write!(
-                            out,
-                            "\n  scripted touch {k} ({} {}) taken for {got}",
-                            t.class, t.kind
-                        )?;
-                    }
-                    Some(_) => {}
-                    None => write!(out, "\n  scripted touch {k} ({} {}) not found", t.class, t.kind)?,
+        Ok(())
+    }
+
+    /// The score against the script, and each scripted touch missed or taken for another class.
+    fn write_script(
+        out: &mut Formatter<'_>,
+        script: &Script,
+        score: &Score,
+        found: &[Found<'_>],
+    ) -> fmt::Result {
+        write!(
+            out,
+            "\nscript: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
+            score.found(),
+            script.touches.len(),
+            score.right(),
+            100.0 * score.right() as f64 / script.touches.len().max(1) as f64,
+            score.extra(found)
+        )?;
+        for (k, (t, m)) in script.touches.iter().zip(&score.matches).enumerate() {
+            match m {
+                Some(j) if !score.correct[k] => {
+                    let got = found[*j].class.unwrap_or("-");
+                    write!(
+                        out,
+                        "\n  scripted touch {k} ({} {}) taken for {got}",
+                        t.class, t.kind
+                    )?;
                 }
+                Some(_) => {}
+                None => write!(out, "\n  scripted touch {k} ({} {}) not found", t.class, t.kind)?,
             }
         }
         Ok(())
