@@ -240,11 +240,19 @@ impl PostureChain {
             ..
         } = self;
         let chain = in_use(whole, holed, dead);
+        let floor = |v: f32| if v > threshold { v } else { 0.0 };
         for ((out, s), p) in out.iter_mut().zip(&chain.survivors).zip(pressures) {
             let p = p.as_ref();
-            for (o, &i) in out.iter_mut().zip(s) {
-                let v = p[i];
-                *o = if v > threshold { v } else { 0.0 };
+            // Survivors are in the map's order: as many as the readings means every taxel, and a
+            // straight copy (which the compiler vectorises) instead of a gather.
+            if s.len() == p.len() {
+                for (o, &v) in out.iter_mut().zip(p) {
+                    *o = floor(v);
+                }
+            } else {
+                for (o, &i) in out.iter_mut().zip(s) {
+                    *o = floor(p[i]);
+                }
             }
         }
         Ok(())
