@@ -46,7 +46,7 @@
 //! map, a frame at a time. A complete replay: `examples/examples/replay_can_log.rs`.
 
 mod assembler;
-pub mod busmap;
+mod busmap;
 pub mod candump;
 pub mod decode;
 mod error;
@@ -60,7 +60,7 @@ mod traffic;
 pub use assembler::{
     AssembledFrame, Assembler, AssemblyStats, CounterReset, DEFAULT_WINDOW_US, FRAMES_CSV_HEADER, ModuleRef,
 };
-pub use busmap::{BusMap, SplitError, WireFormat};
+pub use busmap::{BusMap, BusSpec, MAX_BUSES, ModuleMap, SLOTS, SplitError, WireFormat};
 pub use error::{Error, Result};
 pub use layout_frames::{LayoutFrames, Missing};
 pub use replay::{Replay, replay};

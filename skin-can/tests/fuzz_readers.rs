@@ -6,10 +6,10 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
 use proptest::prelude::*;
-use skin_can::busmap::{MAX_BUSES, SLOTS};
 use skin_can::candump::CandumpLog;
 use skin_can::decode::skin16::{encode_module, encode_sync};
 use skin_can::{Assembler, BusMap, WireFormat, decode};
+use skin_can::{MAX_BUSES, SLOTS};
 use std::collections::HashSet;
 use std::path::Path;
 

@@ -18,7 +18,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Format::Skin16)]
     format: Format,
     /// Number of buses (at most 256, and no more than the layout has modules).
-    #[arg(long, default_value_t = 1, value_parser = crate::numbers::count::<1, { skin_can::busmap::MAX_BUSES as u64 }>)]
+    #[arg(long, default_value_t = 1, value_parser = crate::numbers::count::<1, { skin_can::MAX_BUSES as u64 }>)]
     buses: usize,
     /// Where to write the map (default: standard output).
     #[arg(short, long, value_name = "MAP.toml")]

@@ -123,7 +123,7 @@ impl RosArgs {
             }
             if let Some(d) = self.ros_domain {
                 anyhow::ensure!(
-                    d <= skin_ros::zenoh_live::MAX_DOMAIN,
+                    d <= skin_ros::MAX_DOMAIN,
                     "--ros-domain {d}: a ROS domain id (ROS_DOMAIN_ID) is 0 to 232; give one of those"
                 );
             }

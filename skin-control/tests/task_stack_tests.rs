@@ -140,7 +140,7 @@ fn the_pseudo_inverse_meets_the_moore_penrose_conditions() {
         // Rank r (or less) by construction, zero singular values exactly.
         let x = DMatrix::from_fn(m, r, |_, _| rng.random_range(-1.0..1.0))
             * DMatrix::from_fn(r, n, |_, _| rng.random_range(-1.0..1.0));
-        let p = skin_control::task_stack::pseudo_inverse(&x, TOL);
+        let p = skin_control::pseudo_inverse(&x, TOL);
         assert!((&x * &p * &x - &x).norm() < 1e-8, "X X+ X != X");
         assert!(
             (&p * &x * &p - &p).norm() < 1e-6 * (1.0 + p.norm().powi(2)),

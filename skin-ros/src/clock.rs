@@ -85,11 +85,6 @@ impl Clock {
         }
     }
 
-    /// What the stamps count from.
-    pub fn mode(&self) -> RosTime {
-        self.mode
-    }
-
     /// The session's first frame is at `origin_us` on the input's clock: checked now, so that
     /// an input past the end of ROS 2 time is refused before its first message.
     pub fn set_origin(&mut self, origin_us: u64) -> Result<(), StampError> {

@@ -14,13 +14,13 @@
 //! - [`interfaces`]: the `.msg` definitions (standard ones, and the repository's `skin_msgs`
 //!   package), their `ros2msg` schemas; [`type_hash`]: their RIHS01 hashes (REP-2016).
 //! - [`topics`]: topic names (`/skin/<link>/pressure` ...), link names made into topic tokens
-//!   and frame ids; [`clock`]: the stamps, checked against the end of ROS 2 time.
-//! - [`bridge`]: [`RosSink`], the session sink, and the [`Outlet`] trait; [`Outlets`]: one run's
+//!   and frame ids; `clock`: the stamps, checked against the end of ROS 2 time.
+//! - `bridge`: [`RosSink`], the session sink, and the [`Outlet`] trait; [`Outlets`]: one run's
 //!   MCAP file and live publisher together.
 //!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
-//! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). A robot stack that wants only the solver
-//! depends on none of this.
+//! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). Neither needs ROS installed, and the crate
+//! never loads a model: it depends on skin-learn without its model runtime.
 //!
 //! ```
 //! use skin_ros::{Outlet, RosOptions, RosSink, messages::Stamp};
@@ -37,26 +37,29 @@
 //! # Ok(()) }
 //! ```
 
-pub mod bridge;
+mod bridge;
 pub mod cdr;
-pub mod clock;
+mod clock;
 pub mod interfaces;
 #[cfg(feature = "mcap")]
-pub mod mcap_file;
+mod mcap_file;
 pub mod messages;
 mod outlets;
 pub mod topics;
 pub mod type_hash;
 #[cfg(feature = "zenoh")]
-pub mod zenoh_live;
+mod zenoh_live;
 
 pub use bridge::{Outlet, RosOptions, RosSink};
-pub use clock::RosTime;
+pub use clock::{ROS_TIME_END_NS, RosTime, StampError};
 #[cfg(feature = "mcap")]
 pub use mcap_file::McapOutlet;
 pub use outlets::{DEFAULT_DRAIN_S, OutletOptions, Outlets};
 #[cfg(feature = "zenoh")]
-pub use zenoh_live::{InFlight, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport};
+pub use zenoh_live::{
+    InFlight, MAX_DOMAIN, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport, check_endpoint,
+    check_endpoints,
+};
 
 /// What can go wrong publishing a skin to ROS 2.
 #[derive(Debug, thiserror::Error)]

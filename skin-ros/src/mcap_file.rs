@@ -23,14 +23,6 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every MCAP file.
 pub const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 
-/// Whether the file at `path` is an MCAP file (its first 8 bytes).
-pub fn is_mcap(path: &Path) -> bool {
-    let mut head = [0u8; 8];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|()| &head == MAGIC)
-}
-
 /// What [`McapOutlet`] writes in the header's `library` field, before its version.
 const LIBRARY: &str = "skin ";
 

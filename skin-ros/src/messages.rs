@@ -22,7 +22,7 @@ pub struct Stamp {
 
 impl Stamp {
     /// From nanoseconds, exactly; `None` past the end of ROS 2 time (`i32::MAX` seconds, in
-    /// 2038). [`crate::clock`] stamps a session's messages with it.
+    /// 2038). The session sink ([`crate::RosSink`]) stamps a session's messages with it.
     pub fn from_ns(ns: u64) -> Option<Stamp> {
         Some(Stamp {
             sec: i32::try_from(ns / 1_000_000_000).ok()?,
