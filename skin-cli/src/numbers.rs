@@ -1,6 +1,8 @@
 //! Numeric arguments, checked where clap parses them: finite, with their sign and range, and
 //! counts bounded before they size an allocation or a loop. The bound is in the message.
 
+use skin_core::image::{ImageSize, ImageSizeError};
+
 /// A real number in `[lo, hi]` (finite, so NaN and infinities are refused).
 pub fn within(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
     move |s| {
@@ -49,17 +51,12 @@ fn real(s: &str) -> Result<f64, String> {
     Ok(x)
 }
 
-/// Image sizes: `ROWSxCOLS`, each side 1 to 4096 pixels (an 8-bit image of 16 MB at most).
+/// Image sizes: `ROWSxCOLS`, each side 1 to [`ImageSize::MAX_SIDE`] pixels (an 8-bit image of
+/// 16 MB at most), read by the one parser the libraries use.
 pub fn image_size(s: &str) -> Result<(usize, usize), String> {
-    let (r, c) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| "must be ROWSxCOLS, e.g. 68x100".to_owned())?;
-    let side = |t: &str| count::<1, MAX_SIDE>(t).map_err(|e| format!("ROWSxCOLS: each side {e}"));
-    Ok((side(r)?, side(c)?))
+    let size: ImageSize = s.parse().map_err(|e: ImageSizeError| e.to_string())?;
+    Ok((size.rows, size.cols))
 }
-
-/// The largest side of an image the commands write, in pixels.
-pub const MAX_SIDE: u64 = 4096;
 
 #[cfg(test)]
 mod tests {

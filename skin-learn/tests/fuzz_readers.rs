@@ -88,7 +88,8 @@ proptest! {
 /// echoes a long line.
 mod session_config {
     use super::*;
-    use skin_learn::session::{MAX_IMAGE_SIDE, SessionConfig};
+    use skin_core::image::ImageSize;
+    use skin_learn::session::SessionConfig;
 
     const SESSION: &str = include_str!("../../fixtures/session/run.toml");
 
@@ -145,7 +146,7 @@ mod session_config {
                     prop_assert!((2..=100_000).contains(&c.baseline.frames));
                     prop_assert!(c.touch.threshold.is_finite() && c.touch.reclassify_growth >= 1.0);
                     let (rows, cols) = c.image_size().unwrap();
-                    let side = 1..=MAX_IMAGE_SIDE;
+                    let side = 1..=ImageSize::MAX_SIDE;
                     prop_assert!(side.contains(&rows) && side.contains(&cols));
                 }
                 Err(e) => prop_assert!(e.to_string().len() < 600, "{e}"),

@@ -42,10 +42,8 @@ use serde::Deserialize;
 use skin_control::hri::ClassGate;
 use skin_core::Polarity;
 use skin_core::Separation;
+use skin_core::image::ImageSize;
 use std::path::{Path, PathBuf};
-
-/// The largest side of a model's input image, pixels.
-pub const MAX_IMAGE_SIDE: usize = 4096;
 
 /// A session's configuration (see the [module](self) for the file).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -268,20 +266,15 @@ impl SessionConfig {
         Ok(config)
     }
 
-    /// The models' input size (rows, cols).
+    /// The models' input size (rows, cols); [`ImageSize::MODEL_DEFAULT`] unless the file says.
     pub fn image_size(&self) -> Result<(usize, usize), ConfigError> {
         let Some(s) = &self.image_size else {
-            return Ok((68, 100));
+            let d = ImageSize::MODEL_DEFAULT;
+            return Ok((d.rows, d.cols));
         };
-        let side = |t: &str| {
-            t.trim()
-                .parse::<usize>()
-                .ok()
-                .filter(|n| (1..=MAX_IMAGE_SIDE).contains(n))
-        };
-        match s.split_once(['x', 'X']).map(|(r, c)| (side(r), side(c))) {
-            Some((Some(r), Some(c))) => Ok((r, c)),
-            _ => Err(ConfigError::Value {
+        match s.parse::<ImageSize>() {
+            Ok(size) => Ok((size.rows, size.cols)),
+            Err(_) => Err(ConfigError::Value {
                 file: self.path.clone(),
                 field: "image_size",
                 value: s.chars().take(40).collect(),
