@@ -68,17 +68,6 @@ pub enum TouchClass {
     NonHand,
 }
 
-impl TouchClass {
-    /// The class of a classifier's class name: `hand` is a hand, any other name is not.
-    pub fn from_name(name: &str) -> TouchClass {
-        if name == "hand" {
-            TouchClass::Hand
-        } else {
-            TouchClass::NonHand
-        }
-    }
-}
-
 /// What the robot does for each class of touch in progress (a configuration's `[gate]`: e.g.
 /// hand -> comply, non_hand -> stop). A class without an action leaves the decision to the others.
 ///

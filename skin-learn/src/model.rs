@@ -42,12 +42,13 @@ use std::sync::Arc;
 /// What can go wrong with a model or its input.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    /// The file is not a model tract can load (corrupt, not ONNX, unsupported operator).
-    #[error("{path}: not a usable ONNX model: {why}")]
+    /// The file is not a model the runtime can load (corrupt, another format, an operator it
+    /// lacks).
+    #[error("{path}: not a usable model: {why}")]
     Load {
         /// The file.
         path: PathBuf,
-        /// tract's explanation.
+        /// The runtime's explanation.
         why: String,
     },
     /// The model's input or output is not what a tactile image classifier has.
@@ -75,6 +76,14 @@ pub enum ModelError {
     /// The model failed while running.
     #[error("running the model: {0}")]
     Run(String),
+    /// A model card's `hand_class:` names none of its classes.
+    #[error("hand_class {hand:?} is none of the classes ({})", classes.join(", "))]
+    HandClass {
+        /// The name given.
+        hand: String,
+        /// The classes the card lists.
+        classes: Vec<String>,
+    },
 }
 
 /// Hand or not, from one tactile image (thesis Ch. 4.3).
@@ -172,26 +181,40 @@ impl Classes {
 
     /// The classes a model card lists (none if it lists none). The hand class is the one its
     /// `hand_class:` field names, or else the first listed (as HandsNet's output 0 is the hand).
-    pub fn from_card(card: &ModelCard) -> Option<Classes> {
+    /// A `hand_class:` that names none of them is an error: a misspelt name would otherwise
+    /// leave the skin with no hand class, never segmenting and gating every touch as non-hand.
+    pub fn from_card(card: &ModelCard) -> Result<Option<Classes>, ModelError> {
         if card.classes.is_empty() {
-            return None;
+            return Ok(None);
         }
         let hand = match &card.hand {
-            Some(name) => card.classes.iter().position(|c| c == name),
-            None => Some(0),
+            Some(name) => match card.classes.iter().position(|c| c == name) {
+                Some(k) => k,
+                None => {
+                    return Err(ModelError::HandClass {
+                        hand: name.clone(),
+                        classes: card.classes.clone(),
+                    });
+                }
+            },
+            None => 0,
         };
-        Some(Classes::new(card.classes.iter().cloned(), hand))
+        Ok(Some(Classes::new(card.classes.iter().cloned(), Some(hand))))
     }
 
     /// The classes of a classifier of `outputs` outputs: its card's when they are as many,
     /// [`Classes::hand_or_not`] for two outputs without them, none otherwise (more classes
     /// than two need names).
-    pub fn for_outputs(card: Option<&ModelCard>, outputs: usize) -> Option<Classes> {
-        match card.and_then(Classes::from_card) {
+    pub fn for_outputs(card: Option<&ModelCard>, outputs: usize) -> Result<Option<Classes>, ModelError> {
+        let named = match card {
+            Some(card) => Classes::from_card(card)?,
+            None => None,
+        };
+        Ok(match named {
             Some(c) if c.len() == outputs => Some(c),
             _ if outputs == 2 => Some(Classes::hand_or_not()),
             _ => None,
-        }
+        })
     }
 
     /// The class of output `index`.
@@ -299,5 +322,41 @@ impl Models {
             (Some(size), _) | (None, Some(size)) => Ok(size),
             (None, None) => Ok(ImageSize::MODEL_DEFAULT),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use std::path::PathBuf;
+
+    fn card(front: &str) -> ModelCard {
+        ModelCard::parse(&format!("---\n{front}---\n"), PathBuf::from("m.md"))
+    }
+
+    #[test]
+    fn the_hand_class_comes_from_the_card() {
+        let c = Classes::from_card(&card("classes: object, palm, hand\nhand_class: hand\n"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(c.hand().map(Class::index), Some(2));
+        assert!(!c.get(0).unwrap().is_hand());
+        // Without hand_class the first listed is the hand, as HandsNet's output 0 is.
+        let c = Classes::from_card(&card("classes: hand, non_hand\n"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(c.hand().map(Class::name), Some("hand"));
+        assert_eq!(Classes::from_card(&card("model: x\n")).unwrap(), None);
+    }
+
+    #[test]
+    fn a_hand_class_that_is_no_class_is_refused() {
+        let err = Classes::from_card(&card("classes: hand, non_hand\nhand_class: Hand\n")).unwrap_err();
+        assert!(
+            matches!(&err, ModelError::HandClass { hand, .. } if hand == "Hand"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("hand, non_hand"), "{err}");
     }
 }

@@ -50,7 +50,7 @@ fn shipped_models() -> Models {
     let classifier = Classifier::load(&model("handsnet.onnx"), InputScale::Unit).unwrap();
     let segmenter = Segmenter::load(&model("handseg.onnx"), InputScale::Unit).unwrap();
     let card = skin_learn::card::ModelCard::for_model(&model("handsnet.onnx")).unwrap();
-    Models::new(classifier, Classes::from_card(&card).unwrap()).with_segmenter(segmenter)
+    Models::new(classifier, Classes::from_card(&card).unwrap().unwrap()).with_segmenter(segmenter)
 }
 
 #[test]

@@ -167,7 +167,11 @@ fn load_models(config: &SessionConfig) -> Result<Models, ConfigError> {
     let net = Classifier::load(&p, InputScale::for_model(&p))?;
     check_size(&p, net.input_size())?;
     let card = ModelCard::for_model(&p);
-    let Some(classes) = Classes::for_outputs(card.as_ref(), net.classes()) else {
+    let classes = Classes::for_outputs(card.as_ref(), net.classes()).map_err(|source| ConfigError::Card {
+        card: ModelCard::path_for(&p),
+        source,
+    })?;
+    let Some(classes) = classes else {
         return Err(ConfigError::UnnamedClasses {
             card: ModelCard::path_for(&p),
             model: p,

@@ -76,6 +76,14 @@ pub enum ConfigError {
         /// Where its card would be.
         card: PathBuf,
     },
+    /// A classifier's model card is inconsistent.
+    #[error("{}: {source}", card.display())]
+    Card {
+        /// The card.
+        card: PathBuf,
+        /// What is wrong.
+        source: ModelError,
+    },
     /// A link's map cannot be made.
     #[error("{}: link {link}: {source}", layout.display())]
     Map {
