@@ -143,6 +143,7 @@ fn arm_session(arm: &Arm, maps: Vec<TactileMap>, stitching: Stitching) -> Sessio
         .with_can(&arm.map)
         .unwrap()
         .with_stitching(stitching)
+        .unwrap()
 }
 
 fn bench(c: &mut Criterion) {

@@ -74,9 +74,8 @@ fn build(
         frame_images: false,
     };
     let mut session = Session::new(links, pipeline, options)?.with_source(&config.path);
-    // The stitching first, so that the bus map's dead taxels reach it too.
     if let Some(s) = stitching {
-        session = session.with_stitching(s);
+        session = session.with_stitching(s)?;
     }
     if let (Some(busmap), Some(busmap_path)) = (&busmap, &files.busmap) {
         session = session.with_can(busmap).map_err(|e| match e {

@@ -184,12 +184,7 @@ impl Session {
         }
         // Dead taxels are handled as Test B handles removed ones: each link's triangles are made
         // again without them (and made whole again for a recording that has them all).
-        for (k, c) in columns.iter().enumerate() {
-            self.pipeline.set_dead(k, &c.dead())?;
-        }
-        if let Some(st) = &mut self.setup.stitching {
-            st.set_dead(&columns.iter().map(Columns::dead).collect::<Vec<_>>())?;
-        }
+        self.set_dead(columns.iter().map(Columns::dead).collect())?;
         Ok(columns)
     }
 

@@ -20,9 +20,12 @@
 //! time per stage; [`Session::summary`] gives the run's summary (and its score against a
 //! [`Script`]).
 //!
-//! The code is split by concern: `build` (from a configuration: files, models, map cache),
-//! `input` (CAN frames, candump logs, recordings), `frame` (one frame through the path),
-//! `emit` (touch events, the gate), `stats`, `error`, `summary`.
+//! The code is split by concern: `config` (the run.toml file), `build` (from a configuration:
+//! files, models, map cache), `input` (CAN frames, candump logs, recordings; a bus map's
+//! uncovered taxels are declared dead in [`Session::with_can`]), `restart` (sync-counter
+//! restarts), `frame` (one frame through the path), `emit` (touch events, the gate), `stitching`
+//! (contacts across joints), `event` (what a sink receives), `sink` (the [`Sink`] trait and
+//! `skin run`'s writers), `stats`, `error`, `summary`.
 //!
 //! A robot stack's loop (frames in, events out) is the example on the [crate's first page](crate).
 //!
@@ -41,9 +44,7 @@ mod stats;
 mod stitching;
 mod summary;
 
-pub use config::{
-    BaselineConfig, ContactRule, MAX_IMAGE_SIDE, SessionConfig, SplitConfig, StitchConfig, TouchConfig,
-};
+pub use config::{BaselineConfig, ContactRule, SessionConfig, SplitConfig, StitchConfig, TouchConfig};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, GreyImage, MissingModule, ProcessedFrame};
 pub use sink::{Flow, JsonLines, PngImages, Sink};
@@ -127,6 +128,9 @@ struct Setup {
     source: PathBuf,
     /// What reading the layout file did ([`Session::from_config`]).
     layout_notes: Vec<skin_core::format::Note>,
+    /// Each link's dead taxels (no reading: on no bus, or no column of a recording), kept so a
+    /// stitching added later bridges them too.
+    dead: Vec<Vec<usize>>,
 }
 
 /// The per-frame pipeline of a whole skin, built once (see the [module](self)).
@@ -200,6 +204,7 @@ impl Session {
                 script: None,
                 source: PathBuf::from("frames"),
                 layout_notes: Vec::new(),
+                dead: Vec::new(),
             },
             pipeline,
             touch_events: Vec::new(),
@@ -219,22 +224,18 @@ impl Session {
     pub fn with_can(mut self, busmap: &BusMap) -> Result<Session, SessionError> {
         let ids: Vec<Vec<_>> = self.setup.links.iter().map(LinkSkin::ids).collect();
         let layout = LayoutFrames::new(busmap, &ids, Missing::HoldLast)?;
-        // Taxels on no bus never read: bridged like a recording's missing columns, on each link
-        // and on the stitched chain.
-        let mut deads = Vec::new();
-        for k in 0..self.setup.links.len() {
-            let dead: Vec<usize> = layout
-                .uncovered()
-                .iter()
-                .filter(|&&(l, _)| l == k)
-                .map(|&(_, i)| i)
-                .collect();
-            self.pipeline.set_dead(k, &dead)?;
-            deads.push(dead);
-        }
-        if let Some(st) = &mut self.setup.stitching {
-            st.set_dead(&deads)?;
-        }
+        // Taxels on no bus never read: bridged like a recording's missing columns.
+        let dead = (0..self.setup.links.len())
+            .map(|k| {
+                layout
+                    .uncovered()
+                    .iter()
+                    .filter(|&&(l, _)| l == k)
+                    .map(|&(_, i)| i)
+                    .collect()
+            })
+            .collect();
+        self.set_dead(dead)?;
         self.setup.can = Some(CanInput {
             interfaces: busmap.buses.iter().map(|b| b.interface.clone()).collect(),
             layout,
@@ -243,10 +244,29 @@ impl Session {
         Ok(self)
     }
 
-    /// Also searches contacts over the stitched chain ([`Event::AcrossJoint`]).
-    pub fn with_stitching(mut self, stitching: Stitching) -> Session {
+    /// Also searches contacts over the stitched chain ([`Event::AcrossJoint`]), bridging the
+    /// dead taxels already known (a bus map's, [`Session::with_can`]) whichever comes first.
+    /// Fails if the chain's maps do not fit the links' taxels.
+    pub fn with_stitching(mut self, mut stitching: Stitching) -> Result<Session, SessionError> {
+        if !self.setup.dead.is_empty() {
+            stitching.set_dead(&self.setup.dead)?;
+        }
         self.setup.stitching = Some(stitching);
-        self
+        Ok(self)
+    }
+
+    /// Declares each link's dead taxels (indices into its taxels; no reading, so contacts and
+    /// images bridge them as Test B bridges removed taxels): on every link's touch tracking and
+    /// on the stitched chain, now and when one is added.
+    fn set_dead(&mut self, dead: Vec<Vec<usize>>) -> Result<(), SessionError> {
+        for (k, d) in dead.iter().enumerate() {
+            self.pipeline.set_dead(k, d)?;
+        }
+        if let Some(st) = &mut self.setup.stitching {
+            st.set_dead(&dead)?;
+        }
+        self.setup.dead = dead;
+        Ok(())
     }
 
     /// Scores the finished touches against a script ([`Session::summary`]).
