@@ -10,7 +10,8 @@
 //! control experiments in simulation; `skin synth` generates labelled hand and non-hand
 //! contacts; `skin classify` tells hand touches from others with an ONNX model, `skin segment`
 //! labels the hand parts, `skin eval` scores either on a dataset; `skin run` does it all at once,
-//! from CAN traffic (a log or a live bus) to touch decisions. Run `skin help <command>` for details.
+//! from CAN traffic (a log or a live bus) to touch decisions, and `skin convert` turns a log or
+//! a recording into a rosbag2 MCAP file without the models. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;

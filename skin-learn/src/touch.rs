@@ -450,11 +450,9 @@ impl TouchPipeline {
     /// none), at model size: what `--frames` writes. Not used by the decisions.
     pub fn frame_image(&mut self, link: usize, pressures: &[f32]) -> Result<ImageView<'_, u8>, TouchError> {
         let threshold = self.options.threshold;
+        let links = self.links.len();
         let Some(l) = self.links.get_mut(link) else {
-            return Err(TouchError::Frame {
-                time: 0.0,
-                why: format!("no link {link}"),
-            });
+            return Err(TouchError::NoLink { link, links });
         };
         for (dst, &p) in l.scratch.iter_mut().zip(pressures) {
             *dst = if p > threshold { p } else { 0.0 };

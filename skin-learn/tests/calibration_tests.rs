@@ -326,9 +326,8 @@ mod properties {
     }
 }
 
-#[path = "support/elastic_probe.rs"]
-mod elastic_probe;
-use elastic_probe::{ElasticProbe, cylinder_patch};
+mod support;
+use support::elastic_probe::{ElasticProbe, cylinder_patch};
 
 /// Calibrates `probes` of `patch`: (taxels flagged, largest error of the others in mm, the
 /// flagged ones' ids).

@@ -3,7 +3,7 @@
 //! MCAP file ([`crate::McapOutlet`], feature `mcap`), a live Zenoh session
 //! ([`crate::ZenohOutlet`], feature `zenoh`), or anything a robot stack writes.
 //!
-//! Stamps ([`crate::clock`]): a frame's is its time on the input's clock (a candump log's or
+//! Stamps: a frame's is its time on the input's clock (a candump log's or
 //! the live bus's time since the epoch; a recording's time since its first frame), an event's
 //! is the session's first frame plus the event's time; with [`RosTime::Rebase`] both count from
 //! 0 at the first frame. A time ROS 2 cannot hold (past 2038 on the input's clock) is an error

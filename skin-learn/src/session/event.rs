@@ -206,8 +206,9 @@ pub struct ProcessedFrame<'a> {
 }
 
 impl<'a> ProcessedFrame<'a> {
-    /// A frame that `pipeline` has just processed (for a stack that drives a
-    /// [`TouchPipeline`](crate::touch::TouchPipeline) without a session, and for benches).
+    /// A frame that `pipeline` has just processed, for a stack that drives a
+    /// [`TouchPipeline`](crate::touch::TouchPipeline) without a session and still hands its
+    /// frames to a [`Sink`](super::Sink) (a ROS 2 publisher, say).
     pub fn new(
         time_us: u64,
         time: f64,

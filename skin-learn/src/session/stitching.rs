@@ -2,7 +2,7 @@
 //! of a poses file ([`PostureChain`]), contacts searched over the whole chain at the posture of
 //! each frame, and the stitched tactile image.
 
-use super::ConfigError as SessionError;
+use super::ConfigError;
 use skin_core::format::poses::Postures;
 use skin_core::image::ImageView;
 use skin_geom::{DeadTaxels, PostureChain, StitchOptions, TactileMap};
@@ -30,29 +30,29 @@ pub struct Stitching {
 impl Stitching {
     /// Stitches `maps` (chain order) at each posture of `postures`, whose links must be the
     /// maps' links in the same order; `source` names the poses in errors.
-    pub fn new(maps: &[TactileMap], postures: Postures, source: &Path) -> Result<Stitching, SessionError> {
+    pub fn new(maps: &[TactileMap], postures: Postures, source: &Path) -> Result<Stitching, ConfigError> {
         let names: Vec<&str> = maps.iter().map(|m| m.name.as_str()).collect();
         if postures.links != names {
-            return Err(SessionError::PoseLinks {
+            return Err(ConfigError::PoseLinks {
                 poses: source.to_owned(),
                 got: postures.links.clone(),
                 layout: names.iter().map(|s| s.to_string()).collect(),
             });
         }
         if postures.postures.is_empty() {
-            return Err(SessionError::NoPosture {
+            return Err(ConfigError::NoPosture {
                 poses: source.to_owned(),
             });
         }
         let chain = PostureChain::new(maps.to_vec(), postures, StitchOptions::default(), 1.0)
             .and_then(PostureChain::with_contacts)
             .map_err(|e| match e {
-                skin_geom::Error::Posture { posture, source: why } => SessionError::Stitch {
+                skin_geom::Error::Posture { posture, source: why } => ConfigError::Stitch {
                     poses: source.to_owned(),
                     posture,
                     source: *why,
                 },
-                e => SessionError::Geom(e),
+                e => ConfigError::Geom(e),
             })?;
         Ok(Stitching { chain, joined: false })
     }

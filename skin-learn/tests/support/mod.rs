@@ -2,6 +2,8 @@
 
 #![allow(dead_code, clippy::unwrap_used)] // each test file uses part of it; a failed set-up should stop the test
 
+pub mod elastic_probe;
+
 use skin_geom::{FlattenOptions, TactileMap};
 use std::path::{Path, PathBuf};
 
