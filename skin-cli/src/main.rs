@@ -17,7 +17,6 @@ mod busmap_cmd;
 mod calibrate_cmd;
 #[cfg(feature = "onnx")]
 mod classify_cmd;
-#[cfg(feature = "onnx")]
 mod convert_cmd;
 mod degrade_cmd;
 #[cfg(feature = "onnx")]
@@ -30,11 +29,8 @@ mod output;
 mod phri_cmd;
 mod reach_cmd;
 mod replay_cmd;
-#[cfg(feature = "onnx")]
 mod ros_out;
-#[cfg(feature = "onnx")]
 mod run_cmd;
-#[cfg(feature = "onnx")]
 mod run_sinks;
 #[cfg(feature = "onnx")]
 mod segment_cmd;
@@ -82,9 +78,7 @@ enum Command {
     Segment(segment_cmd::Args),
     #[cfg(feature = "onnx")]
     Eval(eval_cmd::Args),
-    #[cfg(feature = "onnx")]
     Run(run_cmd::Args),
-    #[cfg(feature = "onnx")]
     Convert(convert_cmd::Args),
 }
 
@@ -115,9 +109,7 @@ fn main() -> ExitCode {
         Command::Segment(args) => segment_cmd::run(args),
         #[cfg(feature = "onnx")]
         Command::Eval(args) => eval_cmd::run(args),
-        #[cfg(feature = "onnx")]
         Command::Run(args) => run_cmd::run(args),
-        #[cfg(feature = "onnx")]
         Command::Convert(args) => convert_cmd::run(args),
     };
     match result {

@@ -39,7 +39,6 @@ pub fn install_interrupt_handler() {
 }
 
 /// Says that the command's files are in place, for the interrupt handler's last line.
-#[cfg(feature = "onnx")] // only the commands that run models use it
 pub fn outputs_written() {
     WRITTEN.store(true, Ordering::SeqCst);
 }
@@ -60,7 +59,6 @@ pub fn open_dir(dir: &Path, command: &str, force: bool, inputs: &Inputs) -> anyh
 }
 
 /// Refuses the output folder before any work, as [`open_dir`] would.
-#[cfg(feature = "onnx")] // only the commands that run models use it
 pub fn precheck_dir(dir: &Path, command: &str, force: bool) -> anyhow::Result<()> {
     OutputDir::precheck(dir, command, force).map_err(force_hint)
 }

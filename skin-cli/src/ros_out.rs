@@ -4,9 +4,8 @@
 use crate::output::Inputs;
 use anyhow::{Context, Result};
 use skin_core::LinkSkin;
-use skin_core::output::Staged;
 use skin_ros::{Outlet, OutletOptions, RosOptions, RosSink, RosTime};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// What the ROS stamps count from (`--ros-time`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -28,7 +27,7 @@ pub struct RosArgs {
     /// time writes a path.
     #[cfg(feature = "mcap")]
     #[arg(long, value_name = "FILE.mcap")]
-    pub mcap: Option<PathBuf>,
+    pub mcap: Option<std::path::PathBuf>,
     /// Also publish live on Zenoh as a ROS 2 node would with rmw_zenoh, connecting to this
     /// endpoint (an rmw_zenoh router: tcp/127.0.0.1:7447; repeat for more). One that does not
     /// answer is retried in the background; frames never wait for the network (frame messages
@@ -174,7 +173,8 @@ impl Outlet for Outlets {
 impl Outlets {
     /// Finishes the MCAP file without putting it in place (it moves with the output folder),
     /// and says how many messages it holds; none without --mcap. The Zenoh session goes on.
-    pub fn stage_mcap(&mut self) -> Result<Option<(Staged, u64)>> {
+    #[cfg(feature = "mcap")]
+    pub fn stage_mcap(&mut self) -> Result<Option<(skin_core::output::Staged, u64)>> {
         Ok(self.0.stage_mcap()?)
     }
 

@@ -297,7 +297,6 @@ pub(crate) fn interfaces(map: &BusMap, given: &[String]) -> Vec<String> {
 /// Live frames for `skin run`: reads `names` (default: the bus map's interfaces) and hands every
 /// item of the acquisition, and the assembler's counts after each poll, to `each`, until Ctrl-C,
 /// `duration` seconds, or `each` returns false.
-#[cfg(feature = "onnx")] // only the commands that run models use it
 pub(crate) fn each_live(
     map: &BusMap,
     names: &[String],
