@@ -8,6 +8,7 @@
 //! `tactile_image.png` in the current folder.
 
 use skin_core::format::{load_link, recording};
+use skin_core::image::{ImageSize, ImageView};
 use skin_geom::{FlattenOptions, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 use std::path::PathBuf;
 
@@ -20,7 +21,12 @@ fn main() -> anyhow::Result<()> {
     // contact's peak, erosion/dilation, resized to the 68 x 100 input of the hand classifier).
     let map = TactileMap::flatten(&link, &FlattenOptions::default())?;
     let raster = Rasterizer::new(&map, Grid::StepMm(1.0))?;
-    let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((68, 100)))?;
+    let mut imager = TactileImager::new(
+        raster,
+        Normalisation::ContactMax,
+        true,
+        Some(ImageSize::MODEL_DEFAULT),
+    )?;
 
     // Readings come in the recording's taxel order; this fixture records them in layout order.
     assert_eq!(rec.taxel_ids, link.ids());
@@ -37,8 +43,8 @@ fn main() -> anyhow::Result<()> {
             best = (peak, grey);
         }
     }
-    let (rows, cols) = imager.output_size();
-    skin_geom::write_png("tactile_image.png".as_ref(), &best.1, rows, cols)?;
+    let image = ImageView::new(&best.1, imager.output_size())?;
+    skin_geom::write_png("tactile_image.png".as_ref(), image)?;
     println!(
         "{} frames; the strongest touch ({:.0} counts) is in tactile_image.png",
         rec.frames.len(),

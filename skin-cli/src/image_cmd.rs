@@ -4,6 +4,7 @@ use crate::shared::{load_inputs, load_map};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
+use skin_core::image::{ImageSize, ImageView};
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager};
 use std::path::PathBuf;
 
@@ -94,10 +95,14 @@ pub fn run(args: Args) -> Result<()> {
         .iter()
         .map(|m| {
             let raster = Rasterizer::new(m, grid).with_context(|| format!("{}", args.map.display()))?;
-            Ok(TactileImager::new(raster, norm, args.morph, args.size)?)
+            let size = args.size.map(|(rows, cols)| ImageSize { rows, cols });
+            Ok(TactileImager::new(raster, norm, args.morph, size)?)
         })
         .collect::<Result<Vec<_>>>()?;
-    let (out_rows, out_cols) = imagers[0].output_size();
+    let ImageSize {
+        rows: out_rows,
+        cols: out_cols,
+    } = imagers[0].output_size();
     let total: usize = inputs.iter().map(|i| i.rec.frames.len()).sum();
     for input in &inputs {
         std::fs::create_dir_all(&input.dir)
@@ -121,13 +126,15 @@ pub fn run(args: Args) -> Result<()> {
         |(imagers, pressures), &(i, f)| -> Result<()> {
             let input = &inputs[i];
             let imager = &mut imagers[input.map];
-            let (rows, cols) = imager.output_size();
+            let size = imager.output_size();
             let pressures = &mut pressures[..imager.raster().taxel_count()];
             let values = &input.rec.frames[f].values;
             input.columns.gather(values, threshold, pressures);
             let grey = imager.process(pressures)?;
             let path = input.dir.join(&input.names[f]);
-            let png = skin_geom::encode_png(grey, rows, cols)
+            let png = ImageView::new(grey, size)
+                .map_err(anyhow::Error::from)
+                .and_then(|image| Ok(skin_geom::encode_png(image)?))
                 .with_context(|| format!("cannot encode {}", input.names[f]))?;
             std::fs::write(&path, &png)
                 .with_context(|| format!("cannot write {} in {}", input.names[f], args.output.display()))?;

@@ -94,6 +94,10 @@ pub(crate) fn model_imagers(
     size: (usize, usize),
     map_path: &Path,
 ) -> Result<Vec<TactileImager>> {
+    let size = skin_core::image::ImageSize {
+        rows: size.0,
+        cols: size.1,
+    };
     let imager = |m| TactileImager::for_model(m, 1.0, size).with_context(|| map_path.display().to_string());
     maps.iter().map(imager).collect()
 }

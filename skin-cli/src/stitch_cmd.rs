@@ -4,6 +4,7 @@
 use crate::shared::read_postures;
 use anyhow::{Context, Result};
 use skin_core::format::recording;
+use skin_core::image::ImageView;
 use skin_core::{Columns, LinkSkin, Recording};
 use skin_geom::{
     DeadTaxels, FlattenOptions, PostureChain, StitchOptions, TactileMap, dilate_disk, erode_disk, write_png,
@@ -189,13 +190,20 @@ fn write_frames(
         }
         chain.set_frame(frame.time, &pressures, threshold)?;
         let image = chain.image()?;
-        let (rows, cols) = (image.size().rows, image.size().cols);
+        let size = image.size();
+        let (rows, cols) = (size.rows, size.cols);
         let png = dir.join(format!("{file}.png"));
         if args.morph {
             let morphed = dilate_disk(&erode_disk(image.pixels(), rows, cols, 2), rows, cols, 4);
-            write_png(&png, &morphed, rows, cols)
+            // Erosion and dilation keep the image's size.
+            ImageView::new(&morphed, size)
+                .map_err(|e| skin_geom::Error::Output {
+                    path: png.display().to_string(),
+                    message: e.to_string(),
+                })
+                .and_then(|morphed| write_png(&png, morphed))
         } else {
-            write_png(&png, image.pixels(), rows, cols)
+            write_png(&png, image)
         }
         .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
     }

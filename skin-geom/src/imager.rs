@@ -4,6 +4,7 @@ use crate::morphology::Morphology;
 use crate::raster::{Grid, Normalisation, Rasterizer};
 use crate::resize::Resizer;
 use crate::{Result, TactileMap};
+use skin_core::image::ImageSize;
 
 /// The whole per-frame image path of one link, with its buffers: interpolate, convert to grey,
 /// optionally erode (disk r = 2) then dilate (disk r = 4) (thesis Ch. 4.5), optionally resize
@@ -27,19 +28,19 @@ impl TactileImager {
     pub const DILATION_RADIUS: usize = 4;
 
     /// An imager for `raster`, with grey normalisation `norm`, optional erosion/dilation, and an
-    /// optional output size (rows, cols).
+    /// optional output size (the raster's own without one).
     pub fn new(
         raster: Rasterizer,
         norm: Normalisation,
         morphology: bool,
-        size: Option<(usize, usize)>,
+        size: Option<ImageSize>,
     ) -> Result<Self> {
         let (rows, cols) = (raster.rows(), raster.cols());
         let resizer = match size {
-            Some((r, c)) if (r, c) != (rows, cols) => Some(Resizer::new(rows, cols, r, c)?),
+            Some(s) if (s.rows, s.cols) != (rows, cols) => Some(Resizer::new(rows, cols, s.rows, s.cols)?),
             _ => None,
         };
-        let out_len = size.map_or(rows * cols, |(r, c)| r * c);
+        let out_len = size.map_or(rows * cols, ImageSize::pixels);
         Ok(TactileImager {
             morphology: morphology.then(|| Morphology::new(rows, cols, Self::DILATION_RADIUS)),
             pressure: vec![0.0; rows * cols],
@@ -54,8 +55,8 @@ impl TactileImager {
 
     /// The image a hand classifier or segmenter reads (thesis Ch. 4.5, App. C): `map` on a grid
     /// of `step_mm` millimetres (1 for the shipped models), grey by the contact's own maximum,
-    /// eroded then dilated, resized to `size` (rows, cols; 68 x 100 for HandsNet).
-    pub fn for_model(map: &TactileMap, step_mm: f64, size: (usize, usize)) -> Result<Self> {
+    /// eroded then dilated, resized to `size` (68 x 100 for HandsNet).
+    pub fn for_model(map: &TactileMap, step_mm: f64, size: ImageSize) -> Result<Self> {
         TactileImager::new(
             Rasterizer::new(map, Grid::StepMm(step_mm))?,
             Normalisation::ContactMax,
@@ -69,12 +70,13 @@ impl TactileImager {
         &self.raster
     }
 
-    /// Output image size (rows, cols).
-    pub fn output_size(&self) -> (usize, usize) {
-        match &self.resizer {
+    /// Output image size.
+    pub fn output_size(&self) -> ImageSize {
+        let (rows, cols) = match &self.resizer {
             Some(r) => r.output_size(),
             None => (self.raster.rows(), self.raster.cols()),
-        }
+        };
+        ImageSize { rows, cols }
     }
 
     /// Processes one frame and returns the grey image, row-major, of [`Self::output_size`].

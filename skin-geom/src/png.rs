@@ -2,21 +2,21 @@
 
 use crate::{Error, Result};
 use image::ImageEncoder as _;
+use skin_core::image::ImageView;
 
-/// Encodes a row-major 8-bit grey image of `rows x cols` pixels as PNG.
-pub fn encode_png(grey: &[u8], rows: usize, cols: usize) -> Result<Vec<u8>> {
-    let bad = || Error::Length {
-        what: "grey values for the image's pixels",
-        got: grey.len(),
-        expected: rows.saturating_mul(cols),
+/// Encodes an 8-bit grey image as PNG.
+pub fn encode_png(image: ImageView<'_, u8>) -> Result<Vec<u8>> {
+    let size = image.size();
+    let grey = image.pixels();
+    // A view's sides are at most ImageSize::MAX_SIDE, far inside u32.
+    let side = |n: usize| {
+        u32::try_from(n).map_err(|_| Error::Length {
+            what: "pixels on an image's side",
+            got: n,
+            expected: u32::MAX as usize,
+        })
     };
-    if grey.len() != rows * cols {
-        return Err(bad());
-    }
-    let (w, h) = (
-        u32::try_from(cols).map_err(|_| bad())?,
-        u32::try_from(rows).map_err(|_| bad())?,
-    );
+    let (w, h) = (side(size.cols)?, side(size.rows)?);
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(grey, w, h, image::ExtendedColorType::L8)
@@ -27,9 +27,9 @@ pub fn encode_png(grey: &[u8], rows: usize, cols: usize) -> Result<Vec<u8>> {
     Ok(png)
 }
 
-/// Writes a row-major 8-bit grey image of `rows x cols` pixels as a PNG file.
-pub fn write_png(path: &std::path::Path, grey: &[u8], rows: usize, cols: usize) -> Result<()> {
-    std::fs::write(path, encode_png(grey, rows, cols)?).map_err(|e| Error::Output {
+/// Writes an 8-bit grey image as a PNG file.
+pub fn write_png(path: &std::path::Path, image: ImageView<'_, u8>) -> Result<()> {
+    std::fs::write(path, encode_png(image)?).map_err(|e| Error::Output {
         path: path.display().to_string(),
         message: e.to_string(),
     })

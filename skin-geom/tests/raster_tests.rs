@@ -238,8 +238,9 @@ fn the_imager_runs_the_whole_path_and_a_touch_stays_where_it_was() {
     let map = arm();
     let raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
     let (rows, cols) = (raster.rows(), raster.cols());
-    let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some((68, 100))).unwrap();
-    assert_eq!(imager.output_size(), (68, 100));
+    let size = skin_core::image::ImageSize::MODEL_DEFAULT;
+    let mut imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(size)).unwrap();
+    assert_eq!((imager.output_size().rows, imager.output_size().cols), (68, 100));
     // Press the taxels near one end of the arm.
     let pressures: Vec<f32> = map
         .positions

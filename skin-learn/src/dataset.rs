@@ -16,6 +16,7 @@
 //! touching with its fingertips only.
 
 use crate::synth::Sample;
+use skin_core::image::{ImageSize, ImageView};
 use skin_core::text::{Gzip, Input, Lines};
 use skin_core::{Frame, Recording, TaxelId};
 use std::fmt::Write as _;
@@ -263,10 +264,12 @@ impl DatasetWriter {
         let (rows, cols) = self.size;
         let png = |name: &str, pixels: &[u8]| {
             let path = self.dir.join(name).join(&file);
-            skin_geom::write_png(&path, pixels, rows, cols).map_err(|e| DatasetError::Io {
+            let io = |message: String| DatasetError::Io {
                 path: path.clone(),
-                message: e.to_string(),
-            })
+                message,
+            };
+            let image = ImageView::new(pixels, ImageSize { rows, cols }).map_err(|e| io(e.to_string()))?;
+            skin_geom::write_png(&path, image).map_err(|e| io(e.to_string()))
         };
         png("images", &s.image)?;
         if s.kind.is_hand() {

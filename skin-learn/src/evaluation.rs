@@ -13,6 +13,7 @@ use crate::segmentation_diagnostics::{
 };
 use crate::{Error, Result};
 use skin_core::format::recording;
+use skin_core::image::ImageSize;
 use skin_core::{Recording, TaxelId};
 use skin_geom::{BlindSpots, Decimation, Grid, Rasterizer, TactileImager, TactileMap};
 use std::collections::BTreeMap;
@@ -418,7 +419,14 @@ pub fn robustness(
         let mut sums = [0.0f64; 5];
         for seed in 0..patterns as u64 {
             let degraded = make(seed)?;
-            let mut imager = TactileImager::for_model(&degraded, 1.0, size)?;
+            let mut imager = TactileImager::for_model(
+                &degraded,
+                1.0,
+                ImageSize {
+                    rows: size.0,
+                    cols: size.1,
+                },
+            )?;
             let cols = columns_of(&frames, &degraded.ids, &frames_path, "a degraded map")?;
             let masks = segmenting.then_some(truths_full.as_slice());
             let (images, truths, kept, before) = degraded_images(&mut imager, &frames, &cols, test, masks)?;

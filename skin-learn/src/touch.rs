@@ -320,13 +320,10 @@ fn search_and_image(
             source,
         })?
         .with_separation(options.separation);
-    let imager =
-        TactileImager::for_model(map, options.step_mm, (size.rows, size.cols)).map_err(|source| {
-            TouchError::Map {
-                link: map.name.clone(),
-                source,
-            }
-        })?;
+    let imager = TactileImager::for_model(map, options.step_mm, size).map_err(|source| TouchError::Map {
+        link: map.name.clone(),
+        source,
+    })?;
     Ok((finder, imager))
 }
 
@@ -410,8 +407,8 @@ impl TouchPipeline {
             link: l.name.clone(),
             source,
         })?;
-        let (rows, cols) = l.imager.output_size();
-        (l.finder, l.imager) = search_and_image(&map, &self.options, ImageSize { rows, cols })?;
+        let size = l.imager.output_size();
+        (l.finder, l.imager) = search_and_image(&map, &self.options, size)?;
         l.dead = dead.indices().to_vec();
         Ok(())
     }
@@ -467,7 +464,7 @@ impl TouchPipeline {
             time: 0.0,
             why: format!(
                 "link {}: an image of {pixels} pixels is not {} x {}",
-                l.name, size.0, size.1
+                l.name, size.rows, size.cols
             ),
         })
     }
@@ -478,7 +475,11 @@ impl TouchPipeline {
     pub fn last_pressure_image(&self, link: usize) -> Option<ImageView<'_, f32>> {
         let l = self.links.get(link)?;
         let raster = l.imager.raster();
-        view(l.imager.pressure_image(), (raster.rows(), raster.cols()))
+        let size = ImageSize {
+            rows: raster.rows(),
+            cols: raster.cols(),
+        };
+        view(l.imager.pressure_image(), size)
     }
 
     /// The contacts of `link` in the last frame processed, largest total pressure first.
@@ -646,7 +647,8 @@ impl TouchPipeline {
             return Ok(());
         };
         let t0 = Instant::now();
-        let (rows, cols) = link.imager.output_size();
+        let size = link.imager.output_size();
+        let (rows, cols) = (size.rows, size.cols);
         let image = link
             .imager
             .process(&link.peak_pressures)
@@ -654,7 +656,7 @@ impl TouchPipeline {
                 link: link.name.clone(),
                 source,
             })?;
-        let image = ImageView::new(image, ImageSize { rows, cols }).map_err(|e| TouchError::Frame {
+        let image = ImageView::new(image, size).map_err(|e| TouchError::Frame {
             time,
             why: format!("link {}: {e}", link.name),
         })?;
@@ -732,8 +734,7 @@ impl TouchPipeline {
     }
 }
 
-/// A view of an imager's pixels at `(rows, cols)`; none if they do not fill it (nothing imaged
-/// yet).
-fn view<T>(pixels: &[T], (rows, cols): (usize, usize)) -> Option<ImageView<'_, T>> {
-    ImageView::new(pixels, ImageSize { rows, cols }).ok()
+/// A view of an imager's pixels at `size`; none if they do not fill it (nothing imaged yet).
+fn view<T>(pixels: &[T], size: ImageSize) -> Option<ImageView<'_, T>> {
+    ImageView::new(pixels, size).ok()
 }

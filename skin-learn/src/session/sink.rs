@@ -119,8 +119,15 @@ impl PngImages {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)?;
         }
-        skin_geom::write_png(&path, &image.pixels, image.rows, image.cols)
-            .map_err(|e| std::io::Error::other(format!("{relative}: {e}")))
+        let Some(view) = image.view() else {
+            return Err(std::io::Error::other(format!(
+                "{relative}: {} pixels do not fill a {}x{} image",
+                image.pixels.len(),
+                image.rows,
+                image.cols
+            )));
+        };
+        skin_geom::write_png(&path, view).map_err(|e| std::io::Error::other(format!("{relative}: {e}")))
     }
 }
 

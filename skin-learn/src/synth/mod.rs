@@ -181,7 +181,13 @@ impl Synthesizer {
             }
         }
         let (lo, hi) = map.bounds();
-        let imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(options.image_size))?;
+        let (rows, cols) = options.image_size;
+        let imager = TactileImager::new(
+            raster,
+            Normalisation::ContactMax,
+            true,
+            Some(skin_core::image::ImageSize { rows, cols }),
+        )?;
         Ok(Synthesizer {
             options,
             points: map.points.clone(),
