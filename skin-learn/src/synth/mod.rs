@@ -181,13 +181,11 @@ impl Synthesizer {
             }
         }
         let (lo, hi) = map.bounds();
-        let (rows, cols) = options.image_size;
-        let imager = TactileImager::new(
-            raster,
-            Normalisation::ContactMax,
-            true,
-            Some(skin_core::image::ImageSize { rows, cols }),
-        )?;
+        let size = skin_core::image::ImageSize {
+            rows: options.image_size.0,
+            cols: options.image_size.1,
+        };
+        let imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(size))?;
         Ok(Synthesizer {
             options,
             points: map.points.clone(),
