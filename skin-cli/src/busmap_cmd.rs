@@ -5,8 +5,9 @@ use skin_can::{BusMap, WireFormat};
 use skin_core::LinkSkin;
 use std::path::PathBuf;
 
-/// Write a bus map (TOML) for a layout whose taxel ids follow the Cyskin convention
-/// (module << 4 | channel): modules in increasing order, split into consecutive blocks over the
+/// Write a bus map (TOML) for a layout whose taxel ids follow the Cyskin convention.
+///
+/// Taxel ids are module << 4 | channel. Modules in increasing order, split into consecutive blocks over the
 /// buses can0, can1, ..., addressed from 0 on each bus. Prints it, or writes it with -o.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]

@@ -10,8 +10,9 @@ use skin_learn::calibration::{
 };
 use std::path::PathBuf;
 
-/// Fit every taxel's position and normal from probe contacts (thesis Ch. 7): per taxel a plane
-/// through the contacts that made it answer, then the 2D Gaussian of its responses fitted by
+/// Fit every taxel's position and normal from probe contacts (thesis Ch. 7).
+///
+/// Per taxel a plane through the contacts that made it answer, then the 2D Gaussian of its responses fitted by
 /// Newton-Raphson; the centre is the taxel's position, the plane's normal its normal.
 ///
 /// PROBES.csv has the header `contact,x_m,y_m,z_m,taxel,response`: one row per (contact, taxel
@@ -61,10 +62,11 @@ enum LayoutFormat {
     Cyskin,
 }
 
-/// Simulate a probe calibrating a skin: random presses of about 5 N over the layout, each taxel
-/// answering gain * exp(-d^2 / (2 spread^2)) of 80 % of full scale, d its distance to the contact,
-/// plus noise; only answers above 3 noise sigmas are kept. Writes the dataset `skin calibrate`
-/// reads. Deterministic for a given --seed.
+/// Simulate a probe calibrating a skin: the dataset `skin calibrate` reads.
+///
+/// Random presses of about 5 N over the layout, each taxel answering gain * exp(-d^2 / (2
+/// spread^2)) of 80 % of full scale, d its distance to the contact, plus noise; only answers
+/// above 3 noise sigmas are kept. Deterministic for a given --seed.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct ProbeSimArgs {

@@ -5,7 +5,9 @@ use anyhow::{Result, bail};
 use skin_learn::card::ModelCard;
 use skin_learn::classify::Classifier;
 
-/// Classify tactile images with an ONNX model (HandsNet: hand or not), run by tract on the CPU.
+/// Classify tactile images as hand or not with an ONNX model (tract, on the CPU).
+///
+/// HandsNet is the shipped model.
 ///
 /// INPUTS are 8-bit grey PNG images of the model's input size (68 x 100 for HandsNet: make
 /// them with `skin image --size 68x100`), or, with --map, recordings whose every frame is

@@ -7,8 +7,9 @@ use skin_can::Traffic;
 use skin_learn::session::{Session, SessionConfig};
 use std::path::PathBuf;
 
-/// Convert a candump log or a raw recording into ROS 2 messages, offline, without the models:
-/// each link's pressures (PointCloud2, every frame after the baseline), the contacts
+/// Convert a candump log or a raw recording into ROS 2 messages, without the models.
+///
+/// Offline: each link's pressures (PointCloud2, every frame after the baseline), the contacts
 /// (skin_msgs/Contacts and RViz arrows) and the touch events (appeared, released, incomplete:
 /// no decisions without a classifier). `skin run --mcap` gives the same with the decisions.
 ///

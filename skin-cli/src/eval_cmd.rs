@@ -8,10 +8,10 @@ use skin_learn::evaluation::{Model, Robustness, robustness, score, taxel_truth, 
 use skin_learn::segment::Segmenter;
 use std::path::PathBuf;
 
-/// Score an ONNX classifier (HandsNet) or hand-part segmenter on a dataset from `skin synth`
-/// (or your own in the same layout).
+/// Score an ONNX classifier or hand-part segmenter on a dataset from `skin synth`.
 ///
-/// The test set is the last --test-fraction of the subjects (unseen people, as in the thesis;
+/// The classifier: HandsNet or your own; the dataset: `skin synth`'s, or your own in the same
+/// layout. The test set is the last --test-fraction of the subjects (unseen people, as in the thesis;
 /// the training script splits the same way); 1 or 0 scores every sample. A classifier gets Tables
 /// 4.3/4.4: accuracy, confusion matrix, accuracy per interaction or contact, and how the hard
 /// cases (partly off the skin, fingertips only) fare. A segmenter (output [N, classes, H, W]) is

@@ -28,10 +28,9 @@ pub struct Common {
     duration: Option<f64>,
 }
 
-/// Read skin traffic live from SocketCAN interfaces, assemble frames and print a status line
-/// every second (frames, complete and partial, modules missing).
+/// Read skin traffic live from SocketCAN: frames assembled, a status line every second.
 ///
-/// Linux only (SocketCAN). skin16 skins need a master sending the sync: pass --master unless
+/// The status line gives the frames, complete and partial, and the modules missing. Linux only (SocketCAN). skin16 skins need a master sending the sync: pass --master unless
 /// another node does. An interface that goes down (unplugged adapter, bus-off) is reported and
 /// reopened every half second. Stop with Ctrl-C or --duration; the summary is printed then.
 #[derive(clap::Args)]
@@ -47,10 +46,10 @@ pub struct LiveArgs {
     output: Option<PathBuf>,
 }
 
-/// Record skin traffic from SocketCAN interfaces to a candump log (the form can-utils'
-/// `candump -l` and python-can write; replay it with `skin replay`).
+/// Record skin traffic from SocketCAN interfaces to a candump log.
 ///
-/// Linux only (SocketCAN), kernel receive timestamps. With --master, the skin16 sync is sent on
+/// The log has the form can-utils' `candump -l` and python-can write; replay it with `skin
+/// replay`. Linux only (SocketCAN), kernel receive timestamps. With --master, the skin16 sync is sent on
 /// every interface every --period-ms and recorded too (marked T). Frames are written as they
 /// arrive; a summary of the assembled frames is printed at the end (Ctrl-C or --duration).
 #[derive(clap::Args)]

@@ -51,7 +51,7 @@ use clap::{CommandFactory as _, FromArgMatches as _, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "skin", version, about = "Large-area robot skin: tactile maps and tactile images", long_about = None)]
+#[command(name = "skin", version, about = "Large-area robot skin: from CAN traffic to tactile images, touch decisions and ROS 2", long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

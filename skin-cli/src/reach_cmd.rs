@@ -5,10 +5,9 @@ use rayon::prelude::*;
 use skin_control::sim::{ReachExperiment, ReachOptions, Scene, Trial, stats};
 use std::path::PathBuf;
 
-/// Reach goals behind padded obstacles with skin feedback, in a headless simulation, and print
-/// a table like the thesis' Tables 8.1/8.2.
+/// Reach goals behind padded obstacles with skin feedback, in a headless simulation.
 ///
-/// Every goal of the scene is tried from every starting posture (--trials per goal). A trial
+/// Prints a table like the thesis' Tables 8.1/8.2. Every goal of the scene is tried from every starting posture (--trials per goal). A trial
 /// succeeds when the hand is within the scene's tolerance (default 5 mm) of the goal without any
 /// contact force above --threshold; it fails by "force" (threshold exceeded: stopped at once),
 /// "stall" (no 2 mm of progress for the scene's stall_time, a local minimum) or "timeout".

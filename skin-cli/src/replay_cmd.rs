@@ -10,10 +10,9 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Replay a candump log through a bus map: assemble one frame of the whole skin per cycle and say
-/// what was missing.
+/// Replay a candump log through a bus map into skin frames, and say what was missing.
 ///
-/// LOG is a candump log (can-utils `candump -l` or python-can; gzip-compressed too), of any
+/// One frame of the whole skin is assembled per cycle. LOG is a candump log (can-utils `candump -l` or python-can; gzip-compressed too), of any
 /// length: it is read as it goes, the CSV written row by row. MAP is the bus map (TOML: wire
 /// format, buses, modules, taxel ids per slot). skin16 traffic is cut into cycles at its sync
 /// frames; icub8 traffic, which has no sync, into time windows of --window-ms.

@@ -21,8 +21,9 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Run the whole pipeline on a recording or a live bus: frames, contacts, tactile images,
-/// hand / non-hand decisions and hand parts, per link.
+/// Run the whole pipeline on a log, a recording or a live bus: touches and decisions.
+///
+/// Frames, contacts, tactile images, hand / non-hand decisions and hand parts, per link.
 ///
 /// CONFIG is a TOML file naming the skin and the models (paths relative to it):
 ///

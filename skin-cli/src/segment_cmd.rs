@@ -5,10 +5,9 @@ use skin_learn::parts::{Shares, part_contacts};
 use skin_learn::segment::Segmenter;
 use std::path::{Path, PathBuf};
 
-/// Segment tactile images into hand parts (thumb, index, middle, ring, pinkie, palm) with an
-/// ONNX model run by tract on the CPU.
+/// Segment tactile images into hand parts with an ONNX model (tract, on the CPU).
 ///
-/// INPUTS are 8-bit grey PNG images of the model's input size (68 x 100), or, with --map,
+/// The parts: thumb, index, middle, ring, pinkie, palm. INPUTS are 8-bit grey PNG images of the model's input size (68 x 100), or, with --map,
 /// recordings whose frames are imaged by the real pipeline first (frames with no reading above
 /// --threshold are skipped). Each result is written to DIR as a colour PNG (thumb red, index
 /// green, middle yellow, ring blue, pinkie orange, palm purple; black: no contact) and a line

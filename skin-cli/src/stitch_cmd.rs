@@ -11,7 +11,7 @@ use skin_geom::{
 };
 use std::path::{Path, PathBuf};
 
-/// Stitch the tactile maps of a chain of links into one image, posture by posture (thesis Ch. 6).
+/// Stitch a chain of links' tactile maps into one image per posture (thesis Ch. 6).
 ///
 /// ARM.json is a layout of one link per element of the chain, in chain order (a skin-layout/1,
 /// or a URDF's tactile sensors in the order their links first carry one); each link
