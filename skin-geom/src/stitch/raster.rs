@@ -5,6 +5,7 @@ use crate::stitch::{BridgeTriangle, Placement};
 use crate::tactile_map::TactileMap;
 use crate::{ChainError, Error, Result};
 use nalgebra::{Point2, Vector2};
+use std::ops::Range;
 
 /// The most pixels a stitched canvas may have (its lookup holds two indices a pixel).
 const MAX_CANVAS_PIXELS: usize = 50_000_000;
@@ -148,23 +149,16 @@ impl StitchedRasterizer {
 
     /// The canvas pixels that link `k`, placed by `p`, shows: each takes the link pixel under it.
     fn look_up_link(&mut self, k: usize, p: &Placement) {
-        let (rows, cols) = (self.rows, self.cols);
-        let (lo, hi) = (self.corner.x, self.corner.y);
+        let cols = self.cols;
         let r = &self.links[k];
         // Row 0 is the top (largest y), as in the link rasters.
         let origin = r.pixel_centre(0, 0);
         // Only the canvas pixels under this link's placed raster.
         let (blo, bhi) = placed_box(r, p, self.step / 2.0);
-        let c0 = (((blo.x - lo) / self.step).floor().max(0.0) as usize).min(cols);
-        let c1 = (((bhi.x - lo) / self.step).ceil().max(0.0) as usize).min(cols);
-        let r0 = (((hi - bhi.y) / self.step).floor().max(0.0) as usize).min(rows);
-        let r1 = (((hi - blo.y) / self.step).ceil().max(0.0) as usize).min(rows);
-        for row in r0..r1 {
-            for col in c0..c1 {
-                let centre = Point2::new(
-                    lo + (col as f64 + 0.5) * self.step,
-                    hi - (row as f64 + 0.5) * self.step,
-                );
+        let (row_span, col_span) = self.pixels_over(blo, bhi);
+        for row in row_span {
+            for col in col_span.clone() {
+                let centre = self.pixel_centre(row, col);
                 let q = p.invert(&centre);
                 let (c, rr) = (
                     ((q.x - origin.x) / self.step).round(),
@@ -181,11 +175,22 @@ impl StitchedRasterizer {
         }
     }
 
+    /// The canvas rows and columns whose pixels may overlap the box from `lo` to `hi` (in the
+    /// stitched plane), clipped to the canvas. Row 0 is the top (largest y).
+    fn pixels_over(&self, lo: Point2<f64>, hi: Point2<f64>) -> (Range<usize>, Range<usize>) {
+        let (x0, y1) = (self.corner.x, self.corner.y);
+        let index = |v: f64, n: usize| (v.max(0.0) as usize).min(n);
+        let c0 = index(((lo.x - x0) / self.step).floor(), self.cols);
+        let c1 = index(((hi.x - x0) / self.step).ceil(), self.cols);
+        let r0 = index(((y1 - hi.y) / self.step).floor(), self.rows);
+        let r1 = index(((y1 - lo.y) / self.step).ceil(), self.rows);
+        (r0..r1, c0..c1)
+    }
+
     /// The canvas pixels in bridge triangle `tri` that no map shows, with their barycentric
     /// weights.
     fn fill_bridge(&mut self, tri: &BridgeTriangle, placements: &[Placement]) -> Result<()> {
-        let (rows, cols) = (self.rows, self.cols);
-        let (lo, hi) = (self.corner.x, self.corner.y);
+        let cols = self.cols;
         if tri
             .corners
             .iter()
@@ -201,20 +206,14 @@ impl StitchedRasterizer {
             return Ok(());
         }
         let (tlo, thi) = (v[0].inf(&v[1]).inf(&v[2]), v[0].sup(&v[1]).sup(&v[2]));
-        let c0 = (((tlo.x - lo) / self.step).floor().max(0.0) as usize).min(cols);
-        let c1 = (((thi.x - lo) / self.step).ceil().max(0.0) as usize).min(cols);
-        let r0 = (((hi - thi.y) / self.step).floor().max(0.0) as usize).min(rows);
-        let r1 = (((hi - tlo.y) / self.step).ceil().max(0.0) as usize).min(rows);
-        for row in r0..r1 {
-            for col in c0..c1 {
+        let (row_span, col_span) = self.pixels_over(tlo, thi);
+        for row in row_span {
+            for col in col_span.clone() {
                 let i = row * cols + col;
                 if self.lookup[i].0 != 0 {
                     continue;
                 }
-                let q = Point2::new(
-                    lo + (col as f64 + 0.5) * self.step,
-                    hi - (row as f64 + 0.5) * self.step,
-                );
+                let q = self.pixel_centre(row, col);
                 // Barycentric weights (eq. 3.2 of the maps, across the joint).
                 let w0 = (v[1] - q).perp(&(v[2] - q)) / area;
                 let w1 = (v[2] - q).perp(&(v[0] - q)) / area;
