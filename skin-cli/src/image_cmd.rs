@@ -132,9 +132,8 @@ pub fn run(args: Args) -> Result<()> {
             input.columns.gather(values, threshold, pressures);
             let grey = imager.process(pressures)?;
             let path = input.dir.join(&input.names[f]);
-            let png = ImageView::new(grey, size)
-                .map_err(anyhow::Error::from)
-                .and_then(|image| Ok(skin_geom::encode_png(image)?))
+            // The imager's output always fills its size.
+            let png = skin_geom::encode_png(ImageView::new(grey, size)?)
                 .with_context(|| format!("cannot encode {}", input.names[f]))?;
             std::fs::write(&path, &png)
                 .with_context(|| format!("cannot write {} in {}", input.names[f], args.output.display()))?;

@@ -193,19 +193,16 @@ fn write_frames(
         let size = image.size();
         let (rows, cols) = (size.rows, size.cols);
         let png = dir.join(format!("{file}.png"));
-        if args.morph {
-            let morphed = dilate_disk(&erode_disk(image.pixels(), rows, cols, 2), rows, cols, 4);
+        let morphed;
+        let image = if args.morph {
+            morphed = dilate_disk(&erode_disk(image.pixels(), rows, cols, 2), rows, cols, 4);
             // Erosion and dilation keep the image's size.
-            ImageView::new(&morphed, size)
-                .map_err(|e| skin_geom::Error::Output {
-                    path: png.display().to_string(),
-                    message: e.to_string(),
-                })
-                .and_then(|morphed| write_png(&png, morphed))
+            ImageView::new(&morphed, size)?
         } else {
-            write_png(&png, image)
-        }
-        .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
+            image
+        };
+        write_png(&png, image)
+            .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
     }
     Ok(())
 }
