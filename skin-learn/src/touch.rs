@@ -30,6 +30,20 @@ pub enum TouchError {
     /// A model failed to run or does not fit.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The classifier or the segmenter failed on a touch's image: the frame, link and touch it
+    /// was deciding, and the model's error.
+    #[error("frame at {time:.3} s, link {link}, touch {touch}: {source}")]
+    Decide {
+        /// Frame time, s.
+        time: f64,
+        /// The link's name.
+        link: String,
+        /// The touch's number.
+        touch: u64,
+        /// What the model said.
+        #[source]
+        source: ModelError,
+    },
     /// A link's map cannot be imaged.
     #[error("link {link}: {source}")]
     Map {
@@ -661,7 +675,13 @@ impl TouchPipeline {
             why: format!("link {}: {e}", link.name),
         })?;
         let t1 = Instant::now();
-        let probabilities = classifier.classify(image)?;
+        let decide = |source| TouchError::Decide {
+            time,
+            link: link.name.clone(),
+            touch: touch.id,
+            source,
+        };
+        let probabilities = classifier.classify(image).map_err(decide)?;
         let t2 = Instant::now();
         self.times.image += t1 - t0;
         self.times.classify += t2 - t1;
@@ -671,7 +691,7 @@ impl TouchPipeline {
         if class.is_hand()
             && let Some(segmenter) = &mut self.models.segmenter
         {
-            let labels = segmenter.segment(image)?;
+            let labels = segmenter.segment(image).map_err(decide)?;
             if labels.len() != rows * cols {
                 return Err(TouchError::Model(ModelError::Run(format!(
                     "the segmenter gave {} labels for a {rows} x {cols} image",
