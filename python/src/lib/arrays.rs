@@ -1,0 +1,112 @@
+//! numpy arguments in, numpy arrays out. An argument already of the right dtype and C-contiguous
+//! is read where it lies; anything else numpy can convert (a list, another real dtype, a strided
+//! view) is converted once, and what cannot be (text, complex, objects, the wrong number of
+//! dimensions) is an `ArrayError` naming the argument. Arrays going out take over the Rust
+//! buffer they were built in, without a copy.
+
+use crate::errors::arg;
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{Element, IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+/// `obj` as a C-contiguous array of `T` (numpy dtype `dtype`) with `ndim` dimensions.
+pub(crate) fn array<'py, T: Element>(
+    name: &str,
+    obj: &Bound<'py, PyAny>,
+    dtype: &str,
+    ndim: usize,
+) -> PyResult<PyReadonlyArrayDyn<'py, T>> {
+    let py = obj.py();
+    let array = match obj.cast::<PyArrayDyn<T>>() {
+        Ok(a) if a.is_c_contiguous() => a.clone(),
+        _ => {
+            let np = py.import("numpy")?;
+            let given = np
+                .call_method1("asarray", (obj,))
+                .map_err(|e| arg(name, format!("not an array of numbers ({e})")))?;
+            let kind: String = given.getattr("dtype")?.getattr("kind")?.extract()?;
+            if !matches!(kind.as_str(), "i" | "u" | "f") {
+                let dtype_name: String = given.getattr("dtype")?.str()?.extract()?;
+                return Err(arg(
+                    name,
+                    format!("dtype {dtype_name}: expected real numbers ({dtype})"),
+                ));
+            }
+            let converted = np.call_method1("ascontiguousarray", (given, dtype))?;
+            converted
+                .cast_into::<PyArrayDyn<T>>()
+                .map_err(|_| arg(name, format!("cannot be read as {dtype}")))?
+        }
+    };
+    if array.ndim() != ndim {
+        return Err(arg(
+            name,
+            format!("{} dimensions {:?}, expected {ndim}", array.ndim(), array.shape()),
+        ));
+    }
+    Ok(array.readonly())
+}
+
+/// The values of a contiguous read-only array (always contiguous after [`array`]).
+pub(crate) fn slice<'a, T: Element>(name: &str, a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| arg(name, "not contiguous"))
+}
+
+/// Fails on the first value of `values` that is not finite, naming its index.
+pub(crate) fn finite(name: &str, values: &[f32], shape: &[usize]) -> PyResult<()> {
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(arg(
+            name,
+            format!("{} at index {:?}", values[i], unravel(i, shape)),
+        ));
+    }
+    Ok(())
+}
+
+/// The same for doubles.
+pub(crate) fn finite64(name: &str, values: &[f64], shape: &[usize]) -> PyResult<()> {
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(arg(
+            name,
+            format!("{} at index {:?}", values[i], unravel(i, shape)),
+        ));
+    }
+    Ok(())
+}
+
+/// The multi-index of flat index `i` in a C-ordered array of `shape`.
+fn unravel(mut i: usize, shape: &[usize]) -> Vec<usize> {
+    let mut index = vec![0; shape.len()];
+    for (k, &n) in shape.iter().enumerate().rev() {
+        if n > 0 {
+            index[k] = i % n;
+            i /= n;
+        }
+    }
+    index
+}
+
+/// A new array of `shape` over `data` (moved, not copied).
+pub(crate) fn out<'py, T: Element>(
+    py: Python<'py>,
+    data: Vec<T>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
+    let array = ArrayD::from_shape_vec(IxDyn(shape), data)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("array of shape {shape:?}: {e}")))?;
+    Ok(array.into_pyarray(py))
+}
+
+/// Points as an (N, 3) array of doubles.
+pub(crate) fn points<'py>(
+    py: Python<'py>,
+    p: impl ExactSizeIterator<Item = [f64; 3]>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let n = p.len();
+    out(py, p.flatten().collect(), &[n, 3])
+}
+
+/// Triangles as an (M, 3) array of indices.
+pub(crate) fn faces<'py>(py: Python<'py>, f: &[[usize; 3]]) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
+    out(py, f.iter().flatten().map(|&i| i as i64).collect(), &[f.len(), 3])
+}

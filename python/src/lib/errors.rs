@@ -1,0 +1,132 @@
+//! Rust errors as the package's Python exceptions: `skin.SkinError` and one subclass per kind of
+//! fault (defined in `skin/_errors.py`, so that `ArrayError` is a `ValueError` too). The message
+//! is the one the command line prints: the error and its causes, joined by ": ".
+
+use pyo3::prelude::*;
+use pyo3::types::PyType;
+use std::fmt::Display;
+
+/// Which exception a fault raises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Kind {
+    /// A file or stream that is not what it should be (or cannot be read or written).
+    Input,
+    /// A run configuration (`run.toml`) at fault.
+    Config,
+    /// A model that cannot load or run.
+    Model,
+    /// An argument: wrong dtype, shape, length, a NaN, a read-only output.
+    Array,
+    /// A skin that cannot be flattened, imaged or stitched.
+    Geometry,
+    /// The session, on a frame.
+    Session,
+    /// The task stack.
+    Control,
+}
+
+impl Kind {
+    fn class(self) -> &'static str {
+        match self {
+            Kind::Input => "InputError",
+            Kind::Config => "ConfigError",
+            Kind::Model => "ModelError",
+            Kind::Array => "ArrayError",
+            Kind::Geometry => "GeometryError",
+            Kind::Session => "SessionError",
+            Kind::Control => "ControlError",
+        }
+    }
+}
+
+/// The exception of `kind` with `message`.
+pub(crate) fn error(kind: Kind, message: impl Display) -> PyErr {
+    let message = message.to_string();
+    Python::attach(|py| {
+        let class = py
+            .import("skin._errors")
+            .and_then(|m| m.getattr(kind.class()))
+            .and_then(|c| c.cast_into::<PyType>().map_err(PyErr::from));
+        match class {
+            Ok(class) => PyErr::from_type(class, message),
+            Err(e) => e,
+        }
+    })
+}
+
+/// A bad argument, named.
+pub(crate) fn arg(name: &str, message: impl Display) -> PyErr {
+    error(Kind::Array, format!("{name}: {message}"))
+}
+
+/// An error and its causes, as the command line prints them; a cause whose text its parent
+/// already shows is not repeated.
+pub(crate) fn message(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}
+
+/// `e` as the exception of `kind`.
+pub(crate) fn raise(kind: Kind, e: &(dyn std::error::Error + 'static)) -> PyErr {
+    error(kind, message(e))
+}
+
+/// A reading fault of skin-core (files, formats).
+pub(crate) fn core(e: skin_core::Error) -> PyErr {
+    raise(Kind::Input, &e)
+}
+
+/// A fault of skin-geom: reading a file is an input fault, the rest geometry.
+pub(crate) fn geom(e: skin_geom::Error) -> PyErr {
+    let kind = match &e {
+        skin_geom::Error::Core(_) | skin_geom::Error::Layout { .. } | skin_geom::Error::MeshFile { .. } => {
+            Kind::Input
+        }
+        skin_geom::Error::Length { .. }
+        | skin_geom::Error::NotFinite { .. }
+        | skin_geom::Error::Parameter { .. } => Kind::Array,
+        _ => Kind::Geometry,
+    };
+    raise(kind, &e)
+}
+
+/// A fault of skin-can (bus maps, logs).
+pub(crate) fn can(e: skin_can::Error) -> PyErr {
+    raise(Kind::Input, &e)
+}
+
+/// A session's fault, by what it is about.
+pub(crate) fn session(e: skin_learn::session::SessionError) -> PyErr {
+    use skin_learn::session::SessionError as E;
+    let kind = match &e {
+        E::Config(_) => Kind::Config,
+        E::Input(_) | E::Core(_) | E::Can(_) => Kind::Input,
+        E::Model(_)
+        | E::Touch(skin_learn::touch::TouchError::Model(_) | skin_learn::touch::TouchError::Decide { .. }) => {
+            Kind::Model
+        }
+        E::Geom(g) => return geom_ref(g, &e),
+        E::Frame { .. } => Kind::Array,
+        _ => Kind::Session,
+    };
+    raise(kind, &e)
+}
+
+fn geom_ref(g: &skin_geom::Error, whole: &skin_learn::session::SessionError) -> PyErr {
+    let kind = match g {
+        skin_geom::Error::Core(_) | skin_geom::Error::Layout { .. } | skin_geom::Error::MeshFile { .. } => {
+            Kind::Input
+        }
+        _ => Kind::Geometry,
+    };
+    raise(kind, whole)
+}

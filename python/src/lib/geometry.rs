@@ -1,0 +1,608 @@
+//! Layouts, tactile maps and tactile images: `read_layout`, `Link`, `flatten`, `read_map`,
+//! `TactileMap`, `Imager`.
+
+use crate::arrays::{self, array, finite, finite64, slice};
+use crate::errors::{self, Kind, arg};
+use nalgebra::{Point3, Unit, Vector3};
+use numpy::{PyArrayDyn, PyArrayMethods, PyReadwriteArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use skin_core::image::ImageSize;
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, Grid, MeshOptions, Normalisation, Rasterizer, TactileImager};
+use std::path::PathBuf;
+
+/// One link's skin: its name and taxels (ids, positions and outward normals in metres, in the
+/// link's frame), and the triangles that join them when the file gives them.
+#[pyclass(module = "skin._skin", frozen)]
+#[derive(Clone)]
+pub(crate) struct Link {
+    pub(crate) inner: LinkSkin,
+}
+
+#[pymethods]
+impl Link {
+    /// A link from arrays: `ids` (N,) integers, `positions` (N, 3) metres, `normals` (N, 3)
+    /// (normalised here; a zero normal is an error), `faces` (M, 3) indices into the taxels.
+    #[new]
+    #[pyo3(signature = (name, ids, positions, normals, faces=None))]
+    fn new(
+        name: String,
+        ids: &Bound<'_, PyAny>,
+        positions: &Bound<'_, PyAny>,
+        normals: &Bound<'_, PyAny>,
+        faces: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Link> {
+        let id_array = array::<i64>("ids", ids, "int64", 1)?;
+        let id_values = slice("ids", &id_array)?;
+        let n = id_values.len();
+        let xyz = |label: &str, obj: &Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
+            let a = array::<f64>(label, obj, "float64", 2)?;
+            if a.shape() != [n, 3] {
+                return Err(arg(
+                    label,
+                    format!("shape {:?}, expected ({n}, 3): one row per id", a.shape()),
+                ));
+            }
+            let v = slice(label, &a)?.to_vec();
+            finite64(label, &v, &[n, 3])?;
+            Ok(v)
+        };
+        let p = xyz("positions", positions)?;
+        let nrm = xyz("normals", normals)?;
+        let mut seen = std::collections::HashSet::new();
+        let mut taxels = Vec::with_capacity(n);
+        for i in 0..n {
+            let id = u32::try_from(id_values[i]).map_err(|_| {
+                arg(
+                    "ids",
+                    format!("{} at index {i}: ids are 0 to {}", id_values[i], u32::MAX),
+                )
+            })?;
+            if !seen.insert(id) {
+                return Err(arg("ids", format!("{id} appears twice (again at index {i})")));
+            }
+            let normal = Vector3::new(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
+            let normal = Unit::try_new(normal, 1e-12)
+                .ok_or_else(|| arg("normals", format!("row {i} (taxel {id}) is zero")))?;
+            taxels.push(Taxel {
+                id: TaxelId(id),
+                position: Point3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]),
+                normal,
+            });
+        }
+        let mut inner = LinkSkin::new(name, taxels);
+        if let Some(faces) = faces {
+            let f = array::<i64>("faces", faces, "int64", 2)?;
+            let m = f.shape()[0];
+            if f.shape()[1] != 3 {
+                return Err(arg("faces", format!("shape {:?}, expected (M, 3)", f.shape())));
+            }
+            let v = slice("faces", &f)?;
+            let mut tris = Vec::with_capacity(m);
+            for (k, t) in v.chunks_exact(3).enumerate() {
+                let mut tri = [0usize; 3];
+                for (slot, &i) in tri.iter_mut().zip(t) {
+                    *slot = usize::try_from(i).ok().filter(|&i| i < n).ok_or_else(|| {
+                        arg("faces", format!("row {k}: index {i}, the link has {n} taxels"))
+                    })?;
+                }
+                tris.push(tri);
+            }
+            inner.faces = Some(tris);
+        }
+        Ok(Link { inner })
+    }
+
+    /// The link's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.inner.name
+    }
+
+    /// Taxel ids, (N,) uint32.
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u32>>> {
+        let ids = self.inner.taxels.iter().map(|t| t.id.0).collect();
+        arrays::out(py, ids, &[self.inner.taxels.len()])
+    }
+
+    /// Taxel positions, (N, 3) metres in the link's frame.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        arrays::points(py, self.inner.taxels.iter().map(|t| t.position.coords.into()))
+    }
+
+    /// Outward unit normals, (N, 3).
+    #[getter]
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        arrays::points(py, self.inner.taxels.iter().map(|t| t.normal.into_inner().into()))
+    }
+
+    /// The triangles the file gives, (M, 3) indices into the taxels, or None.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<i64>>>> {
+        self.inner
+            .faces
+            .as_deref()
+            .map(|f| arrays::faces(py, f))
+            .transpose()
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.taxels.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Link({:?}, {} taxels)", self.inner.name, self.inner.taxels.len())
+    }
+}
+
+/// The links of a layout file, in its order, with what reading it did (`notes`).
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct Layout {
+    pub(crate) links: Vec<LinkSkin>,
+    notes: Vec<String>,
+    path: PathBuf,
+}
+
+#[pymethods]
+impl Layout {
+    /// The links, in layout order.
+    #[getter]
+    fn links(&self) -> Vec<Link> {
+        self.links.iter().map(|l| Link { inner: l.clone() }).collect()
+    }
+
+    /// The links' names, in layout order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.links.iter().map(|l| l.name.clone()).collect()
+    }
+
+    /// What reading the file did (a byte-order mark skipped, units converted, ...), one line each.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+
+    /// The file read.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.path.clone()
+    }
+
+    fn __len__(&self) -> usize {
+        self.links.len()
+    }
+
+    /// A link by name or by index.
+    fn __getitem__(&self, key: &Bound<'_, PyAny>) -> PyResult<Link> {
+        let found = if let Ok(i) = key.extract::<isize>() {
+            let n = self.links.len() as isize;
+            let k = if i < 0 { i + n } else { i };
+            (0..n).contains(&k).then(|| &self.links[k as usize])
+        } else {
+            let name: String = key.extract()?;
+            self.links.iter().find(|l| l.name == name)
+        };
+        found.map(|l| Link { inner: l.clone() }).ok_or_else(|| {
+            pyo3::exceptions::PyKeyError::new_err(format!(
+                "{key}: the layout has {}",
+                self.names().join(", ")
+            ))
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        let n: usize = self.links.iter().map(|l| l.taxels.len()).sum();
+        format!(
+            "Layout({:?}, links {:?}, {n} taxels)",
+            self.path.display().to_string(),
+            self.names()
+        )
+    }
+}
+
+/// Reads a layout in any format `skin` reads (native JSON, Cyskin, iCub, URDF with tactile
+/// sensors): every link.
+#[pyfunction]
+pub(crate) fn read_layout(path: PathBuf) -> PyResult<Layout> {
+    let noted = skin_geom::read_layout(&path).map_err(errors::geom)?;
+    Ok(Layout {
+        links: noted.value,
+        notes: noted.notes.iter().map(ToString::to_string).collect(),
+        path,
+    })
+}
+
+/// A link flattened onto the plane (thesis Ch. 3.2): each taxel's place `uv` on the map, and
+/// how much the flattening distorted the skin.
+#[pyclass(module = "skin._skin", frozen)]
+#[derive(Clone)]
+pub(crate) struct TactileMap {
+    pub(crate) inner: skin_geom::TactileMap,
+}
+
+#[pymethods]
+impl TactileMap {
+    /// The link's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.inner.name
+    }
+
+    /// Taxel ids in map order, (N,) uint32.
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u32>>> {
+        arrays::out(
+            py,
+            self.inner.ids.iter().map(|t| t.0).collect(),
+            &[self.inner.ids.len()],
+        )
+    }
+
+    /// Each taxel's place on the map, (N, 2) metres.
+    #[getter]
+    fn uv<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.inner.points.len();
+        arrays::out(
+            py,
+            self.inner.points.iter().flat_map(|p| [p.x, p.y]).collect(),
+            &[n, 2],
+        )
+    }
+
+    /// Each taxel's 3D position, (N, 3) metres (empty for a map read without them).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        arrays::points(py, self.inner.positions.iter().map(|p| p.coords.into()))
+    }
+
+    /// The map's triangles, (M, 3) indices into the taxels.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
+        arrays::faces(py, &self.inner.faces)
+    }
+
+    /// The distortion report, as `skin flatten` prints it.
+    #[getter]
+    fn report(&self) -> String {
+        self.inner.flattening().to_string()
+    }
+
+    /// The distortion figures: angles in degrees, ratios map/skin.
+    #[getter]
+    fn distortion<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let d = &self.inner.report.distortion;
+        let out = pyo3::types::PyDict::new(py);
+        for (k, v) in [
+            ("angle_error_mean_deg", d.angle_error_mean_deg),
+            ("angle_error_p95_deg", d.angle_error_p95_deg),
+            ("angle_error_bound_deg", d.angle_error_bound_deg),
+            ("edge_ratio_p5", d.edge_ratio_p5),
+            ("edge_ratio_p50", d.edge_ratio_p50),
+            ("edge_ratio_p95", d.edge_ratio_p95),
+            ("area_ratio", d.area_ratio),
+            ("face_area_ratio_p5", d.face_area_ratio_p5),
+            ("face_area_ratio_p95", d.face_area_ratio_p95),
+        ] {
+            out.set_item(k, v)?;
+        }
+        out.set_item("flipped_faces", d.flipped_faces)?;
+        Ok(out)
+    }
+
+    /// Writes the map: `format` "native" (the JSON of `skin flatten`) or "cyskin". The file
+    /// appears complete or not at all; an existing file is replaced only if it is a tactile map.
+    #[pyo3(signature = (path, format = "native"))]
+    fn write(&self, path: PathBuf, format: &str) -> PyResult<()> {
+        let text = match format {
+            "native" => self.inner.to_json(),
+            "cyskin" => skin_core::format::cyskin::tactile_map_to_string(&self.inner.to_cyskin()),
+            other => {
+                return Err(arg(
+                    "format",
+                    format!("{other:?}: expected \"native\" or \"cyskin\""),
+                ));
+            }
+        };
+        let is_map = |p: &std::path::Path| {
+            skin_geom::TactileMap::read(p).is_ok()
+                || skin_core::format::read_text(p)
+                    .ok()
+                    .is_some_and(|t| skin_core::format::cyskin::parse_tactile_map(&t, p).is_ok())
+        };
+        let io = |e: skin_core::output::OutputError| errors::raise(Kind::Input, &e);
+        skin_core::output::check_replaceable(&path, "a tactile map", is_map).map_err(io)?;
+        skin_core::output::write_file(
+            &path,
+            text.as_bytes(),
+            &skin_core::output::Inputs::new::<&str>([]),
+        )
+        .map_err(io)
+    }
+
+    /// The map as an SVG drawing.
+    fn to_svg(&self) -> String {
+        self.inner.to_svg()
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.ids.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let (w, h) = self.inner.extent();
+        format!(
+            "TactileMap({:?}, {} taxels, {:.1} x {:.1} mm)",
+            self.inner.name,
+            self.inner.ids.len(),
+            w * 1e3,
+            h * 1e3
+        )
+    }
+}
+
+/// Flattens a link as `skin flatten` does (LSCM, thesis Ch. 3.2): on the file's triangles, or
+/// on a new triangulation (`triangulate`), edges longer than `max_edge` taxel pitches dropped.
+#[pyfunction]
+#[pyo3(signature = (link, *, triangulate = false, max_edge = 3.0))]
+pub(crate) fn flatten(py: Python<'_>, link: &Link, triangulate: bool, max_edge: f64) -> PyResult<TactileMap> {
+    if !(max_edge > 0.0 && max_edge <= 1e3) {
+        return Err(arg("max_edge", format!("{max_edge}: expected 0 to 1000 pitches")));
+    }
+    let options = FlattenOptions {
+        mesh: MeshOptions {
+            use_given_faces: !triangulate,
+            max_edge_pitches: max_edge,
+            ..MeshOptions::default()
+        },
+    };
+    let inner = &link.inner;
+    let map = py
+        .detach(|| skin_geom::TactileMap::flatten(inner, &options))
+        .map_err(|e| {
+            errors::error(
+                Kind::Geometry,
+                format!("link \"{}\": {}", inner.name, errors::message(&e)),
+            )
+        })?;
+    Ok(TactileMap { inner: map })
+}
+
+/// Reads a tactile map (`skin flatten`'s JSON or a Cyskin `tactile_maps` file); a layout file is
+/// flattened with the default options, as the command line does.
+#[pyfunction]
+pub(crate) fn read_map(py: Python<'_>, path: PathBuf) -> PyResult<TactileMap> {
+    let noted = py
+        .detach(|| skin_geom::read_map(&path, &FlattenOptions::default()))
+        .map_err(errors::geom)?;
+    Ok(TactileMap { inner: noted.value })
+}
+
+/// Tactile images of one map, built once (thesis Ch. 3.3, eq. 3.1): pressure interpolated on a
+/// grid laid on the map, grey = floor(255 K / K_bar), then optionally eroded and dilated and
+/// resized. One imager serves one thread at a time; two threads each use their own.
+#[pyclass(module = "skin._skin")]
+pub(crate) struct Imager {
+    inner: TactileImager,
+    threshold: f32,
+    /// The frame after the threshold, in map order.
+    pressures: Vec<f32>,
+}
+
+#[pymethods]
+impl Imager {
+    /// `step_mm`: pixel side on the map (or `grid=(rows, cols)`: exactly that many pixels);
+    /// `norm`: "contact_max" (white = the frame's largest pressure) or "full_scale" (white =
+    /// `full_scale` counts); `threshold`: readings at or below it are no pressure; `morph`: erosion
+    /// (disk r=2) then dilation (r=4); `size=(rows, cols)`: resize (68 x 100 for HandsNet).
+    #[new]
+    #[pyo3(signature = (map, *, step_mm = 1.0, grid = None, norm = "contact_max", full_scale = None, threshold = 0.0, morph = false, size = None))]
+    #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin image` has options
+    fn new(
+        map: &TactileMap,
+        step_mm: f64,
+        grid: Option<(usize, usize)>,
+        norm: &str,
+        full_scale: Option<f64>,
+        threshold: f64,
+        morph: bool,
+        size: Option<(usize, usize)>,
+    ) -> PyResult<Imager> {
+        if !(0.01..=1000.0).contains(&step_mm) {
+            return Err(arg("step_mm", format!("{step_mm}: expected 0.01 to 1000 mm")));
+        }
+        let grid = match grid {
+            Some((rows, cols)) => {
+                image_size("grid", rows, cols)?;
+                Grid::Size { rows, cols }
+            }
+            None => Grid::StepMm(step_mm),
+        };
+        let norm = match (norm, full_scale) {
+            ("full_scale", Some(k)) if k > 0.0 && k <= f64::from(f32::MAX) => {
+                Normalisation::FullScale(k as f32)
+            }
+            ("full_scale", Some(k)) => {
+                return Err(arg(
+                    "full_scale",
+                    format!("{k}: expected a positive number of counts"),
+                ));
+            }
+            ("full_scale", None) => {
+                return Err(arg("full_scale", "norm=\"full_scale\" needs full_scale (counts)"));
+            }
+            ("contact_max", _) => Normalisation::ContactMax,
+            (other, _) => {
+                return Err(arg(
+                    "norm",
+                    format!("{other:?}: expected \"contact_max\" or \"full_scale\""),
+                ));
+            }
+        };
+        if !threshold.is_finite() {
+            return Err(arg(
+                "threshold",
+                format!("{threshold}: expected a number of counts"),
+            ));
+        }
+        let size = size.map(|(r, c)| image_size("size", r, c)).transpose()?;
+        let raster = Rasterizer::new(&map.inner, grid).map_err(errors::geom)?;
+        let inner = TactileImager::new(raster, norm, morph, size).map_err(errors::geom)?;
+        Ok(Imager {
+            pressures: vec![0.0; map.inner.ids.len()],
+            inner,
+            threshold: threshold as f32,
+        })
+    }
+
+    /// The images' (rows, cols).
+    #[getter]
+    fn size(&self) -> (usize, usize) {
+        let s = self.inner.output_size();
+        (s.rows, s.cols)
+    }
+
+    /// Taxels a frame has (the map's, in its order).
+    #[getter]
+    fn taxels(&self) -> usize {
+        self.pressures.len()
+    }
+
+    /// One frame (N,) -> its image (rows, cols) uint8.
+    fn image<'py>(
+        &mut self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+        let a = array::<f32>("frame", frame, "float32", 1)?;
+        let values = self.check_frames("frame", &a, 1)?;
+        let size = self.inner.output_size();
+        let mut out = vec![0u8; size.pixels()];
+        self.run(values, &mut out)?;
+        arrays::out(py, out, &[size.rows, size.cols])
+    }
+
+    /// Frames (T, N) -> images (T, rows, cols) uint8, into `out` if given (a writable, C-ordered
+    /// uint8 array of that shape). The GIL is released while imaging.
+    #[pyo3(signature = (frames, out = None))]
+    fn images<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: &Bound<'py, PyAny>,
+        out: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let a = array::<f32>("frames", frames, "float32", 2)?;
+        let t = a.shape()[0];
+        let values = self.check_frames("frames", &a, t)?;
+        let size = self.inner.output_size();
+        let shape = [t, size.rows, size.cols];
+        match out {
+            Some(target) => {
+                let mut w = writable(target, &shape)?;
+                let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
+                py.detach(|| self.run(values, dst))?;
+                drop(w);
+                Ok(target.clone())
+            }
+            None => {
+                let mut dst = vec![0u8; t * size.pixels()];
+                py.detach(|| self.run(values, &mut dst))?;
+                Ok(arrays::out(py, dst, &shape)?.into_any())
+            }
+        }
+    }
+
+    /// One frame (N,) -> its pressure image K (grid rows, grid cols) float32, counts: before
+    /// quantisation, morphology and resizing.
+    fn pressure_image<'py>(
+        &mut self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let a = array::<f32>("frame", frame, "float32", 1)?;
+        let values = self.check_frames("frame", &a, 1)?;
+        let mut scratch = vec![0u8; self.inner.output_size().pixels()];
+        self.run(values, &mut scratch)?;
+        let raster = self.inner.raster();
+        arrays::out(
+            py,
+            self.inner.pressure_image().to_vec(),
+            &[raster.rows(), raster.cols()],
+        )
+    }
+
+    fn __repr__(&self) -> String {
+        let s = self.inner.output_size();
+        format!(
+            "Imager({} taxels -> {} x {} px)",
+            self.pressures.len(),
+            s.rows,
+            s.cols
+        )
+    }
+}
+
+impl Imager {
+    /// The values of `t` frames of this imager's taxels, finite.
+    fn check_frames<'a>(
+        &self,
+        name: &str,
+        a: &'a numpy::PyReadonlyArrayDyn<'_, f32>,
+        t: usize,
+    ) -> PyResult<&'a [f32]> {
+        let n = self.pressures.len();
+        let last = *a.shape().last().unwrap_or(&0);
+        if last != n {
+            return Err(arg(
+                name,
+                format!(
+                    "shape {:?}: {last} readings a frame, the map has {n} taxels",
+                    a.shape()
+                ),
+            ));
+        }
+        let values = slice(name, a)?;
+        finite(name, values, a.shape())?;
+        debug_assert_eq!(values.len(), t * n);
+        Ok(values)
+    }
+
+    /// Images each frame of `values` into its slot of `out`.
+    fn run(&mut self, values: &[f32], out: &mut [u8]) -> PyResult<()> {
+        let n = self.pressures.len();
+        let px = self.inner.output_size().pixels();
+        if n == 0 {
+            return Ok(());
+        }
+        for (frame, dst) in values.chunks_exact(n).zip(out.chunks_exact_mut(px)) {
+            for (p, &v) in self.pressures.iter_mut().zip(frame) {
+                *p = if v > self.threshold { v } else { 0.0 };
+            }
+            let grey = self.inner.process(&self.pressures).map_err(errors::geom)?;
+            dst.copy_from_slice(grey);
+        }
+        Ok(())
+    }
+}
+
+/// A checked image size (each side 1 to 4096).
+fn image_size(name: &str, rows: usize, cols: usize) -> PyResult<ImageSize> {
+    ImageSize::new(rows, cols).map_err(|e| arg(name, e))
+}
+
+/// `obj` as a writable uint8 array of exactly `shape`.
+fn writable<'py>(obj: &Bound<'py, PyAny>, shape: &[usize]) -> PyResult<PyReadwriteArrayDyn<'py, u8>> {
+    let a = obj
+        .cast::<PyArrayDyn<u8>>()
+        .map_err(|_| arg("out", "expected a numpy array of dtype uint8"))?;
+    if a.shape() != shape {
+        return Err(arg("out", format!("shape {:?}, expected {shape:?}", a.shape())));
+    }
+    if !a.is_c_contiguous() {
+        return Err(arg("out", "not C-contiguous"));
+    }
+    a.try_readwrite()
+        .map_err(|_| arg("out", "read-only (or in use elsewhere)"))
+}

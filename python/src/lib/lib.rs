@@ -1,0 +1,54 @@
+//! The native module of the `skin` Python package (`skin._skin`; the package's `__init__.py`
+//! re-exports it with the exceptions and the dataset loader). Each function is a thin call into
+//! the crates: arguments checked and named, arrays in and out without copies where the data
+//! already lies right, the GIL released for work on many frames.
+//!
+//! | Python | crate |
+//! |---|---|
+//! | `read_layout`, `Link`, `flatten`, `read_map`, `TactileMap`, `Imager` | skin-geom ([`geometry`]) |
+//! | `read_recording`, `BusMap`, `read_log`, `CanFrame` | skin-core, skin-can ([`recordings`]) |
+//! | `Session`, `Event`, `Contact`, Python models | skin-learn session ([`session`], [`models`]) |
+//! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
+//! | `synthesize`, `read_grey` | skin-learn synth, dataset ([`synth`]) |
+//! | `TaskStack` | skin-control ([`control`]) |
+
+mod arrays;
+mod calibration;
+mod control;
+mod errors;
+mod geometry;
+mod models;
+mod recordings;
+mod session;
+mod synth;
+
+use pyo3::prelude::*;
+
+/// The module.
+#[pymodule]
+fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<geometry::Link>()?;
+    m.add_class::<geometry::Layout>()?;
+    m.add_class::<geometry::TactileMap>()?;
+    m.add_class::<geometry::Imager>()?;
+    m.add_function(wrap_pyfunction!(geometry::read_layout, m)?)?;
+    m.add_function(wrap_pyfunction!(geometry::flatten, m)?)?;
+    m.add_function(wrap_pyfunction!(geometry::read_map, m)?)?;
+    m.add_class::<recordings::Recording>()?;
+    m.add_class::<recordings::BusMap>()?;
+    m.add_class::<recordings::CanFrame>()?;
+    m.add_class::<recordings::LogFrames>()?;
+    m.add_function(wrap_pyfunction!(recordings::read_recording, m)?)?;
+    m.add_function(wrap_pyfunction!(recordings::read_log, m)?)?;
+    m.add_class::<session::Session>()?;
+    m.add_class::<session::Event>()?;
+    m.add_class::<session::Contact>()?;
+    m.add_class::<calibration::Calibration>()?;
+    m.add_function(wrap_pyfunction!(calibration::read_probes, m)?)?;
+    m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(synth::synthesize, m)?)?;
+    m.add_function(wrap_pyfunction!(synth::read_grey, m)?)?;
+    m.add_class::<control::TaskStack>()?;
+    Ok(())
+}

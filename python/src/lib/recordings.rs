@@ -1,0 +1,320 @@
+//! Recordings and CAN logs as arrays: `read_recording`, `BusMap`, `read_log` (assembled frames,
+//! per link, with their missing modules).
+
+use crate::arrays::{self, array, slice};
+use crate::errors::{self, arg};
+use crate::geometry::Layout;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+use skin_can::candump::CandumpReader;
+use skin_can::{AssembledFrame, Assembler, BusMap as RustBusMap, LayoutFrames, Missing};
+use skin_core::TaxelId;
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// A Cyskin recording, whole: frame numbers and times (T,), taxel ids (N,), readings (T, N).
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct Recording {
+    inner: skin_core::Recording,
+    path: PathBuf,
+}
+
+#[pymethods]
+impl Recording {
+    /// Frame times, (T,) seconds.
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let f = &self.inner.frames;
+        arrays::out(py, f.iter().map(|f| f.time).collect(), &[f.len()])
+    }
+
+    /// Frame numbers, (T,).
+    #[getter]
+    fn frame_numbers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u64>>> {
+        let n = &self.inner.frame_numbers;
+        arrays::out(py, n.clone(), &[n.len()])
+    }
+
+    /// The columns' taxel ids, (N,) uint32.
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u32>>> {
+        let ids = &self.inner.taxel_ids;
+        arrays::out(py, ids.iter().map(|t| t.0).collect(), &[ids.len()])
+    }
+
+    /// Raw readings, (T, N) float32, one column per id.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let n = self.inner.taxel_ids.len();
+        let t = self.inner.frames.len();
+        let mut v = Vec::with_capacity(t * n);
+        for f in &self.inner.frames {
+            v.extend_from_slice(&f.values[..n.min(f.values.len())]);
+            v.resize(v.len() + n - n.min(f.values.len()), 0.0);
+        }
+        arrays::out(py, v, &[t, n])
+    }
+
+    /// The readings of the taxels `ids` (a map's or a link's, in its order), (T, len(ids)):
+    /// readings at or below `threshold` and taxels the recording has no column for read 0, as
+    /// `skin image` reads a recording onto a map.
+    #[pyo3(signature = (ids, threshold = 0.0))]
+    fn for_taxels<'py>(
+        &self,
+        py: Python<'py>,
+        ids: &Bound<'py, PyAny>,
+        threshold: f64,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let a = array::<i64>("ids", ids, "int64", 1)?;
+        let ids = slice("ids", &a)?
+            .iter()
+            .map(|&i| {
+                u32::try_from(i)
+                    .map(TaxelId)
+                    .map_err(|_| arg("ids", format!("{i} is not a taxel id")))
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        let columns = self.inner.columns(&ids);
+        let m = ids.len();
+        let mut out = vec![0.0f32; self.inner.frames.len() * m];
+        if m > 0 {
+            for (f, dst) in self.inner.frames.iter().zip(out.chunks_exact_mut(m)) {
+                columns.gather(&f.values, threshold as f32, dst);
+            }
+        }
+        arrays::out(py, out, &[self.inner.frames.len(), m])
+    }
+
+    /// The file read.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.path.clone()
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.frames.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Recording({:?}, {} frames of {} taxels)",
+            self.path.display().to_string(),
+            self.inner.frames.len(),
+            self.inner.taxel_ids.len()
+        )
+    }
+}
+
+/// Reads a Cyskin raw recording (line 1: taxel ids; then frame number, time in s, one reading
+/// per id); gzip-compressed files too. The GIL is released while reading.
+#[pyfunction]
+pub(crate) fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<Recording> {
+    let inner = py
+        .detach(|| skin_core::format::recording::read(&path))
+        .map_err(errors::core)?;
+    Ok(Recording { inner, path })
+}
+
+/// A bus map (`busmap.toml`): which module on which bus carries which taxels.
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct BusMap {
+    pub(crate) inner: RustBusMap,
+}
+
+#[pymethods]
+impl BusMap {
+    /// Reads a bus map file.
+    #[staticmethod]
+    fn read(path: PathBuf) -> PyResult<BusMap> {
+        Ok(BusMap {
+            inner: RustBusMap::read(&path).map_err(errors::can)?,
+        })
+    }
+
+    /// The buses' interface names, in order.
+    #[getter]
+    fn interfaces(&self) -> Vec<String> {
+        self.inner.buses.iter().map(|b| b.interface.clone()).collect()
+    }
+
+    /// The taxel ids of every slot, in bus-map order, (S,) uint32.
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u32>>> {
+        let ids = self.inner.taxel_ids();
+        arrays::out(py, ids.iter().map(|t| t.0).collect(), &[ids.len()])
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "BusMap(interfaces {:?}, {} slots)",
+            self.interfaces(),
+            self.inner.taxel_ids().len()
+        )
+    }
+}
+
+/// One assembled frame of a CAN log: per link its readings (NaN where a module's data did not
+/// arrive), and the modules missing.
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct CanFrame {
+    pub(crate) frame: AssembledFrame,
+    values: Vec<Vec<f32>>,
+    interfaces: Vec<String>,
+}
+
+#[pymethods]
+impl CanFrame {
+    /// Time of the cycle's first sync, seconds on the log's clock.
+    #[getter]
+    fn time(&self) -> f64 {
+        self.frame.time_us as f64 * 1e-6
+    }
+
+    /// The same, microseconds.
+    #[getter]
+    fn time_us(&self) -> u64 {
+        self.frame.time_us
+    }
+
+    /// The cycle number (the sync counter, unwrapped past 255).
+    #[getter]
+    fn cycle(&self) -> u64 {
+        self.frame.cycle
+    }
+
+    /// Readings per link (layout order): a list of (N_link,) float32 arrays, NaN for a taxel whose
+    /// module's data did not arrive or that no bus carries.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyArrayDyn<f32>>>> {
+        self.values
+            .iter()
+            .map(|v| arrays::out(py, v.clone(), &[v.len()]))
+            .collect()
+    }
+
+    /// The modules with data missing, as (bus interface, address).
+    #[getter]
+    fn missing(&self) -> Vec<(String, u32)> {
+        self.frame
+            .missing
+            .iter()
+            .map(|m| {
+                (
+                    self.interfaces
+                        .get(usize::from(m.bus))
+                        .cloned()
+                        .unwrap_or_default(),
+                    m.address,
+                )
+            })
+            .collect()
+    }
+
+    /// Every module sent all its data.
+    #[getter]
+    fn complete(&self) -> bool {
+        self.frame.is_complete()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "CanFrame(cycle {}, t {:.6} s, {} modules missing)",
+            self.frame.cycle,
+            self.time(),
+            self.frame.missing.len()
+        )
+    }
+}
+
+/// What a log being read holds between frames.
+struct LogState {
+    reader: CandumpReader,
+    assembler: Assembler<Box<dyn skin_can::decode::Decoder + Send>>,
+    layout: LayoutFrames,
+    ready: VecDeque<AssembledFrame>,
+    ended: bool,
+}
+
+/// The assembled frames of a candump log, read as they are asked for (any length of log).
+#[pyclass(module = "skin._skin")]
+pub(crate) struct LogFrames {
+    state: Mutex<LogState>,
+    interfaces: Vec<String>,
+}
+
+#[pymethods]
+impl LogFrames {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<CanFrame>> {
+        let next = py.detach(|| {
+            let mut state = self
+                .state
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            state.next()
+        });
+        Ok(next.map_err(errors::can)?.map(|(frame, values)| CanFrame {
+            frame,
+            values,
+            interfaces: self.interfaces.clone(),
+        }))
+    }
+}
+
+/// An assembled frame and its readings per link.
+type Placed = (AssembledFrame, Vec<Vec<f32>>);
+
+impl LogState {
+    /// The next assembled frame, reading the log as far as it takes; None at its end.
+    fn next(&mut self) -> Result<Option<Placed>, skin_can::Error> {
+        while self.ready.is_empty() && !self.ended {
+            let ready = &mut self.ready;
+            match self.reader.next_frame()? {
+                Some(frame) => {
+                    // Interfaces join the assembler as the log names them (as `skin run`).
+                    let named = self.reader.interfaces();
+                    for name in &named[self.assembler.interfaces()..] {
+                        self.assembler.add_interface(name);
+                    }
+                    self.assembler.push(&frame, &mut |a| ready.push_back(a.clone()));
+                }
+                None => {
+                    self.ended = true;
+                    self.assembler.finish(&mut |a| ready.push_back(a.clone()));
+                }
+            }
+        }
+        let Some(frame) = self.ready.pop_front() else {
+            return Ok(None);
+        };
+        let mut values = self.layout.buffers();
+        for v in &mut values {
+            v.fill(f32::NAN);
+        }
+        self.layout.place(&frame, &mut values)?;
+        Ok(Some((frame, values)))
+    }
+}
+
+/// Reads a candump log (`candump -l` or `-L`; gzip too) through `busmap` onto the links of
+/// `layout`: an iterator of `CanFrame`s, one per sync cycle.
+#[pyfunction]
+pub(crate) fn read_log(path: PathBuf, busmap: &BusMap, layout: &Layout) -> PyResult<LogFrames> {
+    let reader = CandumpReader::open(&path).map_err(errors::can)?;
+    let ids: Vec<Vec<TaxelId>> = layout.links.iter().map(skin_core::LinkSkin::ids).collect();
+    let layout_frames = LayoutFrames::new(&busmap.inner, &ids, Missing::NotANumber).map_err(errors::can)?;
+    Ok(LogFrames {
+        state: Mutex::new(LogState {
+            reader,
+            assembler: Assembler::for_map(&busmap.inner, &[], skin_can::DEFAULT_WINDOW_US),
+            layout: layout_frames,
+            ready: VecDeque::new(),
+            ended: false,
+        }),
+        interfaces: busmap.inner.buses.iter().map(|b| b.interface.clone()).collect(),
+    })
+}

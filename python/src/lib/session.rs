@@ -1,0 +1,764 @@
+//! The session from Python: `Session.from_config` (a `run.toml`) or `Session.from_layout` (from
+//! code); frames in (`push`, `push_can`, `run_log`, `run_recording`), `Event`s out, the contacts
+//! of the last frame. The classifier and segmenter may be Python callables ([`crate::models`]).
+
+use crate::arrays::{array, slice};
+use crate::errors::{self, Kind, arg};
+use crate::geometry::Layout;
+use crate::models::{Callable, Raised, reraise};
+use crate::recordings::{BusMap, CanFrame};
+use numpy::PyUntypedArrayMethods;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use skin_control::hri::{ClassGate, GateAction};
+use skin_core::image::ImageSize;
+use skin_core::{LinkSkin, Polarity};
+use skin_learn::card::ModelCard;
+use skin_learn::model::{Classes, Models};
+use skin_learn::session::{Event as RustEvent, Session as RustSession, SessionConfig, SessionOptions};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// Something that happened in a session: `kind` ("appeared", "classified", "released",
+/// "incomplete", "gate", ...) and the fields `events.jsonl` documents for it, as attributes
+/// (`event.time`, `event.link`, `event.probability`, ...), with the same units and rounding (times
+/// in s to 1 ms, centroids in m to 0.1 mm, areas in cm², pressures in counts above the baseline).
+/// A `classified` event also has `image`, the (rows, cols) uint8 image it was decided on.
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct Event {
+    kind: String,
+    fields: Py<PyDict>,
+    image: Option<Py<PyAny>>,
+}
+
+#[pymethods]
+impl Event {
+    /// The event's name, as `events.jsonl`'s `"event"` field.
+    #[getter]
+    fn kind(&self) -> &str {
+        &self.kind
+    }
+
+    /// The tactile image a `classified` event was decided on, (rows, cols) uint8; None otherwise.
+    #[getter]
+    fn image(&self, py: Python<'_>) -> Option<Py<PyAny>> {
+        self.image.as_ref().map(|i| i.clone_ref(py))
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.fields.bind(py).get_item(name)? {
+            Some(v) => Ok(v.unbind()),
+            None => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
+                "a \"{}\" event has no field {name:?} (it has {})",
+                self.kind,
+                self.field_names(py).join(", ")
+            ))),
+        }
+    }
+
+    /// A field by name: `event["class"]` (a Python keyword as an attribute).
+    fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.fields.bind(py).get_item(name)? {
+            Some(v) => Ok(v.unbind()),
+            None => Err(pyo3::exceptions::PyKeyError::new_err(format!(
+                "a \"{}\" event has no field {name:?} (it has {})",
+                self.kind,
+                self.field_names(py).join(", ")
+            ))),
+        }
+    }
+
+    /// The event as the line `skin run` writes to `events.jsonl`: a dict with "event" and the
+    /// fields.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = self.fields.bind(py).copy()?;
+        d.set_item("event", &self.kind)?;
+        Ok(d)
+    }
+
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        match other.cast::<Event>() {
+            Ok(o) => {
+                let o = o.get();
+                Ok(self.kind == o.kind && self.fields.bind(py).eq(o.fields.bind(py))?)
+            }
+            Err(_) => Ok(false),
+        }
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let fields = self.fields.bind(py);
+        let mut parts = vec![self.kind.clone()];
+        for (k, v) in fields.iter() {
+            parts.push(format!("{}={}", k.str()?, v.repr()?));
+        }
+        Ok(format!("Event({})", parts.join(", ")))
+    }
+}
+
+impl Event {
+    fn field_names(&self, py: Python<'_>) -> Vec<String> {
+        self.fields
+            .bind(py)
+            .keys()
+            .iter()
+            .map(|k| k.to_string())
+            .collect()
+    }
+
+    /// The Python event of `event`: its JSON fields, and its image if it has one.
+    fn of(py: Python<'_>, event: &RustEvent) -> PyResult<Event> {
+        let value = serde_json::to_value(event).map_err(|e| errors::error(Kind::Session, e))?;
+        let serde_json::Value::Object(mut map) = value else {
+            return Err(errors::error(Kind::Session, "an event that is not a JSON object"));
+        };
+        let kind = match map.remove("event") {
+            Some(serde_json::Value::String(s)) => s,
+            _ => String::new(),
+        };
+        let fields = PyDict::new(py);
+        for (k, v) in map {
+            fields.set_item(k, json(py, &v)?)?;
+        }
+        let image = match event {
+            RustEvent::Classified { image, .. } if !image.pixels.is_empty() => Some(
+                crate::arrays::out(py, image.pixels.clone(), &[image.rows, image.cols])?
+                    .into_any()
+                    .unbind(),
+            ),
+            _ => None,
+        };
+        Ok(Event {
+            kind,
+            fields: fields.unbind(),
+            image,
+        })
+    }
+}
+
+/// A JSON value as the Python value `json.loads` gives.
+fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
+    use pyo3::IntoPyObjectExt;
+    Ok(match v {
+        serde_json::Value::Null => py.None(),
+        serde_json::Value::Bool(b) => b.into_py_any(py)?,
+        serde_json::Value::Number(n) => match (n.as_i64(), n.as_u64()) {
+            (Some(i), _) => i.into_py_any(py)?,
+            (None, Some(u)) => u.into_py_any(py)?,
+            _ => n.as_f64().unwrap_or(f64::NAN).into_py_any(py)?,
+        },
+        serde_json::Value::String(s) => s.into_py_any(py)?,
+        serde_json::Value::Array(a) => {
+            PyList::new(py, a.iter().map(|x| json(py, x)).collect::<PyResult<Vec<_>>>()?)?
+                .into_any()
+                .unbind()
+        }
+        serde_json::Value::Object(o) => {
+            let d = PyDict::new(py);
+            for (k, x) in o {
+                d.set_item(k, json(py, x)?)?;
+            }
+            d.into_any().unbind()
+        }
+    })
+}
+
+/// One contact of the last frame on a link.
+#[pyclass(module = "skin._skin", frozen, get_all)]
+pub(crate) struct Contact {
+    /// Layout indices of its taxels, ascending.
+    taxels: Vec<usize>,
+    /// Pressure-weighted centroid, metres in the link's frame.
+    centroid: (f64, f64, f64),
+    /// Pressure-weighted outward normal (unit), if the link has normals.
+    normal: Option<(f64, f64, f64)>,
+    /// Mean pressure over its taxels, counts above the baseline.
+    mean_pressure: f32,
+    /// Largest pressure, counts above the baseline.
+    peak_pressure: f32,
+}
+
+#[pymethods]
+impl Contact {
+    fn __repr__(&self) -> String {
+        let (x, y, z) = self.centroid;
+        format!(
+            "Contact({} taxels at ({:.4}, {:.4}, {:.4}) m, mean {:.1}, peak {:.1} counts)",
+            self.taxels.len(),
+            x,
+            y,
+            z,
+            self.mean_pressure,
+            self.peak_pressure
+        )
+    }
+}
+
+/// What the Python session holds.
+struct Inner {
+    session: RustSession,
+    /// A callable model's exception, waiting to be re-raised.
+    raised: Raised,
+    /// Frames pushed so far (the next frame's number).
+    cycle: u64,
+    /// The frame's readings, per link (reused).
+    readings: Vec<Vec<f32>>,
+    events: Vec<RustEvent>,
+}
+
+/// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
+/// in, events out. Build it with `Session.from_config` or `Session.from_layout`. Methods on many
+/// frames (`run_log`, `run_recording`) release the GIL. One thread uses a session at a time.
+#[pyclass(module = "skin._skin")]
+pub(crate) struct Session {
+    inner: Mutex<Inner>,
+    names: Vec<String>,
+    sizes: Vec<usize>,
+}
+
+/// The models a session runs: callables where given, else the configuration's.
+struct ModelChoice<'py> {
+    classifier: Option<Bound<'py, PyAny>>,
+    segmenter: Option<Bound<'py, PyAny>>,
+    classes: Option<Vec<String>>,
+    hand: Option<String>,
+}
+
+impl ModelChoice<'_> {
+    fn is_builtin(&self) -> bool {
+        self.classifier.is_none() && self.segmenter.is_none()
+    }
+
+    /// The classes a callable classifier's scores name: given, or the card of the
+    /// configuration's classifier, or hand / non_hand.
+    fn classes(&self, card_of: Option<&Path>) -> PyResult<Classes> {
+        if let Some(names) = &self.classes {
+            let hand = match &self.hand {
+                Some(h) => Some(names.iter().position(|n| n == h).ok_or_else(|| {
+                    arg(
+                        "hand",
+                        format!("{h:?} is none of the classes ({})", names.join(", ")),
+                    )
+                })?),
+                None => names.iter().position(|n| n == "hand"),
+            };
+            if names.is_empty() {
+                return Err(arg("classes", "no class"));
+            }
+            return Ok(Classes::new(names.clone(), hand));
+        }
+        if let Some(card) = card_of.and_then(ModelCard::for_model) {
+            let path = ModelCard::path_for(card_of.unwrap_or(Path::new("")));
+            if let Some(c) = Classes::from_card(&card)
+                .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", path.display())))?
+            {
+                return Ok(c);
+            }
+        }
+        Ok(Classes::hand_or_not())
+    }
+
+    /// The models: callables where given, the configuration's model files for the rest.
+    fn models(&self, config: Option<&SessionConfig>, size: ImageSize, raised: &Raised) -> PyResult<Models> {
+        let resolve = |field: &'static str, p: &Option<PathBuf>| -> PyResult<Option<PathBuf>> {
+            match (config, p) {
+                (Some(c), Some(p)) => c
+                    .resolve(field, p)
+                    .map(Some)
+                    .map_err(|e| errors::raise(Kind::Config, &e)),
+                _ => Ok(None),
+            }
+        };
+        let config_classifier = resolve("classifier", &config.and_then(|c| c.classifier.clone()))?;
+        let config_segmenter = resolve("segmenter", &config.and_then(|c| c.segmenter.clone()))?;
+        let callable =
+            |f: &Bound<'_, PyAny>, what| Callable::new(f.clone().unbind(), size, Arc::clone(raised), what);
+        let mut models = match (&self.classifier, &config_classifier) {
+            (Some(f), _) => Models::new(
+                callable(f, "classifier"),
+                self.classes(config_classifier.as_deref())?,
+            ),
+            (None, Some(p)) => builtin_classifier(p, size)?,
+            (None, None) => Models::none(),
+        };
+        match (&self.segmenter, &config_segmenter) {
+            (Some(f), _) => models = models.with_segmenter(callable(f, "segmenter")),
+            (None, Some(p)) => {
+                use skin_learn::classify::InputScale;
+                let net = skin_learn::segment::Segmenter::load(p, InputScale::for_model(p))
+                    .map_err(|e| errors::raise(Kind::Model, &e))?;
+                models = models.with_segmenter(net);
+            }
+            (None, None) => {}
+        }
+        Ok(models)
+    }
+}
+
+/// The configuration's classifier file, run in tract, with the classes its card names.
+fn builtin_classifier(p: &Path, size: ImageSize) -> PyResult<Models> {
+    use skin_learn::classify::{Classifier, InputScale};
+    use skin_learn::model::HandClassifier;
+    let net = Classifier::load(p, InputScale::for_model(p)).map_err(|e| errors::raise(Kind::Model, &e))?;
+    let takes = HandClassifier::input_size(&net);
+    if takes != size {
+        return Err(errors::error(
+            Kind::Config,
+            format!("{}: takes {takes} images, the session makes {size}", p.display()),
+        ));
+    }
+    let card = ModelCard::for_model(p);
+    let classes = Classes::for_outputs(card.as_ref(), net.classes())
+        .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", ModelCard::path_for(p).display())))?
+        .ok_or_else(|| {
+            errors::error(
+                Kind::Config,
+                format!(
+                    "{}: {} classes and no model card naming them",
+                    p.display(),
+                    net.classes()
+                ),
+            )
+        })?;
+    Ok(Models::new(net, classes))
+}
+
+#[pymethods]
+impl Session {
+    /// The session of a run configuration (`run.toml`, as `skin run` takes): its layout, bus map,
+    /// models, baseline, touch and gate settings. `classifier` / `segmenter`: Python callables
+    /// that replace the configuration's models; `classes` (and `hand`, the class that is a hand)
+    /// name a callable classifier's scores (default: the classes of the configuration's
+    /// classifier's model card, or ["hand", "non_hand"]).
+    #[staticmethod]
+    #[pyo3(signature = (path, *, classifier = None, segmenter = None, classes = None, hand = None))]
+    fn from_config(
+        py: Python<'_>,
+        path: PathBuf,
+        classifier: Option<Bound<'_, PyAny>>,
+        segmenter: Option<Bound<'_, PyAny>>,
+        classes: Option<Vec<String>>,
+        hand: Option<String>,
+    ) -> PyResult<Session> {
+        let choice = ModelChoice {
+            classifier,
+            segmenter,
+            classes,
+            hand,
+        };
+        check_callable("classifier", choice.classifier.as_ref())?;
+        check_callable("segmenter", choice.segmenter.as_ref())?;
+        let config = SessionConfig::read(&path).map_err(|e| errors::raise(Kind::Config, &e))?;
+        let raised: Raised = Arc::default();
+        let session = if choice.is_builtin() {
+            py.detach(|| RustSession::from_config(&config))
+                .map_err(errors::session)?
+        } else {
+            let (rows, cols) = config.image_size().map_err(|e| errors::raise(Kind::Config, &e))?;
+            let size = ImageSize::new(rows, cols).map_err(|e| errors::error(Kind::Config, e))?;
+            let models = choice.models(Some(&config), size, &raised)?;
+            RustSession::from_config_with_models(&config, models).map_err(errors::session)?
+        };
+        Ok(Session::wrap(session, raised))
+    }
+
+    /// A session from code: the links of `layout` (a `Layout`), flattened with the default
+    /// options; `busmap` to push CAN frames or run logs; `classifier` / `segmenter` callables
+    /// (none: touches are tracked, not decided); the touch settings of `run.toml`'s `[touch]`,
+    /// its `[baseline]` and `[gate]` (`gate={"hand": "comply", "non_hand": "stop"}`).
+    #[staticmethod]
+    #[pyo3(signature = (layout, *, busmap = None, classifier = None, segmenter = None, classes = None, hand = None,
+        image_size = (68, 100), baseline_frames = 20, polarity = "rising", threshold = 5.0, min_taxels = 2,
+        decide_frames = 3, release_frames = 2, gate = None))]
+    #[allow(clippy::too_many_arguments)] // keyword arguments, the fields of run.toml
+    fn from_layout(
+        py: Python<'_>,
+        layout: &Layout,
+        busmap: Option<&BusMap>,
+        classifier: Option<Bound<'_, PyAny>>,
+        segmenter: Option<Bound<'_, PyAny>>,
+        classes: Option<Vec<String>>,
+        hand: Option<String>,
+        image_size: (usize, usize),
+        baseline_frames: usize,
+        polarity: &str,
+        threshold: f32,
+        min_taxels: usize,
+        decide_frames: usize,
+        release_frames: usize,
+        gate: Option<std::collections::HashMap<String, String>>,
+    ) -> PyResult<Session> {
+        let choice = ModelChoice {
+            classifier,
+            segmenter,
+            classes,
+            hand,
+        };
+        check_callable("classifier", choice.classifier.as_ref())?;
+        check_callable("segmenter", choice.segmenter.as_ref())?;
+        let size = ImageSize::new(image_size.0, image_size.1).map_err(|e| arg("image_size", e))?;
+        if !(threshold.is_finite() && threshold >= 0.0) {
+            return Err(arg(
+                "threshold",
+                format!("{threshold}: expected counts, 0 or more"),
+            ));
+        }
+        let polarity = match polarity {
+            "rising" => Polarity::Rising,
+            "falling" => Polarity::Falling,
+            other => {
+                return Err(arg(
+                    "polarity",
+                    format!("{other:?}: expected \"rising\" or \"falling\""),
+                ));
+            }
+        };
+        let gate = gate.map(|g| class_gate(&g)).transpose()?;
+        let raised: Raised = Arc::default();
+        let models = choice.models(None, size, &raised)?;
+        let links: Vec<LinkSkin> = layout.links.clone();
+        let maps = py
+            .detach(|| {
+                links
+                    .iter()
+                    .map(|l| skin_geom::TactileMap::flatten(l, &skin_geom::FlattenOptions::default()))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .map_err(errors::geom)?;
+        let options = TouchOptions {
+            threshold,
+            min_taxels,
+            decide_frames,
+            release_frames,
+            ..TouchOptions::default()
+        };
+        let pipeline =
+            TouchPipeline::new(maps, models, options).map_err(|e| errors::raise(Kind::Config, &e))?;
+        let session_options = SessionOptions {
+            baseline_frames,
+            polarity,
+            gate,
+            frame_images: false,
+        };
+        let mut session = RustSession::new(links, pipeline, session_options).map_err(errors::session)?;
+        if let Some(b) = busmap {
+            session = session.with_can(&b.inner).map_err(errors::session)?;
+        }
+        Ok(Session::wrap(session, raised))
+    }
+
+    /// One frame: `readings`, per link in layout order (a list of (N_link,) arrays, or a dict by
+    /// link name, or one array for a one-link skin), raw counts; `time` in seconds (any origin;
+    /// event times count from the first frame). Returns the frame's events.
+    fn push(&self, py: Python<'_>, readings: &Bound<'_, PyAny>, time: f64) -> PyResult<Vec<Event>> {
+        let time_us = seconds("time", time)?;
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        self.gather(readings, &mut inner.readings)?;
+        inner.cycle += 1;
+        let result = inner
+            .session
+            .push(time_us, inner.cycle, &inner.readings, &mut inner.events);
+        take(py, inner, result.map(|_| ()), "")
+    }
+
+    /// One assembled CAN frame (from `read_log`; needs a bus map). Returns the frame's events.
+    fn push_can(&self, py: Python<'_>, frame: &CanFrame) -> PyResult<Vec<Event>> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        let result = inner.session.push_can(&frame.frame, &mut inner.events);
+        take(py, inner, result.map(|_| ()), "")
+    }
+
+    /// Ends the session: touches still open are released. Returns those events.
+    fn finish(&self, py: Python<'_>) -> PyResult<Vec<Event>> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        let result = inner.session.finish(&mut inner.events);
+        take(py, inner, result.map(|_| ()), "")
+    }
+
+    /// A whole candump log (gzip too) through the session, as `skin run --log` does; open touches
+    /// are released at its end. Returns every event. The GIL is released while it runs.
+    fn run_log(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        let session = &mut inner.session;
+        let events = &mut inner.events;
+        let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
+            let log = skin_can::candump::CandumpReader::open(&path)?;
+            session.run_log(log, &path, events, &mut |_, _| {})?;
+            Ok(())
+        });
+        take(py, inner, result, &path.display().to_string())
+    }
+
+    /// A whole Cyskin recording through the session, as `skin run --recording` does. Returns
+    /// every event. The GIL is released while it runs.
+    fn run_recording(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        let session = &mut inner.session;
+        let events = &mut inner.events;
+        let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
+            let rec = skin_core::format::recording::RecordingReader::open(&path)?;
+            session.run_recording(rec, &path, events)?;
+            let _ = session.finish(events)?;
+            Ok(())
+        });
+        take(py, inner, result, &path.display().to_string())
+    }
+
+    /// The contacts of the last frame on `link` (a name or an index).
+    fn contacts(&self, link: &Bound<'_, PyAny>) -> PyResult<Vec<Contact>> {
+        let k = self.link_index(link)?;
+        let guard = self.lock()?;
+        Ok(guard
+            .session
+            .pipeline()
+            .contacts(k)
+            .iter()
+            .map(|c| Contact {
+                taxels: c.taxels.clone(),
+                centroid: (c.centroid.x, c.centroid.y, c.centroid.z),
+                normal: c.normal.map(|n| (n.x, n.y, n.z)),
+                mean_pressure: c.mean_pressure,
+                peak_pressure: c.peak_pressure,
+            })
+            .collect())
+    }
+
+    /// The links' names, in layout order.
+    #[getter]
+    fn links(&self) -> Vec<String> {
+        self.names.clone()
+    }
+
+    /// Taxels per link, in layout order.
+    #[getter]
+    fn taxels(&self) -> Vec<usize> {
+        self.sizes.clone()
+    }
+
+    /// The classifier's classes (empty without a classifier).
+    #[getter]
+    fn classes(&self) -> PyResult<Vec<String>> {
+        let guard = self.lock()?;
+        Ok(guard
+            .session
+            .classes()
+            .iter()
+            .map(|c| c.name().to_owned())
+            .collect())
+    }
+
+    /// What the gate says now ("stop", "comply", "slow", "resume"), or None without a gate.
+    #[getter]
+    fn gate(&self) -> PyResult<Option<&'static str>> {
+        Ok(self.lock()?.session.gate().map(GateAction::name))
+    }
+
+    /// Counts so far: frames, incomplete frames, counter resets, touches, contacts across joints.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.lock()?.session.stats();
+        let d = PyDict::new(py);
+        d.set_item("frames", s.frames)?;
+        d.set_item("incomplete", s.incomplete)?;
+        d.set_item("counter_resets", s.counter_resets)?;
+        d.set_item("touches", s.touches)?;
+        d.set_item("across_joints", s.across_joints)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Session(links {:?}, taxels {:?})", self.names, self.sizes)
+    }
+}
+
+impl Session {
+    fn wrap(session: RustSession, raised: Raised) -> Session {
+        let names: Vec<String> = session.links().iter().map(|l| l.name.clone()).collect();
+        let sizes: Vec<usize> = session.links().iter().map(|l| l.taxels.len()).collect();
+        Session {
+            inner: Mutex::new(Inner {
+                session,
+                raised,
+                cycle: 0,
+                readings: sizes.iter().map(|&n| vec![0.0; n]).collect(),
+                events: Vec::new(),
+            }),
+            names,
+            sizes,
+        }
+    }
+
+    /// The session, unless another thread is using it (waiting would hold the GIL it needs).
+    fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, Inner>> {
+        match self.inner.try_lock() {
+            Ok(g) => Ok(g),
+            Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => Err(errors::error(
+                Kind::Session,
+                "the session is in use by another thread: give each thread its own session",
+            )),
+        }
+    }
+
+    fn link_index(&self, link: &Bound<'_, PyAny>) -> PyResult<usize> {
+        if let Ok(i) = link.extract::<usize>() {
+            if i < self.names.len() {
+                return Ok(i);
+            }
+            return Err(arg(
+                "link",
+                format!("{i}: the skin has {} links", self.names.len()),
+            ));
+        }
+        let name: String = link
+            .extract()
+            .map_err(|_| arg("link", "expected a link's name or index"))?;
+        self.names.iter().position(|n| *n == name).ok_or_else(|| {
+            arg(
+                "link",
+                format!("{name:?}: the skin has {}", self.names.join(", ")),
+            )
+        })
+    }
+
+    /// Copies one frame's readings into `out`, checking each link's array.
+    fn gather(&self, readings: &Bound<'_, PyAny>, out: &mut [Vec<f32>]) -> PyResult<()> {
+        let n = self.names.len();
+        if let Ok(d) = readings.cast::<PyDict>() {
+            if d.len() != n {
+                return Err(arg(
+                    "readings",
+                    format!(
+                        "{} links given, the skin has {n} ({})",
+                        d.len(),
+                        self.names.join(", ")
+                    ),
+                ));
+            }
+            for (k, name) in self.names.iter().enumerate() {
+                let item = d
+                    .get_item(name)?
+                    .ok_or_else(|| arg("readings", format!("no readings for link {name:?}")))?;
+                self.link_readings(k, &item, &mut out[k])?;
+            }
+            return Ok(());
+        }
+        if n == 1 && readings.hasattr("ndim")? && readings.getattr("ndim")?.extract::<usize>()? == 1 {
+            return self.link_readings(0, readings, &mut out[0]);
+        }
+        let items: Vec<Bound<'_, PyAny>> = readings
+            .try_iter()
+            .map_err(|_| {
+                arg(
+                    "readings",
+                    "expected a list of arrays, one per link, or a dict by link name",
+                )
+            })?
+            .collect::<PyResult<_>>()?;
+        if items.len() != n {
+            return Err(arg(
+                "readings",
+                format!(
+                    "{} arrays, the skin has {n} links ({})",
+                    items.len(),
+                    self.names.join(", ")
+                ),
+            ));
+        }
+        for (k, item) in items.iter().enumerate() {
+            self.link_readings(k, item, &mut out[k])?;
+        }
+        Ok(())
+    }
+
+    fn link_readings(&self, k: usize, item: &Bound<'_, PyAny>, out: &mut [f32]) -> PyResult<()> {
+        let name = format!("readings[{:?}]", self.names[k]);
+        let a = array::<f32>(&name, item, "float32", 1)?;
+        if a.shape()[0] != out.len() {
+            return Err(arg(
+                &name,
+                format!("{} readings, the link has {} taxels", a.shape()[0], out.len()),
+            ));
+        }
+        let v = slice(&name, &a)?;
+        crate::arrays::finite(&name, v, a.shape())?;
+        out.copy_from_slice(v);
+        Ok(())
+    }
+}
+
+/// The events the session gave, as Python events; or its error, with a callable's exception
+/// put back (`what` names the input).
+fn take(
+    py: Python<'_>,
+    inner: &mut Inner,
+    result: Result<(), skin_learn::session::SessionError>,
+    what: &str,
+) -> PyResult<Vec<Event>> {
+    let events: Vec<RustEvent> = std::mem::take(&mut inner.events);
+    match result {
+        Ok(()) => events.iter().map(|e| Event::of(py, e)).collect(),
+        Err(e) => {
+            let context = if what.is_empty() {
+                errors::message(&e)
+            } else {
+                format!("{what}: {}", errors::message(&e))
+            };
+            let err = errors::session(e);
+            Err(reraise(&inner.raised, err, &context))
+        }
+    }
+}
+
+/// Seconds as whole microseconds.
+fn seconds(name: &str, t: f64) -> PyResult<u64> {
+    if !(0.0..1.8e13).contains(&t) {
+        return Err(arg(name, format!("{t}: expected seconds, 0 or more")));
+    }
+    Ok((t * 1e6).round() as u64)
+}
+
+fn check_callable(name: &str, f: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    match f {
+        Some(f) if !f.is_callable() => Err(arg(name, "not callable: expected a function of the image")),
+        _ => Ok(()),
+    }
+}
+
+/// A gate from {"hand": action, "non_hand": action}.
+fn class_gate(g: &std::collections::HashMap<String, String>) -> PyResult<ClassGate> {
+    let action = |name: &str| -> PyResult<GateAction> {
+        Ok(match name {
+            "stop" => GateAction::Stop,
+            "comply" => GateAction::Comply,
+            "slow" => GateAction::Slow,
+            "resume" => GateAction::Resume,
+            other => {
+                return Err(arg(
+                    "gate",
+                    format!("{other:?}: expected stop, comply, slow or resume"),
+                ));
+            }
+        })
+    };
+    let mut gate = ClassGate::default();
+    for (class, a) in g {
+        match class.as_str() {
+            "hand" => gate.hand = Some(action(a)?),
+            "non_hand" => gate.non_hand = Some(action(a)?),
+            other => {
+                return Err(arg(
+                    "gate",
+                    format!("{other:?}: the classes are hand and non_hand"),
+                ));
+            }
+        }
+    }
+    Ok(gate)
+}

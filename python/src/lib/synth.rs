@@ -1,0 +1,119 @@
+//! Synthetic labelled contacts straight to arrays (`synthesize`, what `skin synth` writes), and the
+//! images of a `skin synth` dataset (`read_grey`, for `skin.SynthDataset`).
+
+use crate::arrays;
+use crate::errors::{self, Kind, arg};
+use crate::geometry::TactileMap;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+use skin_learn::synth::{SynthOptions, Synthesizer};
+use std::path::PathBuf;
+
+/// The most memory the arrays of one call may take, bytes (as `skin synth`).
+const MAX_BYTES: usize = 8 << 30;
+
+/// `count` labelled contacts on `map`, the samples `skin synth` makes with the same `seed`,
+/// `subjects` and `size` (sample i belongs to subject i * subjects / count): a dict of `images`
+/// and part `masks` (S, rows, cols) uint8, `hand` (S,) bool, `kind` (names), `subject` (S,),
+/// `partial` and `fingertips` (S,) bool, `pressures` (S, N) float32 and `taxel_parts` (S, N) uint8
+/// in map order. Made in parallel with the GIL released.
+#[pyfunction]
+#[pyo3(signature = (map, count, *, seed = 1, subjects = None, size = (68, 100), hand_fraction = 0.5))]
+pub(crate) fn synthesize<'py>(
+    py: Python<'py>,
+    map: &TactileMap,
+    count: usize,
+    seed: u64,
+    subjects: Option<usize>,
+    size: (usize, usize),
+    hand_fraction: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let image = skin_core::image::ImageSize::new(size.0, size.1).map_err(|e| arg("size", e))?;
+    if count == 0 {
+        return Err(arg("count", "0: at least one sample"));
+    }
+    let n = map.inner.ids.len();
+    let bytes = count.saturating_mul(image.pixels() * 2 + n * 5);
+    if bytes > MAX_BYTES {
+        return Err(arg(
+            "count",
+            format!(
+                "{count} samples would take {:.1} GB; at most {} GB a call",
+                bytes as f64 / 1e9,
+                MAX_BYTES >> 30
+            ),
+        ));
+    }
+    if !(0.0..=1.0).contains(&hand_fraction) {
+        return Err(arg("hand_fraction", format!("{hand_fraction}: expected 0 to 1")));
+    }
+    let subjects = subjects.unwrap_or(count.div_ceil(40)).clamp(1, count);
+    let options = SynthOptions {
+        image_size: (image.rows, image.cols),
+        hand_fraction,
+        ..SynthOptions::default()
+    };
+    let synth = Synthesizer::new(&map.inner, options).map_err(|e| errors::raise(Kind::Geometry, &e))?;
+    let samples: Vec<_> = py.detach(|| {
+        (0..count)
+            .into_par_iter()
+            .map_init(
+                || synth.clone(),
+                |s, i| {
+                    let subject = i * subjects / count;
+                    let first = (subject * count).div_ceil(subjects);
+                    s.sample(seed, subject as u32, (i - first) as u32)
+                },
+            )
+            .collect()
+    });
+    let px = image.pixels();
+    let shape = [count, image.rows, image.cols];
+    let flat = |f: &dyn Fn(&skin_learn::synth::Sample) -> &[u8], len: usize| -> Vec<u8> {
+        let mut v = Vec::with_capacity(count * len);
+        for s in &samples {
+            v.extend_from_slice(f(s));
+        }
+        v
+    };
+    let d = PyDict::new(py);
+    d.set_item("images", arrays::out(py, flat(&|s| &s.image, px), &shape)?)?;
+    d.set_item("masks", arrays::out(py, flat(&|s| &s.mask, px), &shape)?)?;
+    d.set_item(
+        "taxel_parts",
+        arrays::out(py, flat(&|s| &s.taxel_parts, n), &[count, n])?,
+    )?;
+    let mut pressures = Vec::with_capacity(count * n);
+    for s in &samples {
+        pressures.extend_from_slice(&s.pressures);
+    }
+    d.set_item("pressures", arrays::out(py, pressures, &[count, n])?)?;
+    let column =
+        |f: &dyn Fn(&skin_learn::synth::Sample) -> bool| samples.iter().map(f).collect::<Vec<bool>>();
+    d.set_item("hand", arrays::out(py, column(&|s| s.kind.is_hand()), &[count])?)?;
+    d.set_item("partial", arrays::out(py, column(&|s| s.partial), &[count])?)?;
+    d.set_item(
+        "fingertips",
+        arrays::out(py, column(&|s| s.fingertips_only), &[count])?,
+    )?;
+    d.set_item(
+        "subject",
+        arrays::out(
+            py,
+            samples.iter().map(|s| s.subject).collect::<Vec<u32>>(),
+            &[count],
+        )?,
+    )?;
+    d.set_item("kind", samples.iter().map(|s| s.kind.name()).collect::<Vec<_>>())?;
+    Ok(d)
+}
+
+/// Reads an 8-bit grey PNG (a `skin synth` image or mask) as (rows, cols) uint8.
+#[pyfunction]
+pub(crate) fn read_grey<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+    let (pixels, rows, cols) =
+        skin_learn::dataset::read_grey(&path).map_err(|e| errors::raise(Kind::Input, &e))?;
+    arrays::out(py, pixels, &[rows, cols])
+}

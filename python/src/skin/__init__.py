@@ -1,0 +1,91 @@
+"""skin: large-area robot skin from Python.
+
+Thousands of taxels over a robot's links, from their layout to the decisions of the per-frame
+session, with numpy arrays in and out::
+
+    import skin
+    layout = skin.read_layout("fixtures/forearm/layout.json")
+    tmap = skin.flatten(layout["forearm"])            # tactile map: tmap.uv (N, 2) metres
+    imager = skin.Imager(tmap)                         # built once
+    image = imager.image(frame)                        # (N,) readings -> (rows, cols) uint8
+
+    session = skin.Session.from_config("fixtures/session/run.toml")
+    for event in session.run_log("fixtures/session/session.candump.log"):
+        print(event.kind, event.time, getattr(event, "class", None))
+
+Units: metres, seconds, raw counts (pressures above the baseline in events). Errors are
+`SkinError` subclasses carrying the command line's messages; bad arguments are `ArrayError`
+(also a `ValueError`) naming the argument.
+"""
+
+from ._errors import (
+    ArrayError,
+    ConfigError,
+    ControlError,
+    GeometryError,
+    InputError,
+    ModelError,
+    SessionError,
+    SkinError,
+)
+from ._skin import (
+    BusMap,
+    Calibration,
+    CanFrame,
+    Contact,
+    Event,
+    Imager,
+    Layout,
+    Link,
+    LogFrames,
+    Recording,
+    Session,
+    TactileMap,
+    TaskStack,
+    __version__,
+    calibrate,
+    flatten,
+    read_grey,
+    read_layout,
+    read_log,
+    read_map,
+    read_probes,
+    read_recording,
+    synthesize,
+)
+from .dataset import SynthDataset
+
+__all__ = [
+    "ArrayError",
+    "BusMap",
+    "Calibration",
+    "CanFrame",
+    "ConfigError",
+    "Contact",
+    "ControlError",
+    "Event",
+    "GeometryError",
+    "Imager",
+    "InputError",
+    "Layout",
+    "Link",
+    "LogFrames",
+    "ModelError",
+    "Recording",
+    "Session",
+    "SessionError",
+    "SkinError",
+    "SynthDataset",
+    "TactileMap",
+    "TaskStack",
+    "__version__",
+    "calibrate",
+    "flatten",
+    "read_grey",
+    "read_layout",
+    "read_log",
+    "read_map",
+    "read_probes",
+    "read_recording",
+    "synthesize",
+]

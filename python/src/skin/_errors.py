@@ -1,0 +1,49 @@
+"""The exceptions `skin` raises: one base, `SkinError`, and a subclass per kind of fault.
+
+Each carries the message the `skin` command line prints for the same fault: the file, line,
+field, taxel or frame at fault, and what to do.
+"""
+
+
+class SkinError(Exception):
+    """Base of every error `skin` raises."""
+
+
+class InputError(SkinError):
+    """A file or stream that is not what it should be, or cannot be read or written."""
+
+
+class ConfigError(SkinError):
+    """A run configuration (``run.toml``) or a model card at fault."""
+
+
+class ModelError(SkinError):
+    """A model that cannot be loaded or run."""
+
+
+class ArrayError(SkinError, ValueError):
+    """A bad argument, named: wrong dtype, shape or length, a NaN, a read-only output."""
+
+
+class GeometryError(SkinError):
+    """A skin that cannot be flattened, imaged or stitched."""
+
+
+class SessionError(SkinError):
+    """The session failed on a frame."""
+
+
+class ControlError(SkinError):
+    """The task stack cannot be solved as given."""
+
+
+__all__ = [
+    "SkinError",
+    "InputError",
+    "ConfigError",
+    "ModelError",
+    "ArrayError",
+    "GeometryError",
+    "SessionError",
+    "ControlError",
+]

@@ -1,0 +1,204 @@
+"""The session from Python: the same events as `skin run`, frames pushed one by one, contacts,
+and a Python callable as its classifier."""
+
+import os
+
+import numpy as np
+import pytest
+
+import skin
+from conftest import FIXTURES
+
+CONFIG = FIXTURES / "session" / "run.toml"
+LOG = FIXTURES / "session" / "session.candump.log"
+MODELS = FIXTURES / "models"
+
+
+def decisions(events):
+    return [(e.touch, e["class"], e.probability) for e in events if e.kind == "released"]
+
+
+def test_events_equal_skin_run(builtin_session_events, cli_session_events):
+    assert [e.to_dict() for e in builtin_session_events] == cli_session_events
+    assert len(decisions(builtin_session_events)) == 20
+
+
+def test_events_are_objects_with_the_documented_fields(builtin_session_events):
+    first = builtin_session_events[0]
+    assert first.kind == "appeared"
+    assert first.link == "forearm" and first.touch == 0
+    assert isinstance(first.time, float) and len(first.centroid) == 3
+    classified = next(e for e in builtin_session_events if e.kind == "classified")
+    assert classified["class"] == "hand" and 0 <= classified.probability <= 1
+    assert classified.image.shape == (68, 100) and classified.image.dtype == np.uint8
+    assert {p["part"] for p in classified.parts} <= {"thumb", "index", "middle", "ring", "pinkie", "palm"}
+    with pytest.raises(AttributeError, match='no field "nope"'):
+        first.nope
+    assert "appeared" in repr(first)
+
+
+def log_frames():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    return list(skin.read_log(LOG, busmap, layout))
+
+
+def test_push_can_gives_the_events_of_run_log(builtin_session_events):
+    session = skin.Session.from_config(CONFIG)
+    events = []
+    for frame in log_frames():
+        events += session.push_can(frame)
+    events += session.finish()
+    assert [e.to_dict() for e in events] == [e.to_dict() for e in builtin_session_events]
+
+
+def test_push_readings_per_link(builtin_session_events):
+    frames = log_frames()
+    assert all(f.complete for f in frames)
+    for form in ("list", "dict", "array"):
+        session = skin.Session.from_config(CONFIG)
+        events = []
+        for f in frames:
+            values = f.values
+            readings = {"list": values, "dict": {"forearm": values[0]}, "array": values[0]}[form]
+            events += session.push(readings, f.time)
+        events += session.finish()
+        assert decisions(events) == decisions(builtin_session_events), form
+
+
+def test_contacts_of_the_last_frame():
+    frames = log_frames()
+    session = skin.Session.from_config(CONFIG)
+    appeared = None
+    for f in frames:
+        events = session.push_can(f)
+        appeared = next((e for e in events if e.kind == "appeared"), None)
+        if appeared:
+            break
+    assert appeared is not None
+    contacts = session.contacts("forearm")
+    assert contacts == session.contacts(0) or len(contacts) == len(session.contacts(0))
+    assert sum(len(c.taxels) for c in contacts) == appeared.taxels
+    biggest = max(contacts, key=lambda c: len(c.taxels))
+    np.testing.assert_allclose(biggest.centroid, appeared.centroid, atol=2e-4 + 0.02 * (len(contacts) > 1))
+    assert biggest.peak_pressure >= biggest.mean_pressure > 0
+    with pytest.raises(skin.ArrayError, match="link"):
+        session.contacts("elbow")
+
+
+def handsnet_in_onnxruntime():
+    ort = pytest.importorskip("onnxruntime")
+    net = ort.InferenceSession(str(MODELS / "handsnet.onnx"), providers=["CPUExecutionProvider"])
+    calls = []
+
+    def classify(image):
+        calls.append(image.shape)
+        # The card: input [N, 1, 68, 100], pixel values divided by 255.
+        x = image.astype(np.float32)[None, None] / 255.0
+        return net.run(None, {"image": x})[0][0]
+
+    return classify, calls
+
+
+def test_a_python_classifier_in_onnxruntime_decides_as_the_builtin_model(builtin_session_events):
+    classify, calls = handsnet_in_onnxruntime()
+    session = skin.Session.from_config(CONFIG, classifier=classify)
+    assert session.classes == ["hand", "non_hand"]
+    events = session.run_log(LOG)
+    ours, builtin = decisions(events), decisions(builtin_session_events)
+    assert len(ours) == 20 and calls and all(s == (68, 100) for s in calls)
+    assert [(t, c) for t, c, _ in ours] == [(t, c) for t, c, _ in builtin]
+    # onnxruntime and tract agree to float rounding.
+    np.testing.assert_allclose([p for *_, p in ours], [p for *_, p in builtin], atol=2e-3)
+
+
+def test_a_python_segmenter_gives_the_parts():
+    def palm_everywhere(image):
+        return np.where(image > 0, 6, 0).astype(np.uint8)
+
+    session = skin.Session.from_config(CONFIG, segmenter=palm_everywhere)
+    events = session.run_log(LOG)
+    hands = [e for e in events if e.kind == "classified" and e["class"] == "hand"]
+    assert hands and all({p["part"] for p in e.parts} == {"palm"} for e in hands)
+
+
+def test_an_exception_in_the_callable_reaches_the_caller_with_the_frame():
+    class Boom(RuntimeError):
+        pass
+
+    def classify(image):
+        raise Boom("the model is not loaded")
+
+    session = skin.Session.from_config(CONFIG, classifier=classify)
+    with pytest.raises(Boom, match="the model is not loaded") as info:
+        session.run_log(LOG)
+    notes = " ".join(getattr(info.value, "__notes__", []))
+    assert "frame at 1.150 s" in notes and "touch 0" in notes and "forearm" in notes, notes
+
+
+def test_a_classifier_with_the_wrong_outputs_is_a_model_error():
+    session = skin.Session.from_config(CONFIG, classifier=lambda image: [0.5, 0.3, 0.2])
+    with pytest.raises(skin.ModelError):
+        session.run_log(LOG)
+    session = skin.Session.from_config(CONFIG, classifier=lambda image: ["a", "b"])
+    with pytest.raises(ValueError):
+        session.run_log(LOG)
+
+
+def test_a_session_from_code_with_a_python_classifier():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    classify, _ = handsnet_in_onnxruntime()
+    session = skin.Session.from_layout(
+        layout, busmap=busmap, classifier=classify, gate={"hand": "comply", "non_hand": "stop"}
+    )
+    assert session.links == ["forearm"] and session.taxels == [715]
+    events = session.run_log(LOG)
+    assert len(decisions(events)) == 20
+    assert {e.action for e in events if e.kind == "gate"} == {"comply", "stop", "resume"}
+    untracked = skin.Session.from_layout(layout, busmap=busmap)
+    events = untracked.run_log(LOG)
+    assert len([e for e in events if e.kind == "released"]) == 20
+    assert not [e for e in events if e.kind == "classified"]
+
+
+def test_a_recording_runs_as_skin_run_recording():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    session = skin.Session.from_layout(layout)
+    events = session.run_recording(FIXTURES / "forearm" / "touches.txt")
+    assert [e for e in events if e.kind == "released"]
+    assert session.stats["frames"] == len(skin.read_recording(FIXTURES / "forearm" / "touches.txt"))
+
+
+def rss_kb() -> int:
+    with open(f"/proc/{os.getpid()}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    raise RuntimeError("no VmRSS")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="resident memory is read from /proc (Linux)")
+def test_memory_is_stable_over_100k_pushes():
+    # A Python classifier (the callable's path: image out, scores in, every decision) on the
+    # fixture session's frames, replayed 160 times over: 3,200 touches and their events.
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    session = skin.Session.from_layout(layout, classifier=lambda image: np.array([0.9, 0.1]))
+    frames = log_frames()
+    n = len(frames)
+    readings = [f.values for f in frames]
+    period = frames[-1].time - frames[0].time + 0.05
+    t = 0.0
+    samples = {}
+    kinds = {}
+    for i in range(100_000):
+        lap, k = divmod(i, n)
+        t = frames[k].time - frames[0].time + lap * period
+        for event in session.push(readings[k], t):
+            kinds[event.kind] = kinds.get(event.kind, 0) + 1
+        if i + 1 in (10_000, 100_000):
+            samples[i + 1] = rss_kb()
+    assert session.stats["frames"] == 100_000
+    assert kinds["classified"] >= 3000, kinds
+    warm, end = samples[10_000], samples[100_000]
+    assert end <= warm * 1.10, f"resident memory {warm} kB after 10,000 pushes, {end} kB after 100,000"
