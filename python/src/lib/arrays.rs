@@ -32,6 +32,7 @@ pub(crate) fn array<'py, T: Element>(
                     format!("dtype {dtype_name}: expected real numbers ({dtype})"),
                 ));
             }
+            check_conversion(name, &np, &given, &kind, dtype)?;
             let converted = np.call_method1("ascontiguousarray", (given, dtype))?;
             converted
                 .cast_into::<PyArrayDyn<T>>()
@@ -41,10 +42,57 @@ pub(crate) fn array<'py, T: Element>(
     if array.ndim() != ndim {
         return Err(arg(
             name,
-            format!("{} dimensions {:?}, expected {ndim}", array.ndim(), array.shape()),
+            format!(
+                "{} dimensions {}, expected {ndim}",
+                array.ndim(),
+                crate::arrays::shape(array.shape())
+            ),
         ));
     }
     Ok(array.readonly())
+}
+
+/// Refuses a conversion that would change values: fractions or non-finite values to integers,
+/// numbers beyond float32's range to float32 (numpy would truncate, wrap or make them inf).
+fn check_conversion(
+    name: &str,
+    np: &Bound<'_, PyModule>,
+    given: &Bound<'_, PyAny>,
+    kind: &str,
+    dtype: &str,
+) -> PyResult<()> {
+    let size: usize = given.getattr("size")?.extract()?;
+    if size == 0 || kind != "f" {
+        return Ok(());
+    }
+    if dtype.starts_with("int") || dtype.starts_with("uint") {
+        let whole = np.call_method1("equal", (given, np.call_method1("round", (given,))?))?;
+        let bad = np.call_method1("argmin", (whole.call_method0("ravel")?,))?;
+        if !whole.call_method0("all")?.extract::<bool>()? {
+            let value = given.call_method0("ravel")?.get_item(&bad)?;
+            return Err(arg(
+                name,
+                format!("{} is not a whole number ({dtype} expected)", value.str()?),
+            ));
+        }
+        let largest: f64 = np
+            .call_method1("max", (np.call_method1("abs", (given,))?,))?
+            .extract()?;
+        if largest >= 9.2e18 {
+            return Err(arg(name, format!("{largest:e} is beyond {dtype}'s range")));
+        }
+    } else if dtype == "float32" {
+        let finite = given.call_method1("__getitem__", (np.call_method1("isfinite", (given,))?,))?;
+        if finite.getattr("size")?.extract::<usize>()? > 0 {
+            let largest: f64 = np
+                .call_method1("max", (np.call_method1("abs", (finite,))?,))?
+                .extract()?;
+            if largest > f64::from(f32::MAX) {
+                return Err(arg(name, format!("{largest:e} is beyond float32's range")));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The values of a contiguous read-only array (always contiguous after [`array`]).
@@ -109,4 +157,15 @@ pub(crate) fn points<'py>(
 /// Triangles as an (M, 3) array of indices.
 pub(crate) fn faces<'py>(py: Python<'py>, f: &[[usize; 3]]) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
     out(py, f.iter().flatten().map(|&i| i as i64).collect(), &[f.len(), 3])
+}
+
+/// A shape as Python writes it: `(2, 3)`, `(5,)`.
+pub(crate) fn shape(s: &[usize]) -> String {
+    match s {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            s.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+        ),
+    }
 }

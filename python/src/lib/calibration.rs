@@ -216,7 +216,7 @@ fn probe_dataset(
     if c.shape()[1] != 3 {
         return Err(arg(
             "centroids",
-            format!("shape {:?}, expected (K, 3)", c.shape()),
+            format!("shape {}, expected (K, 3)", crate::arrays::shape(c.shape())),
         ));
     }
     let cv = slice("centroids", &c)?;
@@ -229,8 +229,8 @@ fn probe_dataset(
         return Err(arg(
             "responses",
             format!(
-                "shape {:?}, expected ({k}, {n}): one row per centroid, one column per id",
-                r.shape()
+                "shape {}, expected ({k}, {n}): one row per centroid, one column per id",
+                crate::arrays::shape(r.shape())
             ),
         ));
     }

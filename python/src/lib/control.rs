@@ -86,8 +86,8 @@ impl TaskStack {
                 return Err(arg(
                     &jn,
                     format!(
-                        "shape {:?}: {n} columns, the stack has {} joints",
-                        ja.shape(),
+                        "shape {}: {n} columns, the stack has {} joints",
+                        crate::arrays::shape(ja.shape()),
                         self.joints
                     ),
                 ));

@@ -108,7 +108,11 @@ pub(crate) fn can(e: skin_can::Error) -> PyErr {
 pub(crate) fn session(e: skin_learn::session::SessionError) -> PyErr {
     use skin_learn::session::SessionError as E;
     let kind = match &e {
-        E::Config(_) => Kind::Config,
+        E::Config(c) => match **c {
+            skin_learn::session::ConfigError::Model(_) => Kind::Model,
+            skin_learn::session::ConfigError::Read(_) => Kind::Input,
+            _ => Kind::Config,
+        },
         E::Input(_) | E::Core(_) | E::Can(_) => Kind::Input,
         E::Model(_)
         | E::Touch(skin_learn::touch::TouchError::Model(_) | skin_learn::touch::TouchError::Decide { .. }) => {

@@ -40,7 +40,10 @@ impl Link {
             if a.shape() != [n, 3] {
                 return Err(arg(
                     label,
-                    format!("shape {:?}, expected ({n}, 3): one row per id", a.shape()),
+                    format!(
+                        "shape {}, expected ({n}, 3): one row per id",
+                        crate::arrays::shape(a.shape())
+                    ),
                 ));
             }
             let v = slice(label, &a)?.to_vec();
@@ -75,7 +78,10 @@ impl Link {
             let f = array::<i64>("faces", faces, "int64", 2)?;
             let m = f.shape()[0];
             if f.shape()[1] != 3 {
-                return Err(arg("faces", format!("shape {:?}, expected (M, 3)", f.shape())));
+                return Err(arg(
+                    "faces",
+                    format!("shape {}, expected (M, 3)", crate::arrays::shape(f.shape())),
+                ));
             }
             let v = slice("faces", &f)?;
             let mut tris = Vec::with_capacity(m);
@@ -558,8 +564,8 @@ impl Imager {
             return Err(arg(
                 name,
                 format!(
-                    "shape {:?}: {last} readings a frame, the map has {n} taxels",
-                    a.shape()
+                    "shape {}: {last} readings a frame, the map has {n} taxels",
+                    crate::arrays::shape(a.shape())
                 ),
             ));
         }
@@ -598,7 +604,14 @@ fn writable<'py>(obj: &Bound<'py, PyAny>, shape: &[usize]) -> PyResult<PyReadwri
         .cast::<PyArrayDyn<u8>>()
         .map_err(|_| arg("out", "expected a numpy array of dtype uint8"))?;
     if a.shape() != shape {
-        return Err(arg("out", format!("shape {:?}, expected {shape:?}", a.shape())));
+        return Err(arg(
+            "out",
+            format!(
+                "shape {}, expected {}",
+                crate::arrays::shape(a.shape()),
+                crate::arrays::shape(shape)
+            ),
+        ));
     }
     if !a.is_c_contiguous() {
         return Err(arg("out", "not C-contiguous"));

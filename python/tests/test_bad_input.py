@@ -1,0 +1,225 @@
+"""Bad input of every kind: the right exception, the argument or file named, no crash, no panic,
+nothing written."""
+
+import os
+
+import numpy as np
+import pytest
+
+import skin
+from conftest import FIXTURES
+
+LAYOUT = FIXTURES / "forearm" / "layout.json"
+CONFIG = FIXTURES / "session" / "run.toml"
+
+
+@pytest.fixture(scope="module")
+def tmap():
+    return skin.read_map(LAYOUT)
+
+
+@pytest.fixture(scope="module")
+def imager(tmap):
+    return skin.Imager(tmap)
+
+
+def test_the_exceptions_form_one_family():
+    for cls in (skin.InputError, skin.ConfigError, skin.ModelError, skin.ArrayError, skin.GeometryError, skin.SessionError, skin.ControlError):
+        assert issubclass(cls, skin.SkinError)
+    assert issubclass(skin.ArrayError, ValueError)
+
+
+def test_missing_and_foreign_files_are_named(tmp_path):
+    with pytest.raises(skin.InputError, match="nope.json"):
+        skin.read_layout(tmp_path / "nope.json")
+    binary = tmp_path / "layout.json"
+    binary.write_bytes(b"\x00\x01\x02" * 100)
+    with pytest.raises(skin.InputError, match="layout.json"):
+        skin.read_layout(binary)
+    with pytest.raises(skin.InputError, match="nope.txt"):
+        skin.read_recording(tmp_path / "nope.txt")
+    with pytest.raises(skin.InputError, match="nope.toml"):
+        skin.BusMap.read(tmp_path / "nope.toml")
+    with pytest.raises(skin.InputError, match="no.log"):
+        skin.read_log(tmp_path / "no.log", skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml"), skin.read_layout(LAYOUT))
+    with pytest.raises(skin.InputError, match="a NUL byte"):
+        skin.Session.from_config(CONFIG).run_log("/dev/zero")
+
+
+def test_a_bad_configuration_is_a_config_error(tmp_path):
+    cfg = tmp_path / "run.toml"
+    cfg.write_text('layout = "../forearm/layout.json"\n[touch]\nthreshold = "high"\n')
+    with pytest.raises(skin.ConfigError, match="run.toml"):
+        skin.Session.from_config(cfg)
+    cfg.write_text(f'layout = "{LAYOUT}"\nclassifier = "{cfg}"\n')
+    with pytest.raises(skin.ModelError, match="run.toml"):
+        skin.Session.from_config(cfg)
+
+
+def test_arrays_of_the_wrong_kind_are_named(imager, tmap):
+    n = len(tmap)
+    with pytest.raises(skin.ArrayError, match="frame: dtype <U1"):
+        imager.image(np.array(["a"] * n))
+    with pytest.raises(skin.ArrayError, match="frame: dtype complex128"):
+        imager.image(np.zeros(n, dtype=complex))
+    with pytest.raises(skin.ArrayError, match="frame: 2 dimensions"):
+        imager.image(np.zeros((2, n)))
+    with pytest.raises(skin.ArrayError, match=f"frame: shape \\({n - 1},\\): {n - 1} readings a frame, the map has {n} taxels"):
+        imager.image(np.zeros(n - 1))
+    bad = np.zeros(n)
+    bad[7] = np.nan
+    with pytest.raises(skin.ArrayError, match=r"frame: NaN at index \[7\]"):
+        imager.image(bad)
+    with pytest.raises(skin.ArrayError, match=r"frames: inf at index \[1, 3\]"):
+        f = np.zeros((2, n))
+        f[1, 3] = np.inf
+        imager.images(f)
+    with pytest.raises(skin.ArrayError, match="frames"):
+        imager.images(object())
+
+
+def test_what_numpy_can_convert_is_accepted(imager, tmap):
+    rng = np.random.default_rng(0)
+    frames = rng.uniform(0, 50, size=(6, len(tmap))).astype(np.float32)
+    expected = imager.images(frames)
+    np.testing.assert_array_equal(imager.images(frames.astype(np.float64)), expected)
+    np.testing.assert_array_equal(imager.images(frames.tolist()), expected)
+    strided = np.asfortranarray(frames)
+    np.testing.assert_array_equal(imager.images(strided), expected)
+    np.testing.assert_array_equal(imager.images(np.repeat(frames, 2, axis=0)[::2]), expected)
+    np.testing.assert_array_equal(imager.images(np.zeros((0, len(tmap)))), np.zeros((0, *imager.size), np.uint8))
+    np.testing.assert_array_equal(imager.image(np.round(frames[0]).astype(np.int32)), imager.image(np.round(frames[0])))
+
+
+def test_bad_options_are_named(tmap):
+    for kwargs, name in [
+        ({"step_mm": 0}, "step_mm"),
+        ({"grid": (0, 10)}, "grid"),
+        ({"size": (5000, 10)}, "size"),
+        ({"norm": "loud"}, "norm"),
+        ({"norm": "full_scale"}, "full_scale"),
+        ({"norm": "full_scale", "full_scale": -1}, "full_scale"),
+        ({"threshold": float("nan")}, "threshold"),
+    ]:
+        with pytest.raises(skin.ArrayError, match=name):
+            skin.Imager(tmap, **kwargs)
+    link = skin.read_layout(LAYOUT)[0]
+    with pytest.raises(skin.ArrayError, match="max_edge"):
+        skin.flatten(link, max_edge=-1)
+
+
+def test_conversions_that_would_change_values_are_refused(imager, tmap):
+    with pytest.raises(skin.ArrayError, match="ids: 1.5 is not a whole number"):
+        skin.Link("l", [1.5], [[0, 0, 0]], [[0, 0, 1]])
+    with pytest.raises(skin.ArrayError, match="ids: nan is not a whole number"):
+        skin.Link("l", [float("nan")], [[0, 0, 0]], [[0, 0, 1]])
+    with pytest.raises(skin.ArrayError, match="frame: 1e308 is beyond float32's range"):
+        imager.image(np.full(len(tmap), 1e308))
+    assert skin.Link("l", [3.0], [[0, 0, 0]], [[0, 0, 1]]).ids.tolist() == [3]
+
+
+def test_bad_links_are_named():
+    p = np.zeros((3, 3))
+    p[:, 0] = [0, 0.01, 0.02]
+    n = np.tile([0.0, 0.0, 1.0], (3, 1))
+    with pytest.raises(skin.ArrayError, match="ids: 4 appears twice"):
+        skin.Link("l", [4, 5, 4], p, n)
+    with pytest.raises(skin.ArrayError, match="ids: -1 at index 0"):
+        skin.Link("l", [-1, 5, 6], p, n)
+    with pytest.raises(skin.ArrayError, match=r"positions: shape \(2, 3\), expected \(3, 3\)"):
+        skin.Link("l", [1, 2, 3], p[:2], n)
+    zero = n.copy()
+    zero[1] = 0
+    with pytest.raises(skin.ArrayError, match=r"normals: row 1 \(taxel 2\) is zero"):
+        skin.Link("l", [1, 2, 3], p, zero)
+    with pytest.raises(skin.ArrayError, match="faces: row 0: index 3"):
+        skin.Link("l", [1, 2, 3], p, n, faces=[[0, 1, 3]])
+    with pytest.raises(skin.GeometryError, match='link "l"'):
+        skin.flatten(skin.Link("l", [1, 2, 3], p, n))
+
+
+def test_bad_frames_for_the_session_are_named():
+    session = skin.Session.from_config(CONFIG)
+    ok = np.zeros(715, dtype=np.float32)
+    with pytest.raises(skin.ArrayError, match="readings: 2 arrays, the skin has 1 links"):
+        session.push([ok, ok], 0.0)
+    with pytest.raises(skin.ArrayError, match=r"readings\[\"forearm\"\]: 714 readings, the link has 715 taxels"):
+        session.push([ok[:-1]], 0.0)
+    with pytest.raises(skin.ArrayError, match='no readings for link "forearm"'):
+        session.push({"elbow": ok}, 0.0)
+    bad = ok.copy()
+    bad[9] = np.nan
+    with pytest.raises(skin.ArrayError, match=r"readings\[\"forearm\"\]: NaN at index \[9\]"):
+        session.push([bad], 0.0)
+    with pytest.raises(skin.ArrayError, match="time: -1"):
+        session.push([ok], -1.0)
+    with pytest.raises(skin.ArrayError, match="readings"):
+        session.push(42, 0.0)
+    with pytest.raises(skin.ArrayError, match="classifier: not callable"):
+        skin.Session.from_config(CONFIG, classifier="handsnet")
+    # After all that, the session still runs.
+    assert session.push([ok], 0.0) == []
+    assert session.stats["frames"] == 1
+
+
+def test_nothing_is_written_on_failure(tmp_path, tmap):
+    before = sorted(os.listdir(tmp_path))
+    with pytest.raises(skin.ArrayError):
+        tmap.write(tmp_path / "m.json", format="svg")
+    assert sorted(os.listdir(tmp_path)) == before
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(skin.InputError, match="folder"):
+        tmap.write(tmp_path / "folder")
+    assert os.listdir(tmp_path / "folder") == []
+
+
+GARBAGE = [None, 0, -1, 1e308, float("nan"), "", "x", b"\xff", [], [[]], {}, object(), np.zeros(0), np.zeros((0, 0)), np.zeros((3, 0)), np.array([np.inf]), np.zeros(10**6, dtype=np.int8)]
+
+
+def test_garbage_arguments_never_panic(tmap, imager, tmp_path):
+    """Every function, every argument slot, arbitrary values: a Python exception, never a Rust
+    panic (pyo3's PanicException derives from BaseException, not Exception)."""
+    session = skin.Session.from_layout(skin.read_layout(LAYOUT))
+    stack = skin.TaskStack(3)
+    calls = [
+        lambda g: skin.read_layout(g),
+        lambda g: skin.read_map(g),
+        lambda g: skin.read_recording(g),
+        lambda g: skin.flatten(g),
+        lambda g: skin.Link("l", g, g, g),
+        lambda g: skin.Link("l", [1], g, [[0, 0, 1]]),
+        lambda g: skin.Imager(g),
+        lambda g: skin.Imager(tmap, step_mm=g),
+        lambda g: skin.Imager(tmap, size=g),
+        lambda g: imager.image(g),
+        lambda g: imager.images(g),
+        lambda g: imager.images(np.zeros((1, len(tmap))), out=g),
+        lambda g: imager.pressure_image(g),
+        lambda g: session.push(g, 0.0),
+        lambda g: session.push([np.zeros(715)], g),
+        lambda g: session.contacts(g),
+        lambda g: session.run_log(g),
+        lambda g: skin.calibrate(g, g, g),
+        lambda g: skin.calibrate(np.zeros((2, 3)), [1, 2], g),
+        lambda g: skin.synthesize(tmap, g),
+        lambda g: skin.read_grey(g),
+        lambda g: stack.solve(g),
+        lambda g: stack.solve([(g, g, 1.0)]),
+        lambda g: skin.TaskStack(g),
+        lambda g: skin.Session.from_layout(g),
+        lambda g: skin.Session.from_config(g),
+    ]
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        for k, call in enumerate(calls):
+            for g in GARBAGE:
+                try:
+                    call(g)
+                except Exception:
+                    pass
+                except BaseException as e:  # a PanicException
+                    pytest.fail(f"call {k} with {g!r:.40}: {type(e).__name__}: {e}")
+    finally:
+        os.chdir(cwd)
+    assert os.listdir(tmp_path) == []

@@ -1,0 +1,62 @@
+"""Synthetic labelled contacts straight to arrays, equal to `skin synth`; its folder as a dataset
+a DataLoader takes."""
+
+import numpy as np
+import pytest
+
+import skin
+from conftest import FIXTURES, run_skin
+
+LAYOUT = FIXTURES / "forearm" / "layout.json"
+
+
+@pytest.fixture(scope="module")
+def synth_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("synth") / "ds"
+    run_skin("synth", "--layout", LAYOUT, "--count", "24", "--subjects", "3", "--seed", "5", "-o", out)
+    return out
+
+
+def test_synthesize_equals_skin_synth(synth_dir):
+    tmap = skin.read_map(LAYOUT)
+    s = skin.synthesize(tmap, 24, seed=5, subjects=3)
+    assert s["images"].shape == (24, 68, 100) and s["images"].dtype == np.uint8
+    assert s["masks"].shape == (24, 68, 100)
+    assert s["pressures"].shape == (24, len(tmap)) and s["taxel_parts"].shape == (24, len(tmap))
+    ds = skin.SynthDataset(synth_dir)
+    assert len(ds) == 24
+    for i in range(24):
+        sample = ds[i]
+        np.testing.assert_array_equal(sample["image"], s["images"][i])
+        assert sample["label"] == int(s["hand"][i])
+        assert sample["subject"] == s["subject"][i] and sample["kind"] == s["kind"][i]
+        if s["hand"][i]:
+            np.testing.assert_array_equal(sample["mask"], s["masks"][i])
+    assert sorted(set(s["subject"].tolist())) == [0, 1, 2]
+    # Hands press with their parts; nothing else does.
+    assert (s["masks"][~s["hand"]] == 0).all() and (s["masks"][s["hand"]].max(axis=(1, 2)) > 0).all()
+
+
+def test_dataset_split_by_subject_and_transform(synth_dir):
+    train = skin.SynthDataset(synth_dir, subjects=[0, 1])
+    test = skin.SynthDataset(synth_dir, subjects=[2], transform=lambda d: (d["image"].astype(np.float32) / 255, d["label"]))
+    assert len(train) + len(test) == 24
+    x, y = test[0]
+    assert x.dtype == np.float32 and x.max() <= 1 and y in (0, 1)
+    with pytest.raises(IndexError):
+        test[len(test)]
+
+
+def test_a_dataloader_takes_it(synth_dir):
+    torch = pytest.importorskip("torch", reason="PyTorch is not installed (CI does not install it: a 5 GB download)")
+    loader = torch.utils.data.DataLoader(skin.SynthDataset(synth_dir), batch_size=8)
+    batch = next(iter(loader))
+    assert batch["image"].shape == (8, 68, 100) and batch["label"].shape == (8,)
+
+
+def test_not_a_dataset_folder_is_named(tmp_path):
+    with pytest.raises(skin.InputError, match="labels.csv"):
+        skin.SynthDataset(tmp_path)
+    (tmp_path / "labels.csv").write_text("name,label\n")
+    with pytest.raises(skin.InputError, match="line 1: expected the header"):
+        skin.SynthDataset(tmp_path)
