@@ -24,7 +24,10 @@ use std::sync::{Arc, Mutex};
 /// "incomplete", "gate", ...) and the fields `events.jsonl` documents for it, as attributes
 /// (`event.time`, `event.link`, `event.probability`, ...), with the same units and rounding (times
 /// in s to 1 ms, centroids in m to 0.1 mm, areas in cm², pressures in counts above the baseline).
-/// A `classified` event also has `image`, the (rows, cols) uint8 image it was decided on.
+/// A `classified` event also has `image`, the (rows, cols) uint8 image it was decided on. A field
+/// that is a Python keyword reads as `event["class"]`. Fields `events.jsonl` leaves out read as
+/// what they stand for: `parts` of a decision that is not a hand is `[]`, `class` and
+/// `probability` of a touch released undecided are None; `to_dict()` is the line itself.
 #[pyclass(module = "skin._skin", frozen)]
 pub(crate) struct Event {
     kind: String,
@@ -47,8 +50,8 @@ impl Event {
     }
 
     fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        match self.fields.bind(py).get_item(name)? {
-            Some(v) => Ok(v.unbind()),
+        match self.field(py, name)? {
+            Some(v) => Ok(v),
             None => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
                 "a \"{}\" event has no field {name:?} (it has {})",
                 self.kind,
@@ -59,8 +62,8 @@ impl Event {
 
     /// A field by name: `event["class"]` (a Python keyword as an attribute).
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        match self.fields.bind(py).get_item(name)? {
-            Some(v) => Ok(v.unbind()),
+        match self.field(py, name)? {
+            Some(v) => Ok(v),
             None => Err(pyo3::exceptions::PyKeyError::new_err(format!(
                 "a \"{}\" event has no field {name:?} (it has {})",
                 self.kind,
@@ -98,6 +101,20 @@ impl Event {
 }
 
 impl Event {
+    /// A field, or the value a field `events.jsonl` leaves out stands for: no `parts` on a
+    /// decision that is not a hand (an empty list), no `class` or `probability` on a touch
+    /// released undecided (None).
+    fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
+        if let Some(v) = self.fields.bind(py).get_item(name)? {
+            return Ok(Some(v.unbind()));
+        }
+        Ok(match (self.kind.as_str(), name) {
+            ("classified", "parts") => Some(PyList::empty(py).into_any().unbind()),
+            ("released", "class" | "probability") => Some(py.None()),
+            _ => None,
+        })
+    }
+
     fn field_names(&self, py: Python<'_>) -> Vec<String> {
         self.fields
             .bind(py)

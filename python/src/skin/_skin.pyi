@@ -1,0 +1,271 @@
+"""Type stubs of the native module (skin._skin). Units: metres, seconds, raw counts."""
+
+import os
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, "os.PathLike[str]"]
+_Array = npt.ArrayLike
+
+__version__: str
+
+class Link:
+    """One link's skin: taxel ids, positions and outward normals (metres, the link's frame)."""
+
+    def __init__(self, name: str, ids: _Array, positions: _Array, normals: _Array, faces: Optional[_Array] = None) -> None: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def ids(self) -> npt.NDArray[np.uint32]:
+        """(N,) taxel ids."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """(N, 3) metres."""
+    @property
+    def normals(self) -> npt.NDArray[np.float64]:
+        """(N, 3) unit vectors."""
+    @property
+    def faces(self) -> Optional[npt.NDArray[np.int64]]:
+        """(M, 3) indices into the taxels, or None."""
+    def __len__(self) -> int: ...
+
+class Layout:
+    """The links of a layout file, in its order."""
+
+    @property
+    def links(self) -> List[Link]: ...
+    @property
+    def names(self) -> List[str]: ...
+    @property
+    def notes(self) -> List[str]:
+        """What reading the file did, one line each."""
+    @property
+    def path(self) -> str: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: Union[int, str]) -> Link: ...
+
+def read_layout(path: _Path) -> Layout:
+    """Any layout format `skin` reads: native JSON, Cyskin, iCub taxel files, URDF with tactile sensors."""
+
+class TactileMap:
+    """A link flattened onto the plane (LSCM)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def ids(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def uv(self) -> npt.NDArray[np.float64]:
+        """(N, 2) metres on the map."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def report(self) -> str:
+        """The distortion report `skin flatten` prints."""
+    @property
+    def distortion(self) -> Dict[str, float]: ...
+    def write(self, path: _Path, format: str = "native") -> None:
+        """"native" (skin flatten's JSON) or "cyskin"; replaces only a tactile map."""
+    def to_svg(self) -> str: ...
+    def __len__(self) -> int: ...
+
+def flatten(link: Link, *, triangulate: bool = False, max_edge: float = 3.0) -> TactileMap: ...
+def read_map(path: _Path) -> TactileMap: ...
+
+class Imager:
+    """Tactile images of one map (thesis eq. 3.1), built once; one thread at a time."""
+
+    def __init__(
+        self,
+        map: TactileMap,
+        *,
+        step_mm: float = 1.0,
+        grid: Optional[Tuple[int, int]] = None,
+        norm: str = "contact_max",
+        full_scale: Optional[float] = None,
+        threshold: float = 0.0,
+        morph: bool = False,
+        size: Optional[Tuple[int, int]] = None,
+    ) -> None: ...
+    @property
+    def size(self) -> Tuple[int, int]: ...
+    @property
+    def taxels(self) -> int: ...
+    def image(self, frame: _Array) -> npt.NDArray[np.uint8]:
+        """(N,) readings in map order -> (rows, cols)."""
+    def images(self, frames: _Array, out: Optional[npt.NDArray[np.uint8]] = None) -> npt.NDArray[np.uint8]:
+        """(T, N) -> (T, rows, cols); the GIL is released."""
+    def pressure_image(self, frame: _Array) -> npt.NDArray[np.float32]: ...
+
+class Recording:
+    @property
+    def times(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def frame_numbers(self) -> npt.NDArray[np.uint64]: ...
+    @property
+    def ids(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def values(self) -> npt.NDArray[np.float32]:
+        """(T, N) raw readings."""
+    @property
+    def path(self) -> str: ...
+    def for_taxels(self, ids: _Array, threshold: float = 0.0) -> npt.NDArray[np.float32]: ...
+    def __len__(self) -> int: ...
+
+def read_recording(path: _Path) -> Recording: ...
+
+class BusMap:
+    @staticmethod
+    def read(path: _Path) -> "BusMap": ...
+    @property
+    def interfaces(self) -> List[str]: ...
+    @property
+    def ids(self) -> npt.NDArray[np.uint32]: ...
+
+class CanFrame:
+    @property
+    def time(self) -> float: ...
+    @property
+    def time_us(self) -> int: ...
+    @property
+    def cycle(self) -> int: ...
+    @property
+    def values(self) -> List[npt.NDArray[np.float32]]:
+        """Per link, NaN where a module's data did not arrive."""
+    @property
+    def missing(self) -> List[Tuple[str, int]]: ...
+    @property
+    def complete(self) -> bool: ...
+
+class LogFrames(Iterator[CanFrame]):
+    def __iter__(self) -> "LogFrames": ...
+    def __next__(self) -> CanFrame: ...
+
+def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames: ...
+
+class Event:
+    """A session event: `kind` and the fields events.jsonl documents, as attributes."""
+
+    @property
+    def kind(self) -> str: ...
+    @property
+    def image(self) -> Optional[npt.NDArray[np.uint8]]: ...
+    def __getattr__(self, name: str) -> Any: ...
+    def __getitem__(self, name: str) -> Any: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+
+class Contact:
+    taxels: List[int]
+    centroid: Tuple[float, float, float]
+    normal: Optional[Tuple[float, float, float]]
+    mean_pressure: float
+    peak_pressure: float
+
+_Model = Callable[[npt.NDArray[np.uint8]], Any]
+
+class Session:
+    """The per-frame pipeline of a skin: frames in, events out."""
+
+    @staticmethod
+    def from_config(
+        path: _Path,
+        *,
+        classifier: Optional[_Model] = None,
+        segmenter: Optional[_Model] = None,
+        classes: Optional[Sequence[str]] = None,
+        hand: Optional[str] = None,
+    ) -> "Session": ...
+    @staticmethod
+    def from_layout(
+        layout: Layout,
+        *,
+        busmap: Optional[BusMap] = None,
+        classifier: Optional[_Model] = None,
+        segmenter: Optional[_Model] = None,
+        classes: Optional[Sequence[str]] = None,
+        hand: Optional[str] = None,
+        image_size: Tuple[int, int] = (68, 100),
+        baseline_frames: int = 20,
+        polarity: str = "rising",
+        threshold: float = 5.0,
+        min_taxels: int = 2,
+        decide_frames: int = 3,
+        release_frames: int = 2,
+        gate: Optional[Mapping[str, str]] = None,
+    ) -> "Session": ...
+    def push(self, readings: Union[Sequence[_Array], Mapping[str, _Array], _Array], time: float) -> List[Event]: ...
+    def push_can(self, frame: CanFrame) -> List[Event]: ...
+    def finish(self) -> List[Event]: ...
+    def run_log(self, path: _Path) -> List[Event]: ...
+    def run_recording(self, path: _Path) -> List[Event]: ...
+    def contacts(self, link: Union[int, str]) -> List[Contact]: ...
+    @property
+    def links(self) -> List[str]: ...
+    @property
+    def taxels(self) -> List[int]: ...
+    @property
+    def classes(self) -> List[str]: ...
+    @property
+    def gate(self) -> Optional[str]: ...
+    @property
+    def stats(self) -> Dict[str, int]: ...
+
+class Calibration:
+    @property
+    def ids(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """(N, 3) metres, NaN rows where not fitted."""
+    @property
+    def normals(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def centre_sd_mm(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def samples(self) -> npt.NDArray[np.uint64]: ...
+    @property
+    def fitted(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def status(self) -> List[str]: ...
+    def to_tsv(self) -> str: ...
+    def __len__(self) -> int: ...
+
+def read_probes(path: _Path) -> Dict[str, npt.NDArray[Any]]: ...
+def calibrate(
+    centroids: _Array,
+    ids: _Array,
+    responses: _Array,
+    *,
+    min_responses: int = 8,
+    epsilon: float = 1e-6,
+    max_iterations: int = 200,
+    max_extrapolation_mm: float = 8.0,
+    max_open_angle_deg: float = 170.0,
+    outward: Optional[Tuple[float, float, float]] = None,
+) -> Calibration: ...
+def synthesize(
+    map: TactileMap,
+    count: int,
+    *,
+    seed: int = 1,
+    subjects: Optional[int] = None,
+    size: Tuple[int, int] = (68, 100),
+    hand_fraction: float = 0.5,
+) -> Dict[str, Any]: ...
+def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
+
+class TaskStack:
+    def __init__(
+        self,
+        joints: int,
+        *,
+        regularisation: str = "activation_aware",
+        lam: float = 0.05,
+        threshold: float = 0.01,
+        eta: float = 1.0,
+        tolerance: float = 1e-9,
+    ) -> None: ...
+    def solve(self, tasks: Sequence[Tuple[_Array, _Array, float]]) -> npt.NDArray[np.float64]: ...

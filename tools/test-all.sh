@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The whole test suite: the workspace's tests with every optional part built, then the Python
+# package's (python/tests), against the package built into a venv of its own and the `skin`
+# command the first step built. Needs a Rust toolchain and Python 3.9 or later (with venv);
+# pip fetches maturin, pytest and onnxruntime from the package registry.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+cargo test --workspace --all-features
+
+# The package as a user installs it (pip, through maturin), but built with the test build's
+# settings (`dev` at opt-level 2 reuses what `cargo test` compiled) instead of a second,
+# release build of every dependency.
+venv=target/py-venv
+if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r python/tests/requirements.txt
+CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev" \
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check ./python
+# pytest exits 5 when it collects nothing: that fails this script (set -e) as any failure does.
+SKIN="$PWD/target/debug/skin" "$venv/bin/python" -m pytest -q python/tests
