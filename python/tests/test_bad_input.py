@@ -93,7 +93,7 @@ def test_what_numpy_can_convert_is_accepted(imager, tmap):
 
 def test_bad_options_are_named(tmap):
     for kwargs, name in [
-        ({"step_mm": 0}, "step_mm"),
+        ({"step_mm": 0.0}, "step_mm"),
         ({"grid": (0, 10)}, "grid"),
         ({"size": (5000, 10)}, "size"),
         ({"norm": "loud"}, "norm"),
@@ -223,3 +223,127 @@ def test_garbage_arguments_never_panic(tmap, imager, tmp_path):
     finally:
         os.chdir(cwd)
     assert os.listdir(tmp_path) == []
+
+
+def log_frames(layout_path=LAYOUT):
+    layout = skin.read_layout(layout_path)
+    return list(skin.read_log(FIXTURES / "session" / "session.candump.log", skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml"), layout))
+
+
+def test_frames_come_in_time_order_and_not_after_the_end():
+    frames = log_frames()
+    session = skin.Session.from_config(CONFIG)
+    session.push_can(frames[1])
+    with pytest.raises(skin.ArrayError, match=r"frame: .* is before the previous frame's"):
+        session.push_can(frames[0])
+    with pytest.raises(skin.ArrayError, match=r"time: 0.000000 s is before the previous frame's"):
+        session.push([frames[2].values[0]], 0.0)
+    for f in frames[2:30]:
+        session.push_can(f)
+    session.finish()
+    assert session.finish() == []
+    with pytest.raises(skin.SessionError, match=r"ended \(finish\(\)\)"):
+        session.push_can(frames[30])
+    with pytest.raises(skin.SessionError, match="run_log"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+    whole = skin.Session.from_config(CONFIG)
+    whole.run_log(FIXTURES / "session" / "session.candump.log")
+    with pytest.raises(skin.SessionError, match=r"ended \(run_log\(\)\): run_log\(\) takes a new Session"):
+        whole.run_log(FIXTURES / "session" / "session.candump.log")
+
+
+def test_a_frame_of_another_bus_map_or_none_is_named():
+    arm = skin.read_layout(FIXTURES / "arm" / "layout.json")
+    arm_frames = skin.read_log(FIXTURES / "arm" / "touch.candump.log", skin.BusMap.read(FIXTURES / "arm" / "busmap.toml"), arm)
+    session = skin.Session.from_config(CONFIG)
+    with pytest.raises(skin.ArrayError, match="frame: a frame of 990 slots, this session's bus map has 715"):
+        session.push_can(next(arm_frames))
+    with pytest.raises(skin.SessionError, match="busmap="):
+        skin.Session.from_layout(skin.read_layout(LAYOUT)).run_log(FIXTURES / "session" / "session.candump.log")
+
+
+def test_taxels_on_no_bus_are_listed():
+    arm = skin.read_layout(FIXTURES / "arm" / "layout.json")
+    frames = skin.read_log(FIXTURES / "session" / "session.candump.log", skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml"), arm)
+    wrist = [i for link, i in frames.uncovered if link == "wrist"]
+    assert len(wrist) == len(arm["wrist"])
+    f = next(frames)
+    assert f.complete and np.isnan(f.values[1]).all()
+
+
+def test_a_classifier_must_give_probabilities():
+    session = skin.Session.from_config(CONFIG, classifier=lambda image: np.array([-3.0, 2.0]))
+    with pytest.raises(skin.ModelError, match="softmax"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+    session = skin.Session.from_config(CONFIG, classifier=lambda image: None)
+    with pytest.raises(skin.ModelError, match="returned None"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+    session = skin.Session.from_config(CONFIG, classifier=lambda image: [0.2, 0.3, 0.5])
+    with pytest.raises(skin.ModelError, match=r"frame at 1.150 s, link forearm, touch 0: .*3 class scores"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+    with pytest.raises(skin.ArrayError, match='hand: "nope" is none of the classes'):
+        skin.Session.from_config(CONFIG, classifier=lambda image: [1.0, 0.0], hand="nope")
+
+
+def test_whole_numbers_are_named_and_sequences_accepted(tmap):
+    for call, name in [
+        (lambda: skin.Imager(tmap, size=(-5, 10)), "size"),
+        (lambda: skin.Imager(tmap, size=(68,)), "size"),
+        (lambda: skin.Imager(tmap, grid=(1.5, 3)), "grid"),
+        (lambda: skin.synthesize(tmap, -1), "count"),
+        (lambda: skin.synthesize(tmap, 3, seed=-1), "seed"),
+        (lambda: skin.synthesize(tmap, 3, subjects=0), "subjects"),
+        (lambda: skin.TaskStack(-1), "joints"),
+        (lambda: skin.Session.from_layout(skin.read_layout(LAYOUT), baseline_frames=-1), "baseline_frames"),
+        (lambda: skin.Session.from_layout(skin.read_layout(LAYOUT), baseline_frames=0), "baseline_frames"),
+        (lambda: skin.Session.from_layout(skin.read_layout(LAYOUT), image_size="big"), "image_size"),
+    ]:
+        with pytest.raises(skin.ArrayError, match=f"^{name}: "):
+            call()
+    assert skin.Imager(tmap, size=[68, 100]).size == skin.Imager(tmap, size=np.array([68, 100])).size == (68, 100)
+
+
+def test_options_that_contradict_are_refused(tmap):
+    with pytest.raises(skin.ArrayError, match="full_scale: only with norm"):
+        skin.Imager(tmap, full_scale=100.0)
+    with pytest.raises(skin.ArrayError, match="grid: give grid or step_mm"):
+        skin.Imager(tmap, grid=(10, 10), step_mm=2.0)
+    probes = skin.read_probes(FIXTURES / "hex_patch" / "probes.csv")
+    for kwargs, name in [({"outward": (0, 0, 0)}, "outward"), ({"outward": (np.nan, 0, 1)}, "outward"), ({"max_iterations": 0}, "max_iterations"), ({"max_open_angle_deg": 400}, "max_open_angle_deg")]:
+        with pytest.raises(skin.ArrayError, match=name):
+            skin.calibrate(probes["centroids"], probes["ids"], probes["responses"], **kwargs)
+
+
+def test_a_map_of_a_layout_of_several_links_names_its_link():
+    arm = FIXTURES / "arm" / "layout.json"
+    with pytest.raises(skin.ArrayError, match=r"link: .*2 links \(forearm, wrist\); choose one with link="):
+        skin.read_map(arm)
+    wrist = skin.read_map(arm, link="wrist")
+    np.testing.assert_array_equal(wrist.uv, skin.flatten(skin.read_layout(arm)["wrist"]).uv)
+    with pytest.raises(skin.ArrayError, match='no link "elbow"'):
+        skin.read_map(arm, link="elbow")
+    with pytest.raises(IndexError):
+        skin.read_layout(arm)[5]
+
+
+def test_one_imager_in_two_threads_says_so(tmap):
+    import threading
+
+    imager = skin.Imager(tmap)
+    big = np.tile(np.ones(len(tmap), dtype=np.float32), (3000, 1))
+    errors = []
+
+    def other():
+        try:
+            imager.image(big[0])
+        except skin.SkinError as e:
+            errors.append(str(e))
+
+    t = threading.Thread(target=lambda: imager.images(big))
+    t.start()
+    import time
+
+    time.sleep(0.05)
+    other()
+    t.join()
+    assert errors and "in use by another thread" in errors[0]

@@ -4,7 +4,9 @@
 //!
 //! `cargo bench -p skin-geom --bench tactile_image` also writes the per-pixel taxel triples,
 //! weights and a frame to `target/bench-data/raster_*.bin` so that `bench/image_numpy.py` times
-//! numpy (sparse weights @ pressures) + OpenCV morphology on the same work (see BENCHMARKS.md).
+//! numpy (sparse weights @ pressures) + OpenCV morphology on the same work, and the link's layout
+//! to `target/bench-data/arm3465.json` so that `python/bench/image.py` times the Python package
+//! imaging the same link (see BENCHMARKS.md).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test or bench
 
@@ -55,11 +57,25 @@ fn frame(map: &TactileMap) -> Vec<f32> {
         .collect()
 }
 
-fn dump(raster: &Rasterizer, pressures: &[f32]) {
-    let dir = std::env::var_os("CARGO_TARGET_DIR")
+fn bench_data() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"))
-        .join("bench-data");
+        .join("bench-data")
+}
+
+/// The arm's layout, for `python/bench/image.py` (the Python package imaging the same link).
+fn dump_layout(link: &LinkSkin) {
+    let dir = bench_data();
+    let _ = std::fs::create_dir_all(&dir);
+    let layout = skin_core::SkinLayout {
+        links: vec![link.clone()],
+    };
+    let _ = skin_core::format::native::write_layout(&dir.join("arm3465.json"), &layout);
+}
+
+fn dump(raster: &Rasterizer, pressures: &[f32]) {
+    let dir = bench_data();
     let _ = std::fs::create_dir_all(&dir);
     let (rows, cols) = (raster.rows(), raster.cols());
     // Per pixel: three taxel indices (u32) and three weights (f32); 0 weights outside the map.
@@ -96,6 +112,7 @@ fn dump(raster: &Rasterizer, pressures: &[f32]) {
 
 fn tactile_image(c: &mut Criterion) {
     let link = arm();
+    dump_layout(&link);
     let map = TactileMap::flatten(&link, &FlattenOptions::default()).expect("bench layout flattens");
     let pressures = frame(&map);
     let mut raster = Rasterizer::new(&map, Grid::StepMm(1.0)).expect("grid");

@@ -286,7 +286,7 @@ fn footprint_of(contacts: &[Contact], area_per_taxel_cm2: f64) -> Option<(Footpr
 
 /// The most likely class and its probability; a classifier that scores another number of
 /// classes than its card names is an error, not a guess.
-fn most_likely(probabilities: &[f32], classes: &Classes) -> Result<(Class, f32), TouchError> {
+fn most_likely(probabilities: &[f32], classes: &Classes) -> Result<(Class, f32), ModelError> {
     let (best, probability) =
         probabilities
             .iter()
@@ -298,11 +298,11 @@ fn most_likely(probabilities: &[f32], classes: &Classes) -> Result<(Class, f32),
             );
     match classes.get(best) {
         Some(c) if probabilities.len() == classes.len() => Ok((c.clone(), probability)),
-        _ => Err(TouchError::Model(ModelError::Run(format!(
+        _ => Err(ModelError::Run(format!(
             "{} class scores from the classifier, for {} classes",
             probabilities.len(),
             classes.len()
-        )))),
+        ))),
     }
 }
 
@@ -686,7 +686,7 @@ impl TouchPipeline {
         self.times.image += t1 - t0;
         self.times.classify += t2 - t1;
         self.times.runs.0 += 1;
-        let (class, probability) = most_likely(&probabilities, &self.models.classes)?;
+        let (class, probability) = most_likely(&probabilities, &self.models.classes).map_err(decide)?;
         let mut parts = Vec::new();
         if class.is_hand()
             && let Some(segmenter) = &mut self.models.segmenter

@@ -169,3 +169,36 @@ pub(crate) fn shape(s: &[usize]) -> String {
         ),
     }
 }
+
+/// A whole number, 0 or more (a Python or numpy integer), named when it is not one.
+pub(crate) fn count(name: &str, v: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let n: i64 = v
+        .extract()
+        .map_err(|_| arg(name, format!("{}: expected a whole number", short(v))))?;
+    usize::try_from(n).map_err(|_| arg(name, format!("{n}: expected 0 or more")))
+}
+
+/// (rows, cols): any sequence of two whole numbers (a tuple, a list, an array).
+pub(crate) fn pair(name: &str, v: &Bound<'_, PyAny>) -> PyResult<(usize, usize)> {
+    let items: Vec<Bound<'_, PyAny>> = v
+        .try_iter()
+        .and_then(|i| i.collect::<PyResult<Vec<_>>>())
+        .map_err(|_| arg(name, format!("{}: expected (rows, cols)", short(v))))?;
+    match items.as_slice() {
+        [r, c] => Ok((count(name, r)?, count(name, c)?)),
+        _ => Err(arg(
+            name,
+            format!("{}: expected (rows, cols), two numbers", short(v)),
+        )),
+    }
+}
+
+/// A value as Python shows it, cut short.
+fn short(v: &Bound<'_, PyAny>) -> String {
+    let text = v.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
+    if text.chars().count() > 40 {
+        format!("{}...", text.chars().take(40).collect::<String>())
+    } else {
+        text
+    }
+}

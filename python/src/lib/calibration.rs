@@ -139,10 +139,11 @@ impl Calibration {
 
 /// Fits every taxel's position and normal from probe contacts (thesis Ch. 7.2.4): `centroids`
 /// (K, 3) metres where the probe pressed, `ids` (N,) taxel ids, `responses` (K, N) what each
-/// taxel answered to each contact (0: no answer). The options are `skin calibrate`'s. Taxels are
+/// taxel answered to each contact (0: no answer). The options are `skin calibrate`'s
+/// (`min_responses` 8, `max_iterations` 200 by default). Taxels are
 /// solved in parallel with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (centroids, ids, responses, *, min_responses = 8, epsilon = 1e-6, max_iterations = 200,
+#[pyo3(signature = (centroids, ids, responses, *, min_responses = None, epsilon = 1e-6, max_iterations = None,
     max_extrapolation_mm = 8.0, max_open_angle_deg = 170.0, outward = None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin calibrate` has options
 pub(crate) fn calibrate(
@@ -150,13 +151,42 @@ pub(crate) fn calibrate(
     centroids: &Bound<'_, PyAny>,
     ids: &Bound<'_, PyAny>,
     responses: &Bound<'_, PyAny>,
-    min_responses: usize,
+    min_responses: Option<&Bound<'_, PyAny>>,
     epsilon: f64,
-    max_iterations: usize,
+    max_iterations: Option<&Bound<'_, PyAny>>,
     max_extrapolation_mm: f64,
     max_open_angle_deg: f64,
     outward: Option<(f64, f64, f64)>,
 ) -> PyResult<Calibration> {
+    let defaults = CalibrationOptions::default();
+    let min_responses = min_responses.map_or(Ok(defaults.min_responses), |v| {
+        crate::arrays::count("min_responses", v)
+    })?;
+    let max_iterations = max_iterations.map_or(Ok(defaults.max_iterations), |v| {
+        crate::arrays::count("max_iterations", v)
+    })?;
+    if max_iterations == 0 {
+        return Err(arg("max_iterations", "0: at least one"));
+    }
+    if max_open_angle_deg > 360.0 {
+        return Err(arg(
+            "max_open_angle_deg",
+            format!("{max_open_angle_deg}: at most 360 degrees"),
+        ));
+    }
+    let outward = match outward {
+        Some((x, y, z)) => {
+            let v = Vector3::new(x, y, z);
+            if !(v.iter().all(|c| c.is_finite()) && v.norm() > 0.0) {
+                return Err(arg(
+                    "outward",
+                    format!("({x}, {y}, {z}): expected a direction (finite, not zero)"),
+                ));
+            }
+            Some(v)
+        }
+        None => None,
+    };
     if min_responses < 5 {
         return Err(arg(
             "min_responses",
@@ -179,7 +209,7 @@ pub(crate) fn calibrate(
         max_iterations,
         max_extrapolation_mm,
         max_open_angle_deg,
-        outward: outward.map(|(x, y, z)| Vector3::new(x, y, z)),
+        outward,
     };
     let mut report = py.detach(|| skin_learn::calibration::calibrate(&data, &options));
     // A taxel of `ids` that never answered is reported, flagged, as one whose rows in a probe

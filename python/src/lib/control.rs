@@ -23,13 +23,14 @@ impl TaskStack {
     #[new]
     #[pyo3(signature = (joints, *, regularisation = "activation_aware", lam = 0.05, threshold = 0.01, eta = 1.0, tolerance = 1e-9))]
     fn new(
-        joints: usize,
+        joints: &Bound<'_, PyAny>,
         regularisation: &str,
         lam: f64,
         threshold: f64,
         eta: f64,
         tolerance: f64,
     ) -> PyResult<TaskStack> {
+        let joints = arrays::count("joints", joints)?;
         if joints == 0 || joints > 1000 {
             return Err(arg("joints", format!("{joints}: expected 1 to 1000")));
         }

@@ -23,6 +23,8 @@ pub(crate) enum Kind {
     Session,
     /// The task stack.
     Control,
+    /// Anything else (an object in use by another thread).
+    Other,
 }
 
 impl Kind {
@@ -35,6 +37,7 @@ impl Kind {
             Kind::Geometry => "GeometryError",
             Kind::Session => "SessionError",
             Kind::Control => "ControlError",
+            Kind::Other => "SkinError",
         }
     }
 }

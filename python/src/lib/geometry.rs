@@ -73,6 +73,12 @@ impl Link {
                 normal,
             });
         }
+        if name.trim().is_empty() {
+            return Err(arg("name", "empty: a link needs a name"));
+        }
+        if taxels.is_empty() {
+            return Err(arg("ids", "no taxel: a link needs at least one"));
+        }
         let mut inner = LinkSkin::new(name, taxels);
         if let Some(faces) = faces {
             let f = array::<i64>("faces", faces, "int64", 2)?;
@@ -186,7 +192,12 @@ impl Layout {
         let found = if let Ok(i) = key.extract::<isize>() {
             let n = self.links.len() as isize;
             let k = if i < 0 { i + n } else { i };
-            (0..n).contains(&k).then(|| &self.links[k as usize])
+            if !(0..n).contains(&k) {
+                return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                    "link {i}: the layout has {n}"
+                )));
+            }
+            Some(&self.links[k as usize])
         } else {
             let name: String = key.extract()?;
             self.links.iter().find(|l| l.name == name)
@@ -355,7 +366,10 @@ impl TactileMap {
 #[pyo3(signature = (link, *, triangulate = false, max_edge = 3.0))]
 pub(crate) fn flatten(py: Python<'_>, link: &Link, triangulate: bool, max_edge: f64) -> PyResult<TactileMap> {
     if !(max_edge > 0.0 && max_edge <= 1e3) {
-        return Err(arg("max_edge", format!("{max_edge}: expected 0 to 1000 pitches")));
+        return Err(arg(
+            "max_edge",
+            format!("{max_edge}: expected more than 0, at most 1000 taxel pitches"),
+        ));
     }
     let options = FlattenOptions {
         mesh: MeshOptions {
@@ -377,9 +391,50 @@ pub(crate) fn flatten(py: Python<'_>, link: &Link, triangulate: bool, max_edge: 
 }
 
 /// Reads a tactile map (`skin flatten`'s JSON or a Cyskin `tactile_maps` file); a layout file is
-/// flattened with the default options, as the command line does.
+/// flattened with the default options, as the command line does: its only link, or the one
+/// named `link`.
 #[pyfunction]
-pub(crate) fn read_map(py: Python<'_>, path: PathBuf) -> PyResult<TactileMap> {
+#[pyo3(signature = (path, link = None))]
+pub(crate) fn read_map(py: Python<'_>, path: PathBuf, link: Option<String>) -> PyResult<TactileMap> {
+    // A layout of several links: the one asked for, flattened.
+    if let Ok(layout) = skin_geom::read_layout(&path) {
+        let names: Vec<&str> = layout.value.iter().map(|l| l.name.as_str()).collect();
+        if layout.value.len() > 1 || link.is_some() {
+            let pick = match &link {
+                Some(name) => names.iter().position(|n| n == name).ok_or_else(|| {
+                    arg(
+                        "link",
+                        format!(
+                            "{}: no link {name:?} (it has {})",
+                            path.display(),
+                            names.join(", ")
+                        ),
+                    )
+                })?,
+                None => {
+                    return Err(arg(
+                        "link",
+                        format!(
+                            "{}: {} links ({}); choose one with link=",
+                            path.display(),
+                            names.len(),
+                            names.join(", ")
+                        ),
+                    ));
+                }
+            };
+            let one = &layout.value[pick];
+            let map = py
+                .detach(|| skin_geom::TactileMap::flatten(one, &FlattenOptions::default()))
+                .map_err(|e| {
+                    errors::error(
+                        Kind::Geometry,
+                        format!("{}: {}", path.display(), errors::message(&e)),
+                    )
+                })?;
+            return Ok(TactileMap { inner: map });
+        }
+    }
     let noted = py
         .detach(|| skin_geom::read_map(&path, &FlattenOptions::default()))
         .map_err(errors::geom)?;
@@ -389,8 +444,16 @@ pub(crate) fn read_map(py: Python<'_>, path: PathBuf) -> PyResult<TactileMap> {
 /// Tactile images of one map, built once (thesis Ch. 3.3, eq. 3.1): pressure interpolated on a
 /// grid laid on the map, grey = floor(255 K / K_bar), then optionally eroded and dilated and
 /// resized. One imager serves one thread at a time; two threads each use their own.
-#[pyclass(module = "skin._skin")]
+#[pyclass(module = "skin._skin", frozen)]
 pub(crate) struct Imager {
+    state: std::sync::Mutex<ImagerState>,
+    size: ImageSize,
+    grid: (usize, usize),
+    taxels: usize,
+}
+
+/// What an imager works in.
+struct ImagerState {
     inner: TactileImager,
     threshold: f32,
     /// The frame after the threshold, in map order.
@@ -404,28 +467,39 @@ impl Imager {
     /// `full_scale` counts); `threshold`: readings at or below it are no pressure; `morph`: erosion
     /// (disk r=2) then dilation (r=4); `size=(rows, cols)`: resize (68 x 100 for HandsNet).
     #[new]
-    #[pyo3(signature = (map, *, step_mm = 1.0, grid = None, norm = "contact_max", full_scale = None, threshold = 0.0, morph = false, size = None))]
+    #[pyo3(signature = (map, *, step_mm = None, grid = None, norm = "contact_max", full_scale = None, threshold = 0.0, morph = false, size = None))]
     #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin image` has options
     fn new(
         map: &TactileMap,
-        step_mm: f64,
-        grid: Option<(usize, usize)>,
+        step_mm: Option<f64>,
+        grid: Option<&Bound<'_, PyAny>>,
         norm: &str,
         full_scale: Option<f64>,
         threshold: f64,
         morph: bool,
-        size: Option<(usize, usize)>,
+        size: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Imager> {
-        if !(0.01..=1000.0).contains(&step_mm) {
-            return Err(arg("step_mm", format!("{step_mm}: expected 0.01 to 1000 mm")));
-        }
-        let grid = match grid {
-            Some((rows, cols)) => {
+        let grid = match (grid, step_mm) {
+            (Some(_), Some(_)) => return Err(arg("grid", "give grid or step_mm, not both")),
+            (Some(g), None) => {
+                let (rows, cols) = arrays::pair("grid", g)?;
                 image_size("grid", rows, cols)?;
                 Grid::Size { rows, cols }
             }
-            None => Grid::StepMm(step_mm),
+            (None, step) => {
+                let step = step.unwrap_or(1.0);
+                if !(0.01..=1000.0).contains(&step) {
+                    return Err(arg("step_mm", format!("{step}: expected 0.01 to 1000 mm")));
+                }
+                Grid::StepMm(step)
+            }
         };
+        if full_scale.is_some() && norm != "full_scale" {
+            return Err(arg(
+                "full_scale",
+                "only with norm=\"full_scale\" (contact_max scales each frame by its own maximum)",
+            ));
+        }
         let norm = match (norm, full_scale) {
             ("full_scale", Some(k)) if k > 0.0 && k <= f64::from(f32::MAX) => {
                 Normalisation::FullScale(k as f32)
@@ -453,68 +527,72 @@ impl Imager {
                 format!("{threshold}: expected a number of counts"),
             ));
         }
-        let size = size.map(|(r, c)| image_size("size", r, c)).transpose()?;
+        let size = size
+            .map(|s| arrays::pair("size", s).and_then(|(r, c)| image_size("size", r, c)))
+            .transpose()?;
         let raster = Rasterizer::new(&map.inner, grid).map_err(errors::geom)?;
+        let grid = (raster.rows(), raster.cols());
         let inner = TactileImager::new(raster, norm, morph, size).map_err(errors::geom)?;
         Ok(Imager {
-            pressures: vec![0.0; map.inner.ids.len()],
-            inner,
-            threshold: threshold as f32,
+            size: inner.output_size(),
+            grid,
+            taxels: map.inner.ids.len(),
+            state: std::sync::Mutex::new(ImagerState {
+                pressures: vec![0.0; map.inner.ids.len()],
+                inner,
+                threshold: threshold as f32,
+            }),
         })
     }
 
     /// The images' (rows, cols).
     #[getter]
     fn size(&self) -> (usize, usize) {
-        let s = self.inner.output_size();
-        (s.rows, s.cols)
+        (self.size.rows, self.size.cols)
     }
 
     /// Taxels a frame has (the map's, in its order).
     #[getter]
     fn taxels(&self) -> usize {
-        self.pressures.len()
+        self.taxels
     }
 
     /// One frame (N,) -> its image (rows, cols) uint8.
-    fn image<'py>(
-        &mut self,
-        py: Python<'py>,
-        frame: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+    fn image<'py>(&self, py: Python<'py>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
         let a = array::<f32>("frame", frame, "float32", 1)?;
-        let values = self.check_frames("frame", &a, 1)?;
-        let size = self.inner.output_size();
-        let mut out = vec![0u8; size.pixels()];
-        self.run(values, &mut out)?;
-        arrays::out(py, out, &[size.rows, size.cols])
+        let values = self.check_frames("frame", &a)?;
+        let mut out = vec![0u8; self.size.pixels()];
+        self.lock()?.run(values, &mut out)?;
+        arrays::out(py, out, &[self.size.rows, self.size.cols])
     }
 
     /// Frames (T, N) -> images (T, rows, cols) uint8, into `out` if given (a writable, C-ordered
     /// uint8 array of that shape). The GIL is released while imaging.
     #[pyo3(signature = (frames, out = None))]
     fn images<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         frames: &Bound<'py, PyAny>,
         out: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let a = array::<f32>("frames", frames, "float32", 2)?;
         let t = a.shape()[0];
-        let values = self.check_frames("frames", &a, t)?;
-        let size = self.inner.output_size();
+        let values = self.check_frames("frames", &a)?;
+        let size = self.size;
         let shape = [t, size.rows, size.cols];
+        let mut state = self.lock()?;
+        let state = &mut *state;
         match out {
             Some(target) => {
                 let mut w = writable(target, &shape)?;
                 let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
-                py.detach(|| self.run(values, dst))?;
+                py.detach(|| state.run(values, dst))?;
                 drop(w);
                 Ok(target.clone())
             }
             None => {
                 let mut dst = vec![0u8; t * size.pixels()];
-                py.detach(|| self.run(values, &mut dst))?;
+                py.detach(|| state.run(values, &mut dst))?;
                 Ok(arrays::out(py, dst, &shape)?.into_any())
             }
         }
@@ -523,42 +601,46 @@ impl Imager {
     /// One frame (N,) -> its pressure image K (grid rows, grid cols) float32, counts: before
     /// quantisation, morphology and resizing.
     fn pressure_image<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let a = array::<f32>("frame", frame, "float32", 1)?;
-        let values = self.check_frames("frame", &a, 1)?;
-        let mut scratch = vec![0u8; self.inner.output_size().pixels()];
-        self.run(values, &mut scratch)?;
-        let raster = self.inner.raster();
+        let values = self.check_frames("frame", &a)?;
+        let mut scratch = vec![0u8; self.size.pixels()];
+        let mut state = self.lock()?;
+        state.run(values, &mut scratch)?;
         arrays::out(
             py,
-            self.inner.pressure_image().to_vec(),
-            &[raster.rows(), raster.cols()],
+            state.inner.pressure_image().to_vec(),
+            &[self.grid.0, self.grid.1],
         )
     }
 
     fn __repr__(&self) -> String {
-        let s = self.inner.output_size();
         format!(
             "Imager({} taxels -> {} x {} px)",
-            self.pressures.len(),
-            s.rows,
-            s.cols
+            self.taxels, self.size.rows, self.size.cols
         )
     }
 }
 
 impl Imager {
-    /// The values of `t` frames of this imager's taxels, finite.
-    fn check_frames<'a>(
-        &self,
-        name: &str,
-        a: &'a numpy::PyReadonlyArrayDyn<'_, f32>,
-        t: usize,
-    ) -> PyResult<&'a [f32]> {
-        let n = self.pressures.len();
+    /// The imager's state, unless another thread is imaging with it.
+    fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, ImagerState>> {
+        match self.state.try_lock() {
+            Ok(g) => Ok(g),
+            Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => Err(errors::error(
+                Kind::Other,
+                "the imager is in use by another thread: give each thread its own Imager",
+            )),
+        }
+    }
+
+    /// The values of a batch of frames of this imager's taxels, finite.
+    fn check_frames<'a>(&self, name: &str, a: &'a numpy::PyReadonlyArrayDyn<'_, f32>) -> PyResult<&'a [f32]> {
+        let n = self.taxels;
         let last = *a.shape().last().unwrap_or(&0);
         if last != n {
             return Err(arg(
@@ -571,10 +653,11 @@ impl Imager {
         }
         let values = slice(name, a)?;
         finite(name, values, a.shape())?;
-        debug_assert_eq!(values.len(), t * n);
         Ok(values)
     }
+}
 
+impl ImagerState {
     /// Images each frame of `values` into its slot of `out`.
     fn run(&mut self, values: &[f32], out: &mut [u8]) -> PyResult<()> {
         let n = self.pressures.len();

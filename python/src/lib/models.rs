@@ -1,7 +1,7 @@
 //! Bring your own model: a Python callable as the session's classifier or segmenter, through
 //! the model traits of `skin_learn::model`. The callable takes the tactile image, a (rows, cols)
-//! uint8 numpy array, and returns class scores (anything `numpy.asarray` reads: an array, a list,
-//! a tensor on the CPU) or part labels (rows, cols), 0 background then thumb .. palm. An
+//! uint8 numpy array, and returns class probabilities, 0 to 1 (anything `numpy.asarray` reads: an
+//! array, a list, a tensor on the CPU; logits need a softmax first) or part labels (rows, cols), 0 background then thumb .. palm. An
 //! exception it raises is kept and re-raised to the caller as itself, with the frame, link and
 //! touch added as a note.
 
@@ -43,6 +43,12 @@ impl Callable {
                 let pixels =
                     crate::arrays::out(py, image.pixels().to_vec(), &[self.size.rows, self.size.cols])?;
                 let result = self.function.bind(py).call1((pixels,))?;
+                if result.is_none() {
+                    return Err(crate::errors::error(
+                        crate::errors::Kind::Model,
+                        format!("the Python {} returned None", self.what),
+                    ));
+                }
                 let array = match result.cast::<PyArrayDyn<T>>() {
                     Ok(a) if a.is_c_contiguous() => a.clone(),
                     _ => py
@@ -72,9 +78,11 @@ impl HandClassifier for Callable {
 
     fn classify(&mut self, image: ImageView<'_, u8>) -> Result<Vec<f32>, ModelError> {
         let scores: Vec<f32> = self.call(image, "float32")?;
-        if let Some(bad) = scores.iter().find(|s| !s.is_finite()) {
+        // The decision's probability is the largest score: scores must be probabilities (a
+        // model's logits need a softmax first).
+        if let Some(bad) = scores.iter().find(|s| !(0.0..=1.0).contains(*s)) {
             return Err(ModelError::Run(format!(
-                "the Python classifier returned a score of {bad}"
+                "the Python classifier returned a score of {bad}: scores are probabilities, 0 to 1 (apply a softmax to logits)"
             )));
         }
         Ok(scores)

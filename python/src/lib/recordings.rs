@@ -66,6 +66,12 @@ impl Recording {
         ids: &Bound<'py, PyAny>,
         threshold: f64,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        if !threshold.is_finite() {
+            return Err(arg(
+                "threshold",
+                format!("{threshold}: expected a number of counts"),
+            ));
+        }
         let a = array::<i64>("ids", ids, "int64", 1)?;
         let ids = slice("ids", &a)?
             .iter()
@@ -241,12 +247,22 @@ struct LogState {
 pub(crate) struct LogFrames {
     state: Mutex<LogState>,
     interfaces: Vec<String>,
+    /// (link, taxel index) of the layout's taxels on no bus of the map.
+    uncovered: Vec<(String, usize)>,
 }
 
 #[pymethods]
 impl LogFrames {
     fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
         slf
+    }
+
+    /// The layout's taxels that no slot of the bus map carries, as (link name, taxel index):
+    /// they read NaN in every frame (the session takes them as dead). A frame is complete when
+    /// every module of the bus map sent its data, whatever the layout has beyond it.
+    #[getter]
+    fn uncovered(&self) -> Vec<(String, usize)> {
+        self.uncovered.clone()
     }
 
     fn __next__(&self, py: Python<'_>) -> PyResult<Option<CanFrame>> {
@@ -307,6 +323,11 @@ pub(crate) fn read_log(path: PathBuf, busmap: &BusMap, layout: &Layout) -> PyRes
     let reader = CandumpReader::open(&path).map_err(errors::can)?;
     let ids: Vec<Vec<TaxelId>> = layout.links.iter().map(skin_core::LinkSkin::ids).collect();
     let layout_frames = LayoutFrames::new(&busmap.inner, &ids, Missing::NotANumber).map_err(errors::can)?;
+    let uncovered = layout_frames
+        .uncovered()
+        .iter()
+        .map(|&(l, i)| (layout.links[l].name.clone(), i))
+        .collect();
     Ok(LogFrames {
         state: Mutex::new(LogState {
             reader,
@@ -316,5 +337,6 @@ pub(crate) fn read_log(path: PathBuf, busmap: &BusMap, layout: &Layout) -> PyRes
             ended: false,
         }),
         interfaces: busmap.inner.buses.iter().map(|b| b.interface.clone()).collect(),
+        uncovered,
     })
 }

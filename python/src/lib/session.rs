@@ -60,6 +60,13 @@ impl Event {
         }
     }
 
+    fn __dir__(&self, py: Python<'_>) -> Vec<String> {
+        let mut names = self.field_names(py);
+        names.extend(["kind", "image", "to_dict"].map(String::from));
+        names.sort();
+        names
+    }
+
     /// A field by name: `event["class"]` (a Python keyword as an attribute).
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
         match self.field(py, name)? {
@@ -182,13 +189,15 @@ fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
 }
 
 /// One contact of the last frame on a link.
-#[pyclass(module = "skin._skin", frozen, get_all)]
+#[pyclass(module = "skin._skin", frozen, get_all, eq)]
+#[derive(PartialEq)]
 pub(crate) struct Contact {
     /// Layout indices of its taxels, ascending.
     taxels: Vec<usize>,
     /// Pressure-weighted centroid, metres in the link's frame.
     centroid: (f64, f64, f64),
-    /// Pressure-weighted outward normal (unit), if the link has normals.
+    /// Pressure-weighted outward normal (unit), when the contact search carries normals (the
+    /// session's searches on tactile maps do not: None).
     normal: Option<(f64, f64, f64)>,
     /// Mean pressure over its taxels, counts above the baseline.
     mean_pressure: f32,
@@ -222,6 +231,10 @@ struct Inner {
     /// The frame's readings, per link (reused).
     readings: Vec<Vec<f32>>,
     events: Vec<RustEvent>,
+    /// The last frame's stamp, µs: frames come in time order.
+    last_us: Option<u64>,
+    /// What ended the session (`finish()`, a whole log or recording): it takes no more frames.
+    ended: Option<&'static str>,
 }
 
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
@@ -265,15 +278,27 @@ impl ModelChoice<'_> {
             }
             return Ok(Classes::new(names.clone(), hand));
         }
+        let mut classes = Classes::hand_or_not();
         if let Some(card) = card_of.and_then(ModelCard::for_model) {
             let path = ModelCard::path_for(card_of.unwrap_or(Path::new("")));
             if let Some(c) = Classes::from_card(&card)
                 .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", path.display())))?
             {
-                return Ok(c);
+                classes = c;
             }
         }
-        Ok(Classes::hand_or_not())
+        if let Some(h) = &self.hand {
+            // The hand class named among the classes the scores already have.
+            let names: Vec<String> = classes.iter().map(|c| c.name().to_owned()).collect();
+            let at = names.iter().position(|n| n == h).ok_or_else(|| {
+                arg(
+                    "hand",
+                    format!("{h:?} is none of the classes ({})", names.join(", ")),
+                )
+            })?;
+            classes = Classes::new(names, Some(at));
+        }
+        Ok(classes)
     }
 
     /// The models: callables where given, the configuration's model files for the rest.
@@ -386,8 +411,8 @@ impl Session {
     /// its `[baseline]` and `[gate]` (`gate={"hand": "comply", "non_hand": "stop"}`).
     #[staticmethod]
     #[pyo3(signature = (layout, *, busmap = None, classifier = None, segmenter = None, classes = None, hand = None,
-        image_size = (68, 100), baseline_frames = 20, polarity = "rising", threshold = 5.0, min_taxels = 2,
-        decide_frames = 3, release_frames = 2, gate = None))]
+        image_size = None, baseline_frames = None, polarity = "rising", threshold = 5.0, min_taxels = None,
+        decide_frames = None, release_frames = None, gate = None))]
     #[allow(clippy::too_many_arguments)] // keyword arguments, the fields of run.toml
     fn from_layout(
         py: Python<'_>,
@@ -397,13 +422,13 @@ impl Session {
         segmenter: Option<Bound<'_, PyAny>>,
         classes: Option<Vec<String>>,
         hand: Option<String>,
-        image_size: (usize, usize),
-        baseline_frames: usize,
+        image_size: Option<&Bound<'_, PyAny>>,
+        baseline_frames: Option<&Bound<'_, PyAny>>,
         polarity: &str,
         threshold: f32,
-        min_taxels: usize,
-        decide_frames: usize,
-        release_frames: usize,
+        min_taxels: Option<&Bound<'_, PyAny>>,
+        decide_frames: Option<&Bound<'_, PyAny>>,
+        release_frames: Option<&Bound<'_, PyAny>>,
         gate: Option<std::collections::HashMap<String, String>>,
     ) -> PyResult<Session> {
         let choice = ModelChoice {
@@ -414,7 +439,26 @@ impl Session {
         };
         check_callable("classifier", choice.classifier.as_ref())?;
         check_callable("segmenter", choice.segmenter.as_ref())?;
-        let size = ImageSize::new(image_size.0, image_size.1).map_err(|e| arg("image_size", e))?;
+        let (rows, cols) = image_size.map_or(Ok((68, 100)), |s| crate::arrays::pair("image_size", s))?;
+        let size = ImageSize::new(rows, cols).map_err(|e| arg("image_size", e))?;
+        let whole =
+            |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, least: usize| -> PyResult<usize> {
+                let n = v.map_or(Ok(default), |v| crate::arrays::count(name, v))?;
+                if n < least {
+                    return Err(arg(name, format!("{n}: at least {least}")));
+                }
+                Ok(n)
+            };
+        let baseline_frames = whole("baseline_frames", baseline_frames, 20, 2)?;
+        if baseline_frames > 100_000 {
+            return Err(arg(
+                "baseline_frames",
+                format!("{baseline_frames}: at most 100,000"),
+            ));
+        }
+        let min_taxels = whole("min_taxels", min_taxels, 2, 1)?;
+        let decide_frames = whole("decide_frames", decide_frames, 3, 1)?;
+        let release_frames = whole("release_frames", release_frames, 2, 1)?;
         if !(threshold.is_finite() && threshold >= 0.0) {
             return Err(arg(
                 "threshold",
@@ -472,7 +516,9 @@ impl Session {
         let time_us = seconds("time", time)?;
         let mut guard = self.lock()?;
         let inner = &mut *guard;
+        taking(inner, "time", time_us)?;
         self.gather(readings, &mut inner.readings)?;
+        inner.last_us = Some(time_us);
         inner.cycle += 1;
         let result = inner
             .session
@@ -484,6 +530,21 @@ impl Session {
     fn push_can(&self, py: Python<'_>, frame: &CanFrame) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
+        let Some(busmap) = inner.session.busmap() else {
+            return Err(no_busmap());
+        };
+        let slots = busmap.taxel_ids().len();
+        if frame.frame.values.len() != slots {
+            return Err(arg(
+                "frame",
+                format!(
+                    "a frame of {} slots, this session's bus map has {slots}: the frame comes from another bus map",
+                    frame.frame.values.len()
+                ),
+            ));
+        }
+        taking(inner, "frame", frame.frame.time_us)?;
+        inner.last_us = Some(frame.frame.time_us);
         let result = inner.session.push_can(&frame.frame, &mut inner.events);
         take(py, inner, result.map(|_| ()), "")
     }
@@ -492,6 +553,10 @@ impl Session {
     fn finish(&self, py: Python<'_>) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
+        if inner.ended.is_some() {
+            return Ok(Vec::new());
+        }
+        inner.ended = Some("finish()");
         let result = inner.session.finish(&mut inner.events);
         take(py, inner, result.map(|_| ()), "")
     }
@@ -501,6 +566,10 @@ impl Session {
     fn run_log(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
+        if inner.session.busmap().is_none() {
+            return Err(no_busmap());
+        }
+        fresh(inner, "run_log()")?;
         let session = &mut inner.session;
         let events = &mut inner.events;
         let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
@@ -516,6 +585,7 @@ impl Session {
     fn run_recording(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
+        fresh(inner, "run_recording()")?;
         let session = &mut inner.session;
         let events = &mut inner.events;
         let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
@@ -605,6 +675,8 @@ impl Session {
                 cycle: 0,
                 readings: sizes.iter().map(|&n| vec![0.0; n]).collect(),
                 events: Vec::new(),
+                last_us: None,
+                ended: None,
             }),
             names,
             sizes,
@@ -618,7 +690,7 @@ impl Session {
             Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
             Err(std::sync::TryLockError::WouldBlock) => Err(errors::error(
                 Kind::Session,
-                "the session is in use by another thread: give each thread its own session",
+                "the session is in use (by another thread, or by a callable it is running): give each thread its own session",
             )),
         }
     }
@@ -731,6 +803,53 @@ fn take(
             Err(reraise(&inner.raised, err, &context))
         }
     }
+}
+
+/// Whether the session takes a frame stamped `time_us` (`name` names it): not after it ended,
+/// not before the last frame.
+fn taking(inner: &Inner, name: &str, time_us: u64) -> PyResult<()> {
+    if let Some(by) = inner.ended {
+        return Err(errors::error(
+            Kind::Session,
+            format!("the session has ended ({by}): it takes no more frames; make a new Session"),
+        ));
+    }
+    match inner.last_us {
+        Some(last) if time_us < last => Err(arg(
+            name,
+            format!(
+                "{:.6} s is before the previous frame's {:.6} s: frames come in time order",
+                time_us as f64 * 1e-6,
+                last as f64 * 1e-6
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Whether the session can run a whole input (`what`): only a new one, which it then ends.
+fn fresh(inner: &mut Inner, what: &'static str) -> PyResult<()> {
+    if let Some(by) = inner.ended {
+        return Err(errors::error(
+            Kind::Session,
+            format!("the session has ended ({by}): {what} takes a new Session"),
+        ));
+    }
+    if inner.last_us.is_some() {
+        return Err(errors::error(
+            Kind::Session,
+            format!("the session has taken frames already: {what} takes a new Session"),
+        ));
+    }
+    inner.ended = Some(what);
+    Ok(())
+}
+
+fn no_busmap() -> PyErr {
+    errors::error(
+        Kind::Session,
+        "this session has no bus map to read CAN frames with: build it with Session.from_layout(layout, busmap=...) or from a run.toml that names one",
+    )
 }
 
 /// Seconds as whole microseconds.

@@ -14,23 +14,30 @@ use std::path::PathBuf;
 /// The most memory the arrays of one call may take, bytes (as `skin synth`).
 const MAX_BYTES: usize = 8 << 30;
 
-/// `count` labelled contacts on `map`, the samples `skin synth` makes with the same `seed`,
-/// `subjects` and `size` (sample i belongs to subject i * subjects / count): a dict of `images`
+/// `count` labelled contacts on `map`, the samples `skin synth` makes with the same `seed` (1),
+/// `subjects` (one per 40 samples) and `size` (68, 100) (sample i belongs to subject i * subjects / count): a dict of `images`
 /// and part `masks` (S, rows, cols) uint8, `hand` (S,) bool, `kind` (names), `subject` (S,),
 /// `partial` and `fingertips` (S,) bool, `pressures` (S, N) float32 and `taxel_parts` (S, N) uint8
 /// in map order. Made in parallel with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (map, count, *, seed = 1, subjects = None, size = (68, 100), hand_fraction = 0.5))]
+#[pyo3(signature = (map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5))]
 pub(crate) fn synthesize<'py>(
     py: Python<'py>,
     map: &TactileMap,
-    count: usize,
-    seed: u64,
-    subjects: Option<usize>,
-    size: (usize, usize),
+    count: &Bound<'py, PyAny>,
+    seed: Option<&Bound<'py, PyAny>>,
+    subjects: Option<&Bound<'py, PyAny>>,
+    size: Option<&Bound<'py, PyAny>>,
     hand_fraction: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let image = skin_core::image::ImageSize::new(size.0, size.1).map_err(|e| arg("size", e))?;
+    let count = arrays::count("count", count)?;
+    let seed = seed.map_or(Ok(1), |s| arrays::count("seed", s))? as u64;
+    let subjects = subjects.map(|s| arrays::count("subjects", s)).transpose()?;
+    if subjects == Some(0) {
+        return Err(arg("subjects", "0: at least one"));
+    }
+    let (rows, cols) = size.map_or(Ok((68, 100)), |s| arrays::pair("size", s))?;
+    let image = skin_core::image::ImageSize::new(rows, cols).map_err(|e| arg("size", e))?;
     if count == 0 {
         return Err(arg("count", "0: at least one sample"));
     }
@@ -69,11 +76,22 @@ pub(crate) fn synthesize<'py>(
             )
             .collect()
     });
+    samples_dict(py, &samples, image, map.inner.ids.len())
+}
+
+/// The samples as the arrays `synthesize` returns.
+fn samples_dict<'py>(
+    py: Python<'py>,
+    samples: &[skin_learn::synth::Sample],
+    image: skin_core::image::ImageSize,
+    n: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let count = samples.len();
     let px = image.pixels();
     let shape = [count, image.rows, image.cols];
     let flat = |f: &dyn Fn(&skin_learn::synth::Sample) -> &[u8], len: usize| -> Vec<u8> {
         let mut v = Vec::with_capacity(count * len);
-        for s in &samples {
+        for s in samples {
             v.extend_from_slice(f(s));
         }
         v
@@ -86,7 +104,7 @@ pub(crate) fn synthesize<'py>(
         arrays::out(py, flat(&|s| &s.taxel_parts, n), &[count, n])?,
     )?;
     let mut pressures = Vec::with_capacity(count * n);
-    for s in &samples {
+    for s in samples {
         pressures.extend_from_slice(&s.pressures);
     }
     d.set_item("pressures", arrays::out(py, pressures, &[count, n])?)?;

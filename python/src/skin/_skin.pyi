@@ -1,6 +1,7 @@
 """Type stubs of the native module (skin._skin). Units: metres, seconds, raw counts."""
 
 import os
+from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -42,9 +43,10 @@ class Layout:
     def notes(self) -> List[str]:
         """What reading the file did, one line each."""
     @property
-    def path(self) -> str: ...
+    def path(self) -> Path: ...
     def __len__(self) -> int: ...
-    def __getitem__(self, key: Union[int, str]) -> Link: ...
+    def __getitem__(self, key: Union[int, str]) -> Link:
+        """By name (KeyError if none) or index (IndexError)."""
 
 def read_layout(path: _Path) -> Layout:
     """Any layout format `skin` reads: native JSON, Cyskin, iCub taxel files, URDF with tactile sensors."""
@@ -74,7 +76,8 @@ class TactileMap:
     def __len__(self) -> int: ...
 
 def flatten(link: Link, *, triangulate: bool = False, max_edge: float = 3.0) -> TactileMap: ...
-def read_map(path: _Path) -> TactileMap: ...
+def read_map(path: _Path, link: Optional[str] = None) -> TactileMap:
+    """A map file, or a layout's link flattened (`link` names it when the layout has several)."""
 
 class Imager:
     """Tactile images of one map (thesis eq. 3.1), built once; one thread at a time."""
@@ -83,14 +86,15 @@ class Imager:
         self,
         map: TactileMap,
         *,
-        step_mm: float = 1.0,
-        grid: Optional[Tuple[int, int]] = None,
+        step_mm: Optional[float] = None,
+        grid: Optional[Sequence[int]] = None,
         norm: str = "contact_max",
         full_scale: Optional[float] = None,
         threshold: float = 0.0,
         morph: bool = False,
-        size: Optional[Tuple[int, int]] = None,
-    ) -> None: ...
+        size: Optional[Sequence[int]] = None,
+    ) -> None:
+        """step_mm (1 mm by default) or grid=(rows, cols); full_scale only with norm="full_scale"."""
     @property
     def size(self) -> Tuple[int, int]: ...
     @property
@@ -112,7 +116,7 @@ class Recording:
     def values(self) -> npt.NDArray[np.float32]:
         """(T, N) raw readings."""
     @property
-    def path(self) -> str: ...
+    def path(self) -> Path: ...
     def for_taxels(self, ids: _Array, threshold: float = 0.0) -> npt.NDArray[np.float32]: ...
     def __len__(self) -> int: ...
 
@@ -142,6 +146,9 @@ class CanFrame:
     def complete(self) -> bool: ...
 
 class LogFrames(Iterator[CanFrame]):
+    @property
+    def uncovered(self) -> List[Tuple[str, int]]:
+        """(link, taxel index) of the layout's taxels on no bus: NaN in every frame."""
     def __iter__(self) -> "LogFrames": ...
     def __next__(self) -> CanFrame: ...
 
@@ -165,6 +172,7 @@ class Contact:
     mean_pressure: float
     peak_pressure: float
 
+# image (rows, cols) uint8 -> class probabilities (0 to 1), or part labels (rows, cols) 0..6.
 _Model = Callable[[npt.NDArray[np.uint8]], Any]
 
 class Session:
@@ -188,19 +196,22 @@ class Session:
         segmenter: Optional[_Model] = None,
         classes: Optional[Sequence[str]] = None,
         hand: Optional[str] = None,
-        image_size: Tuple[int, int] = (68, 100),
-        baseline_frames: int = 20,
+        image_size: Optional[Sequence[int]] = None,  # (68, 100)
+        baseline_frames: Optional[int] = None,  # 20
         polarity: str = "rising",
         threshold: float = 5.0,
-        min_taxels: int = 2,
-        decide_frames: int = 3,
-        release_frames: int = 2,
+        min_taxels: Optional[int] = None,  # 2
+        decide_frames: Optional[int] = None,  # 3
+        release_frames: Optional[int] = None,  # 2
         gate: Optional[Mapping[str, str]] = None,
     ) -> "Session": ...
-    def push(self, readings: Union[Sequence[_Array], Mapping[str, _Array], _Array], time: float) -> List[Event]: ...
+    def push(self, readings: Union[Sequence[_Array], Mapping[str, _Array], _Array], time: float) -> List[Event]:
+        """One frame; times in seconds, in order."""
     def push_can(self, frame: CanFrame) -> List[Event]: ...
-    def finish(self) -> List[Event]: ...
-    def run_log(self, path: _Path) -> List[Event]: ...
+    def finish(self) -> List[Event]:
+        """Releases open touches; the session then takes no more frames."""
+    def run_log(self, path: _Path) -> List[Event]:
+        """A whole log, on a new session (which it ends)."""
     def run_recording(self, path: _Path) -> List[Event]: ...
     def contacts(self, link: Union[int, str]) -> List[Contact]: ...
     @property
@@ -239,9 +250,9 @@ def calibrate(
     ids: _Array,
     responses: _Array,
     *,
-    min_responses: int = 8,
+    min_responses: Optional[int] = None,  # 8
     epsilon: float = 1e-6,
-    max_iterations: int = 200,
+    max_iterations: Optional[int] = None,  # 200
     max_extrapolation_mm: float = 8.0,
     max_open_angle_deg: float = 170.0,
     outward: Optional[Tuple[float, float, float]] = None,
@@ -250,9 +261,9 @@ def synthesize(
     map: TactileMap,
     count: int,
     *,
-    seed: int = 1,
-    subjects: Optional[int] = None,
-    size: Tuple[int, int] = (68, 100),
+    seed: Optional[int] = None,  # 1
+    subjects: Optional[int] = None,  # one per 40 samples
+    size: Optional[Sequence[int]] = None,  # (68, 100)
     hand_fraction: float = 0.5,
 ) -> Dict[str, Any]: ...
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...

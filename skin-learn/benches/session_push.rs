@@ -1,0 +1,96 @@
+//! One frame of the thesis' full arm (3,495 taxels on three links, 1,165 each) through
+//! `Session::push`, the readings already in layout order: the baseline applied, contacts searched
+//! on every link, touches tracked, events handed to a sink that keeps nothing. No model runs
+//! (tracking only), so the figure is the session's own per-frame cost: the yardstick for a
+//! binding's overhead on the same call.
+//!
+//! - `no contact`: an untouched arm;
+//! - `hand held`: a whole hand resting on the middle link (contacts found every frame, the
+//!   touch tracked, no new event).
+//!
+//! It also writes the arm's layout and the two frames to `target/bench-data/full_arm.json` and
+//! `full_arm_frames.bin` (f32, little-endian: the idle frame then the held one, links in layout
+//! order), so that `python/bench/session_push.py` pushes the same frames through the Python
+//! package's `Session.push` (see BENCHMARKS.md).
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use skin_core::{LinkSkin, SkinLayout};
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_learn::model::Models;
+use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use skin_test_support::full_arm::{hand_on_middle_link, link};
+use std::io::Write as _;
+use std::path::PathBuf;
+
+/// The raw reading of an untouched taxel, counts.
+const IDLE: f32 = 1000.0;
+
+/// Keeps nothing: a robot stack acting on events.
+struct Discard;
+
+impl Sink for Discard {
+    type Error = std::convert::Infallible;
+    fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
+        Ok(Flow::Continue(()))
+    }
+}
+
+fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"))
+        .join("bench-data");
+    std::fs::create_dir_all(&dir).unwrap();
+    let layout = SkinLayout {
+        links: links.to_vec(),
+    };
+    skin_core::format::native::write_layout(&dir.join("full_arm.json"), &layout).unwrap();
+    let mut f = std::fs::File::create(dir.join("full_arm_frames.bin")).unwrap();
+    for v in idle.iter().chain(held).flatten() {
+        f.write_all(&v.to_le_bytes()).unwrap();
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let links: Vec<LinkSkin> = (0..3).map(link).collect();
+    let maps: Vec<TactileMap> = links
+        .iter()
+        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
+        .collect();
+    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
+    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
+        .into_iter()
+        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
+        .collect();
+    dump(&links, &idle, &held);
+    // The settings of `Session.from_layout`'s defaults (and of the fixture session's run.toml).
+    let options = TouchOptions {
+        threshold: 5.0,
+        min_taxels: 2,
+        decide_frames: 3,
+        release_frames: 2,
+        ..TouchOptions::default()
+    };
+    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
+    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
+    let (mut t, mut cycle) = (0u64, 0u64);
+    let mut push = |session: &mut Session, frame: &[Vec<f32>]| {
+        t += 50_000;
+        cycle += 1;
+        session.push(t, cycle, frame, &mut Discard).unwrap()
+    };
+    for _ in 0..20 {
+        push(&mut session, &idle);
+    }
+    let mut group = c.benchmark_group("session_push");
+    group.bench_function("no contact", |b| b.iter(|| push(&mut session, &idle)));
+    push(&mut session, &held);
+    group.bench_function("hand held", |b| b.iter(|| push(&mut session, &held)));
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
