@@ -6,12 +6,11 @@
 
 On the link of skin-geom's `tactile_image` bench (3,465 taxels, 1 mm grid, 242 x 358 px):
 `skin.Imager(map).images(frames)` on 1,000 frames (the bench's frame, each scaled differently),
-one core; the Rust bench's "interpolate+quantise" median (criterion) times 1,000; and the numpy
+one core, into a new array and into one given with `out=`; the Rust bench's "interpolate+quantise" median (criterion) times 1,000; and the numpy
 reference of bench/image_numpy.py (scipy.sparse weights @ pressures, then floor(255 K / max K)),
 frame by frame and as one (pixels x 1000) product, the faster of the two kept.
 """
 
-import glob
 import json
 import statistics
 import sys
@@ -64,12 +63,17 @@ def main() -> None:
     frames = np.outer(1.0 + np.arange(FRAMES) / FRAMES, frame).astype(np.float32)
 
     ours = best_of(lambda: imager.images(frames)) / FRAMES
+    out = np.empty((FRAMES, rows, cols), dtype=np.uint8)
+    ours_into = best_of(lambda: imager.images(frames, out=out)) / FRAMES
 
-    label = glob.glob(str(ROOT / "target" / "criterion" / "image_interpolate+quantise*" / "new" / "estimates.json"))
-    label = [p for p in label if f"{rows} x {cols}" in p]
-    if not label:
-        sys.exit("no criterion figure for image/interpolate+quantise: run the Rust bench first")
-    rust = json.loads(Path(label[0]).read_text())["median"]["point_estimate"] / 1e9
+    estimates = ROOT / "target" / "criterion" / f"image_interpolate+quantise ({len(tmap)} taxels, {rows} x {cols} px)" / "new" / "estimates.json"
+    if not estimates.exists():
+        sys.exit(f"no {estimates}: run `cargo bench -p skin-geom --bench tactile_image` first")
+    rust = json.loads(estimates.read_text())["median"]["point_estimate"] / 1e9
+    batch = ROOT / "target" / "criterion" / "image batch" / f"{FRAMES} frames into one buffer ({len(tmap)} taxels, {rows} x {cols} px)" / "new" / "estimates.json"
+    if not batch.exists():
+        sys.exit(f"no {batch}: run `cargo bench -p skin-geom --bench tactile_image` first")
+    rust_batch = json.loads(batch.read_text())["median"]["point_estimate"] / 1e9 / FRAMES
 
     def numpy_frame_by_frame():
         for f in frames:
@@ -93,10 +97,13 @@ def main() -> None:
     assert np.abs(got - want).max() <= 1
 
     print(f"{len(tmap)} taxels, {rows} x {cols} px, {FRAMES} frames, one core; per frame:")
-    print(f"  skin (Python, Imager.images)      {ours * 1e6:8.1f} us")
-    print(f"  skin (Rust bench, one frame)      {rust * 1e6:8.1f} us   Python / Rust {ours / rust:.3f}")
-    print(f"  numpy + scipy.sparse, by frame    {ref_loop * 1e6:8.1f} us")
-    print(f"  numpy + scipy.sparse, one product {ref_batch * 1e6:8.1f} us   reference / Python {ref / ours:.2f}x")
+    print(f"  skin (Rust bench, one frame, one buffer)  {rust * 1e6:8.1f} us")
+    print(f"  skin (Rust bench, 1000 into one buffer)   {rust_batch * 1e6:8.1f} us")
+    print(f"  skin (Python, Imager.images, out=)        {ours_into * 1e6:8.1f} us   / Rust batch {ours_into / rust_batch:.3f}, / Rust one frame {ours_into / rust:.3f}")
+    print(f"  skin (Python, Imager.images, new array)   {ours * 1e6:8.1f} us   / Rust batch {ours / rust_batch:.3f} (87 MB of new memory)")
+    print(f"  numpy + scipy.sparse, by frame            {ref_loop * 1e6:8.1f} us")
+    print(f"  numpy + scipy.sparse, one product         {ref_batch * 1e6:8.1f} us")
+    print(f"  reference (the faster) / Python: {ref / ours_into:.2f}x with out=, {ref / ours:.2f}x into a new array")
 
 
 if __name__ == "__main__":

@@ -110,6 +110,9 @@ fn dump(raster: &Rasterizer, pressures: &[f32]) {
     }
 }
 
+/// Frames of the batch bench.
+const BATCH: usize = 1000;
+
 fn tactile_image(c: &mut Criterion) {
     let link = arm();
     dump_layout(&link);
@@ -136,6 +139,33 @@ fn tactile_image(c: &mut Criterion) {
             grey[grey.len() / 2]
         })
     });
+    // A batch: 1,000 frames (each scaled differently) into one caller's buffer of 1,000 images,
+    // the work of the Python package's `Imager.images(frames, out=...)`: each image goes to its
+    // own place in 87 MB, not to one buffer that stays in cache.
+    let frames: Vec<f32> = (0..BATCH)
+        .flat_map(|t| {
+            pressures
+                .iter()
+                .map(move |&p| p * (1.0 + t as f32 / BATCH as f32))
+        })
+        .collect();
+    let mut batch_imager =
+        TactileImager::new(raster.clone(), Normalisation::ContactMax, false, None).expect("imager");
+    let mut images = vec![0u8; BATCH * raster.len()];
+    let mut group = c.benchmark_group("image batch");
+    group.sample_size(10);
+    group.bench_function(format!("{BATCH} frames into one buffer ({label})"), |b| {
+        b.iter(|| {
+            for (f, out) in frames
+                .chunks_exact(pressures.len())
+                .zip(images.chunks_exact_mut(raster.len()))
+            {
+                batch_imager.process_into(f, out).expect("sizes match");
+            }
+            images[images.len() / 2]
+        })
+    });
+    group.finish();
     let mut imager =
         TactileImager::new(raster.clone(), Normalisation::ContactMax, true, None).expect("imager");
     c.bench_function(

@@ -3,7 +3,7 @@
 use crate::morphology::Morphology;
 use crate::raster::{Grid, Normalisation, Rasterizer};
 use crate::resize::Resizer;
-use crate::{Result, TactileMap};
+use crate::{Error, Result, TactileMap};
 use skin_core::image::ImageSize;
 
 /// The whole per-frame image path of one link, with its buffers: interpolate, convert to grey,
@@ -95,6 +95,28 @@ impl TactileImager {
             }
             None => Ok(current),
         }
+    }
+
+    /// As [`Self::process`], the image written into `out` (of [`Self::output_size`]): without
+    /// morphology or resizing, straight from the rasterizer, with no copy (many frames into one
+    /// caller's buffer).
+    pub fn process_into(&mut self, pressures: &[f32], out: &mut [u8]) -> Result<()> {
+        let expected = self.output_size().pixels();
+        if out.len() != expected {
+            return Err(Error::Length {
+                what: "pixels of the output image",
+                got: out.len(),
+                expected,
+            });
+        }
+        if self.morphology.is_none() && self.resizer.is_none() {
+            return self
+                .raster
+                .render_grey(pressures, self.norm, &mut self.pressure, out);
+        }
+        let grey = self.process(pressures)?;
+        out.copy_from_slice(grey);
+        Ok(())
     }
 
     /// The grey image [`Self::process`] last returned (black before the first frame).

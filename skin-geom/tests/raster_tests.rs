@@ -277,3 +277,33 @@ fn the_imager_runs_the_whole_path_and_a_touch_stays_where_it_was() {
     }
     assert!((r_small / n_small - r_big / n_big).abs() < 0.1);
 }
+
+#[test]
+fn process_into_writes_what_process_returns_for_every_option() {
+    let map = arm();
+    let pressures: Vec<f32> = map
+        .points
+        .iter()
+        .map(|p| {
+            (2000.0 * (1.0 - ((p.x - 0.05).powi(2) + (p.y - 0.06).powi(2)).sqrt() / 0.03)).max(0.0) as f32
+        })
+        .collect();
+    for morph in [false, true] {
+        for size in [None, Some(skin_core::image::ImageSize::MODEL_DEFAULT)] {
+            for norm in [Normalisation::ContactMax, Normalisation::FullScale(3000.0)] {
+                let raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
+                let mut a = TactileImager::new(raster.clone(), norm, morph, size).unwrap();
+                let mut b = TactileImager::new(raster, norm, morph, size).unwrap();
+                let expected = a.process(&pressures).unwrap().to_vec();
+                assert!(expected.iter().any(|&g| g > 0));
+                // Garbage in the caller's buffer is overwritten everywhere.
+                let mut out = vec![77u8; b.output_size().pixels()];
+                b.process_into(&pressures, &mut out).unwrap();
+                assert_eq!(out, expected, "morph {morph}, size {size:?}, norm {norm:?}");
+                assert_eq!(b.pressure_image(), a.pressure_image());
+                let mut short = vec![0u8; out.len() - 1];
+                assert!(b.process_into(&pressures, &mut short).is_err());
+            }
+        }
+    }
+}

@@ -83,11 +83,11 @@ fn bench(c: &mut Criterion) {
         session.push(t, cycle, frame, &mut Discard).unwrap()
     };
     for _ in 0..20 {
-        push(&mut session, &idle);
+        let _ = push(&mut session, &idle);
     }
     let mut group = c.benchmark_group("session_push");
     group.bench_function("no contact", |b| b.iter(|| push(&mut session, &idle)));
-    push(&mut session, &held);
+    let _ = push(&mut session, &held);
     group.bench_function("hand held", |b| b.iter(|| push(&mut session, &held)));
     group.finish();
 }

@@ -591,9 +591,14 @@ impl Imager {
                 Ok(target.clone())
             }
             None => {
-                let mut dst = vec![0u8; t * size.pixels()];
-                py.detach(|| state.run(values, &mut dst))?;
-                Ok(arrays::out(py, dst, &shape)?.into_any())
+                // numpy's allocator, not Rust's: numpy asks the kernel for huge pages on large
+                // arrays, and a batch's first write to fresh memory costs a fault per page.
+                let target = numpy::PyArray3::<u8>::zeros(py, shape, false);
+                let mut w = target.try_readwrite().map_err(|_| arg("out", "in use"))?;
+                let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
+                py.detach(|| state.run(values, dst))?;
+                drop(w);
+                Ok(target.into_any())
             }
         }
     }
@@ -669,8 +674,9 @@ impl ImagerState {
             for (p, &v) in self.pressures.iter_mut().zip(frame) {
                 *p = if v > self.threshold { v } else { 0.0 };
             }
-            let grey = self.inner.process(&self.pressures).map_err(errors::geom)?;
-            dst.copy_from_slice(grey);
+            self.inner
+                .process_into(&self.pressures, dst)
+                .map_err(errors::geom)?;
         }
         Ok(())
     }

@@ -7,7 +7,7 @@ use crate::errors::{self, Kind, arg};
 use crate::geometry::Layout;
 use crate::models::{Callable, Raised, reraise};
 use crate::recordings::{BusMap, CanFrame};
-use numpy::PyUntypedArrayMethods;
+use numpy::{PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use skin_control::hri::{ClassGate, GateAction};
@@ -767,6 +767,17 @@ impl Session {
     }
 
     fn link_readings(&self, k: usize, item: &Bound<'_, PyAny>, out: &mut [f32]) -> PyResult<()> {
+        // The per-frame case, float32 readings where they lie, costs no more than a copy and a
+        // check; anything else goes the long way, which converts and names what is wrong.
+        if let Ok(a) = item.cast::<numpy::PyArray1<f32>>()
+            && let Ok(ro) = a.try_readonly()
+            && let Ok(v) = ro.as_slice()
+            && v.len() == out.len()
+            && crate::arrays::all_finite(v)
+        {
+            out.copy_from_slice(v);
+            return Ok(());
+        }
         let name = format!("readings[{:?}]", self.names[k]);
         let a = array::<f32>(&name, item, "float32", 1)?;
         if a.shape()[0] != out.len() {
