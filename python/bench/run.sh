@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The Python package's benchmarks, each beside its Rust figure in the same run (BENCHMARKS.md,
-# "From Python"): the package built in release mode into target/py-venv, the Rust benches that
+# "From Python"): the package built in release mode into target/py-bench-venv, the Rust benches that
 # write the shared inputs, then the Python side. scipy for the numpy reference.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-venv=target/py-venv
+# A venv of its own: the test suite's (target/py-venv) holds the test build of the package.
+venv=target/py-bench-venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check maturin numpy scipy
 (cd python && VIRTUAL_ENV="$PWD/../$venv" PATH="$PWD/../$venv/bin:$PATH" maturin develop --release --quiet)

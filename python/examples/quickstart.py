@@ -10,6 +10,6 @@ frames = rec.for_taxels(tmap.ids, threshold=3.0)         # (T, 715) readings in 
 images = skin.Imager(tmap, size=(68, 100)).images(frames) # (T, 68, 100) uint8
 session = skin.Session.from_config("fixtures/session/run.toml")
 for event in session.run_log("fixtures/session/session.candump.log"):
-    if event.kind == "released":
+    if event.kind == "released" and event["class"] is not None:  # None: released undecided
         print(f"touch {event.touch} at {event.time:5.2f} s: {event['class']} ({event.probability:.3f})")
 print(f"{len(images)} images of {images.shape[1]} x {images.shape[2]} px; {session.stats['touches']} touches")

@@ -1,7 +1,10 @@
 """Synthetic labelled contacts for training, without files: images, labels and part masks as
 arrays; and a `skin synth` folder as a dataset a PyTorch DataLoader takes.
 
-    python python/examples/training_data.py      # from the repository root
+    python python/examples/training_data.py [SKIN]     # from the repository root
+
+SKIN is the `skin` command that writes the folder (default: target/debug/skin, built by
+`cargo build -p skin-cli`).
 """
 
 import subprocess

@@ -330,20 +330,57 @@ def test_one_imager_in_two_threads_says_so(tmap):
     import threading
 
     imager = skin.Imager(tmap)
-    big = np.tile(np.ones(len(tmap), dtype=np.float32), (3000, 1))
+    big = np.tile(np.ones(len(tmap), dtype=np.float32), (20000, 1))
     errors = []
-
-    def other():
+    worker = threading.Thread(target=lambda: imager.images(big))
+    worker.start()
+    # Poll while the other thread images (about a second): the imager says it is in use.
+    while worker.is_alive() and not errors:
         try:
             imager.image(big[0])
         except skin.SkinError as e:
             errors.append(str(e))
+    worker.join()
+    assert errors and "the imager is in use (by another thread" in errors[0]
+    # Free again once the other thread is done.
+    assert imager.image(big[0]).shape == imager.size
 
-    t = threading.Thread(target=lambda: imager.images(big))
-    t.start()
-    import time
 
-    time.sleep(0.05)
-    other()
-    t.join()
-    assert errors and "in use by another thread" in errors[0]
+def test_a_failed_start_leaves_the_session_usable(tmp_path):
+    session = skin.Session.from_config(CONFIG)
+    with pytest.raises(skin.InputError, match="nope.log"):
+        session.run_log(tmp_path / "nope.log")
+    assert len([e for e in session.run_log(FIXTURES / "session" / "session.candump.log") if e.kind == "released"]) == 20
+
+
+def test_names_of_scores_without_a_python_classifier_are_refused():
+    with pytest.raises(skin.ArrayError, match="classes: names the scores of a Python classifier"):
+        skin.Session.from_config(CONFIG, classes=["a", "b"])
+    with pytest.raises(skin.ArrayError, match="hand: names the scores"):
+        skin.Session.from_layout(skin.read_layout(LAYOUT), hand="hand")
+
+
+def test_a_segmenter_answer_that_is_not_labels_is_named():
+    session = skin.Session.from_config(CONFIG, segmenter=lambda image: np.full(image.shape, 2.5))
+    with pytest.raises(skin.ArrayError, match="segmenter's answer: 2.5 is not a whole number"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+    session = skin.Session.from_config(CONFIG, segmenter=lambda image: np.zeros(10, dtype=np.uint8))
+    with pytest.raises(skin.ModelError, match=r"frame at 1.150 s, link forearm, touch 0: .*10 labels"):
+        session.run_log(FIXTURES / "session" / "session.candump.log")
+
+
+def test_a_map_file_is_not_another_link(tmp_path):
+    path = tmp_path / "forearm.json"
+    skin.read_map(LAYOUT).write(path)
+    assert skin.read_map(path, link="forearm").name == "forearm"
+    with pytest.raises(skin.ArrayError, match='a map of link "forearm", not "wrist"'):
+        skin.read_map(path, link="wrist")
+
+
+def test_outward_is_any_sequence():
+    probes = skin.read_probes(FIXTURES / "hex_patch" / "probes.csv")
+    a = skin.calibrate(probes["centroids"], probes["ids"], probes["responses"], outward=[0, 0, 1])
+    b = skin.calibrate(probes["centroids"], probes["ids"], probes["responses"], outward=np.array([0.0, 0.0, 1.0]))
+    np.testing.assert_array_equal(a.normals, b.normals)
+    with pytest.raises(skin.ArrayError, match="outward: 2 values"):
+        skin.calibrate(probes["centroids"], probes["ids"], probes["responses"], outward=[0, 1])

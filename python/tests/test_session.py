@@ -31,7 +31,10 @@ def test_events_are_objects_with_the_documented_fields(builtin_session_events):
     classified = next(e for e in builtin_session_events if e.kind == "classified")
     assert classified["class"] == "hand" and 0 <= classified.probability <= 1
     assert classified.image.shape == (68, 100) and classified.image.dtype == np.uint8
-    assert {p["part"] for p in classified.parts} <= {"thumb", "index", "middle", "ring", "pinkie", "palm"}
+    assert classified.parts and {p["part"] for p in classified.parts} <= {"thumb", "index", "middle", "ring", "pinkie", "palm"}
+    # What an event returns is the caller's to change; the event stays as it was.
+    classified.parts.append("x")
+    assert classified.to_dict() == classified.to_dict() and "x" not in classified.parts
     other = next(e for e in builtin_session_events if e.kind == "classified" and e["class"] == "non_hand")
     assert other.parts == [] and "parts" not in other.to_dict()
     with pytest.raises(AttributeError, match='no field "nope"'):
@@ -143,7 +146,7 @@ def test_a_classifier_with_the_wrong_outputs_is_a_model_error():
     with pytest.raises(skin.ModelError):
         session.run_log(LOG)
     session = skin.Session.from_config(CONFIG, classifier=lambda image: ["a", "b"])
-    with pytest.raises(ValueError):
+    with pytest.raises(skin.ArrayError, match="the Python classifier's answer: dtype <U1"):
         session.run_log(LOG)
 
 

@@ -42,7 +42,12 @@ def test_dataset_split_by_subject_and_transform(synth_dir):
     test = skin.SynthDataset(synth_dir, subjects=[2], transform=lambda d: (d["image"].astype(np.float32) / 255, d["label"]))
     assert len(train) + len(test) == 24
     x, y = test[0]
-    assert x.dtype == np.float32 and x.max() <= 1 and y in (0, 1)
+    assert x.dtype == np.float32 and x.max() <= 1
+    with open(synth_dir / "labels.csv") as f:
+        rows = [line.split(",") for line in f.read().splitlines()[1:]]
+    subject2 = [r for r in rows if r[3] == "2"]
+    assert [test[i][1] for i in range(len(test))] == [int(r[1] == "hand") for r in subject2]
+    assert 0 < sum(int(r[1] == "hand") for r in rows) < len(rows)
     with pytest.raises(IndexError):
         test[len(test)]
 

@@ -97,9 +97,9 @@ impl TactileImager {
         }
     }
 
-    /// As [`Self::process`], the image written into `out` (of [`Self::output_size`]): without
-    /// morphology or resizing, straight from the rasterizer, with no copy (many frames into one
-    /// caller's buffer).
+    /// As [`Self::process`], the image written into `out` (of [`Self::output_size`]). An imager
+    /// with neither morphology nor resizing renders straight into `out`, with no copy (many
+    /// frames into one caller's buffer); then [`Self::last_output`] is not updated.
     pub fn process_into(&mut self, pressures: &[f32], out: &mut [u8]) -> Result<()> {
         let expected = self.output_size().pixels();
         if out.len() != expected {

@@ -17,11 +17,10 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use skin_core::{LinkSkin, SkinLayout};
-use skin_geom::{FlattenOptions, TactileMap};
 use skin_learn::model::Models;
 use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{hand_on_middle_link, link};
+use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -55,11 +54,7 @@ fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
 }
 
 fn bench(c: &mut Criterion) {
-    let links: Vec<LinkSkin> = (0..3).map(link).collect();
-    let maps: Vec<TactileMap> = links
-        .iter()
-        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
-        .collect();
+    let (links, maps) = links_and_maps();
     let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
     let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
         .into_iter()

@@ -693,7 +693,7 @@ impl TouchPipeline {
         {
             let labels = segmenter.segment(image).map_err(decide)?;
             if labels.len() != rows * cols {
-                return Err(TouchError::Model(ModelError::Run(format!(
+                return Err(decide(ModelError::Run(format!(
                     "the segmenter gave {} labels for a {rows} x {cols} image",
                     labels.len()
                 ))));

@@ -12,14 +12,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use skin_core::LinkSkin;
-use skin_geom::{FlattenOptions, TactileMap};
 use skin_learn::model::Models;
 use skin_learn::session::{ProcessedFrame, Sink};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
 
-use full_arm::{hand_on_middle_link, link};
+use full_arm::{hand_on_middle_link, links_and_maps};
 use skin_test_support::full_arm;
 
 /// Keeps nothing.
@@ -33,11 +31,7 @@ impl Outlet for Discard {
 }
 
 fn bench(c: &mut Criterion) {
-    let links: Vec<LinkSkin> = (0..3).map(link).collect();
-    let maps: Vec<TactileMap> = links
-        .iter()
-        .map(|l| TactileMap::flatten(l, &FlattenOptions::default()).unwrap())
-        .collect();
+    let (links, maps) = links_and_maps();
     let pressures = hand_on_middle_link(&links, &maps[1]);
     let mut pipeline = TouchPipeline::new(maps, Models::none(), TouchOptions::default()).unwrap();
     pipeline.process(1.0, &pressures, &mut Vec::new()).unwrap();

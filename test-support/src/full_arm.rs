@@ -28,6 +28,16 @@ pub fn link(k: usize) -> LinkSkin {
     LinkSkin::new(format!("link{k}"), taxels)
 }
 
+/// The three links and their tactile maps (flattened with the default options).
+pub fn links_and_maps() -> (Vec<LinkSkin>, Vec<TactileMap>) {
+    let links: Vec<LinkSkin> = (0..3).map(link).collect();
+    let maps = links
+        .iter()
+        .map(|l| TactileMap::flatten(l, &skin_geom::FlattenOptions::default()).unwrap())
+        .collect();
+    (links, maps)
+}
+
 /// Each link's pressures (counts above the baseline, in layout order) with a whole hand from the
 /// synthetic-data generator on the middle link; `middle` is that link's tactile map.
 pub fn hand_on_middle_link(links: &[LinkSkin], middle: &TactileMap) -> Vec<Vec<f32>> {

@@ -49,7 +49,9 @@ pub(crate) fn array<'py, T: Element>(
             ),
         ));
     }
-    Ok(array.readonly())
+    array
+        .try_readonly()
+        .map_err(|_| arg(name, "in use: written by another call right now"))
 }
 
 /// Refuses a conversion that would change values: fractions or non-finite values to integers,
@@ -183,6 +185,23 @@ pub(crate) fn shape(s: &[usize]) -> String {
             s.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
         ),
     }
+}
+
+/// Taxel ids from an integer array's values (`unique`: each once), named when one is not an id.
+pub(crate) fn taxel_ids(name: &str, values: &[i64], unique: bool) -> PyResult<Vec<skin_core::TaxelId>> {
+    let mut seen = std::collections::HashSet::new();
+    values
+        .iter()
+        .enumerate()
+        .map(|(j, &id)| {
+            let id = u32::try_from(id)
+                .map_err(|_| arg(name, format!("{id} at index {j}: ids are 0 to {}", u32::MAX)))?;
+            if unique && !seen.insert(id) {
+                return Err(arg(name, format!("{id} appears twice (again at index {j})")));
+            }
+            Ok(skin_core::TaxelId(id))
+        })
+        .collect()
 }
 
 /// A whole number, 0 or more (a Python or numpy integer), named when it is not one.

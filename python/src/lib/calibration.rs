@@ -19,6 +19,7 @@ use std::path::PathBuf;
 pub(crate) fn read_probes<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
     let data = ProbeDataset::read(&path).map_err(errors::core)?;
     let ids: Vec<TaxelId> = data.by_taxel().keys().copied().collect();
+    // `ids` are the keys of the same contacts' responses, sorted: every id is found.
     let column = |id: TaxelId| ids.binary_search(&id).unwrap_or(0);
     let (k, n) = (data.contacts.len(), ids.len());
     let mut responses = vec![0.0f64; k * n];
@@ -156,7 +157,7 @@ pub(crate) fn calibrate(
     max_iterations: Option<&Bound<'_, PyAny>>,
     max_extrapolation_mm: f64,
     max_open_angle_deg: f64,
-    outward: Option<(f64, f64, f64)>,
+    outward: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Calibration> {
     let defaults = CalibrationOptions::default();
     let min_responses = min_responses.map_or(Ok(defaults.min_responses), |v| {
@@ -175,7 +176,14 @@ pub(crate) fn calibrate(
         ));
     }
     let outward = match outward {
-        Some((x, y, z)) => {
+        Some(o) => {
+            let a = array::<f64>("outward", o, "float64", 1)?;
+            let &[x, y, z] = slice("outward", &a)? else {
+                return Err(arg(
+                    "outward",
+                    format!("{} values: expected a direction (x, y, z)", a.len()),
+                ));
+            };
             let v = Vector3::new(x, y, z);
             if !(v.iter().all(|c| c.is_finite()) && v.norm() > 0.0) {
                 return Err(arg(
@@ -266,15 +274,7 @@ fn probe_dataset(
     }
     let rv = slice("responses", &r)?;
     finite64("responses", rv, r.shape())?;
-    let mut taxels = Vec::with_capacity(n);
-    let mut seen = std::collections::HashSet::new();
-    for (j, &id) in iv.iter().enumerate() {
-        let id = u32::try_from(id).map_err(|_| arg("ids", format!("{id} at index {j} is not a taxel id")))?;
-        if !seen.insert(id) {
-            return Err(arg("ids", format!("{id} appears twice (again at index {j})")));
-        }
-        taxels.push(TaxelId(id));
-    }
+    let taxels = crate::arrays::taxel_ids("ids", iv, true)?;
     let contacts = (0..k)
         .map(|row| ProbeContact {
             centroid: Point3::new(cv[3 * row], cv[3 * row + 1], cv[3 * row + 2]),

@@ -57,6 +57,23 @@ pub(crate) fn error(kind: Kind, message: impl Display) -> PyErr {
     })
 }
 
+/// The state behind `lock`, unless another thread (or a callable the object is running) holds
+/// it: waiting would hold the GIL that thread needs, so `what` is named as in use instead.
+pub(crate) fn claim<'a, T>(
+    lock: &'a std::sync::Mutex<T>,
+    kind: Kind,
+    what: &str,
+) -> PyResult<std::sync::MutexGuard<'a, T>> {
+    match lock.try_lock() {
+        Ok(g) => Ok(g),
+        Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+        Err(std::sync::TryLockError::WouldBlock) => Err(error(kind, format!("{what} is in use {IN_USE}"))),
+    }
+}
+
+/// Why an object is in use, and what to do.
+const IN_USE: &str = "(by another thread, or by a callable it is running): give each thread its own";
+
 /// A bad argument, named.
 pub(crate) fn arg(name: &str, message: impl Display) -> PyErr {
     error(Kind::Array, format!("{name}: {message}"))
@@ -88,18 +105,9 @@ pub(crate) fn core(e: skin_core::Error) -> PyErr {
     raise(Kind::Input, &e)
 }
 
-/// A fault of skin-geom: reading a file is an input fault, the rest geometry.
+/// A fault of skin-geom.
 pub(crate) fn geom(e: skin_geom::Error) -> PyErr {
-    let kind = match &e {
-        skin_geom::Error::Core(_) | skin_geom::Error::Layout { .. } | skin_geom::Error::MeshFile { .. } => {
-            Kind::Input
-        }
-        skin_geom::Error::Length { .. }
-        | skin_geom::Error::NotFinite { .. }
-        | skin_geom::Error::Parameter { .. } => Kind::Array,
-        _ => Kind::Geometry,
-    };
-    raise(kind, &e)
+    raise(geom_kind(&e), &e)
 }
 
 /// A fault of skin-can (bus maps, logs).
@@ -107,33 +115,47 @@ pub(crate) fn can(e: skin_can::Error) -> PyErr {
     raise(Kind::Input, &e)
 }
 
+/// A run configuration's fault: reading its file is an input fault, a model one a model fault.
+pub(crate) fn config(e: skin_learn::session::ConfigError) -> PyErr {
+    raise(config_kind(&e), &e)
+}
+
+fn config_kind(e: &skin_learn::session::ConfigError) -> Kind {
+    use skin_learn::session::ConfigError as C;
+    match e {
+        C::Model(_) => Kind::Model,
+        C::Read(_) => Kind::Input,
+        _ => Kind::Config,
+    }
+}
+
+/// Which exception a fault of skin-geom raises: reading a file is an input fault, a length or
+/// a number an argument's, the rest geometry.
+fn geom_kind(e: &skin_geom::Error) -> Kind {
+    match e {
+        skin_geom::Error::Core(_) | skin_geom::Error::Layout { .. } | skin_geom::Error::MeshFile { .. } => {
+            Kind::Input
+        }
+        skin_geom::Error::Length { .. }
+        | skin_geom::Error::NotFinite { .. }
+        | skin_geom::Error::Parameter { .. } => Kind::Array,
+        _ => Kind::Geometry,
+    }
+}
+
 /// A session's fault, by what it is about.
 pub(crate) fn session(e: skin_learn::session::SessionError) -> PyErr {
     use skin_learn::session::SessionError as E;
     let kind = match &e {
-        E::Config(c) => match **c {
-            skin_learn::session::ConfigError::Model(_) => Kind::Model,
-            skin_learn::session::ConfigError::Read(_) => Kind::Input,
-            _ => Kind::Config,
-        },
+        E::Config(c) => config_kind(c),
         E::Input(_) | E::Core(_) | E::Can(_) => Kind::Input,
         E::Model(_)
         | E::Touch(skin_learn::touch::TouchError::Model(_) | skin_learn::touch::TouchError::Decide { .. }) => {
             Kind::Model
         }
-        E::Geom(g) => return geom_ref(g, &e),
+        E::Geom(g) => geom_kind(g),
         E::Frame { .. } => Kind::Array,
         _ => Kind::Session,
     };
     raise(kind, &e)
-}
-
-fn geom_ref(g: &skin_geom::Error, whole: &skin_learn::session::SessionError) -> PyErr {
-    let kind = match g {
-        skin_geom::Error::Core(_) | skin_geom::Error::Layout { .. } | skin_geom::Error::MeshFile { .. } => {
-            Kind::Input
-        }
-        _ => Kind::Geometry,
-    };
-    raise(kind, whole)
 }

@@ -7,7 +7,7 @@ use nalgebra::{Point3, Unit, Vector3};
 use numpy::{PyArrayDyn, PyArrayMethods, PyReadwriteArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use skin_core::image::ImageSize;
-use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_core::{LinkSkin, Taxel};
 use skin_geom::{FlattenOptions, Grid, MeshOptions, Normalisation, Rasterizer, TactileImager};
 use std::path::PathBuf;
 
@@ -52,23 +52,14 @@ impl Link {
         };
         let p = xyz("positions", positions)?;
         let nrm = xyz("normals", normals)?;
-        let mut seen = std::collections::HashSet::new();
+        let ids = arrays::taxel_ids("ids", id_values, true)?;
         let mut taxels = Vec::with_capacity(n);
-        for i in 0..n {
-            let id = u32::try_from(id_values[i]).map_err(|_| {
-                arg(
-                    "ids",
-                    format!("{} at index {i}: ids are 0 to {}", id_values[i], u32::MAX),
-                )
-            })?;
-            if !seen.insert(id) {
-                return Err(arg("ids", format!("{id} appears twice (again at index {i})")));
-            }
+        for (i, &id) in ids.iter().enumerate() {
             let normal = Vector3::new(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
             let normal = Unit::try_new(normal, 1e-12)
-                .ok_or_else(|| arg("normals", format!("row {i} (taxel {id}) is zero")))?;
+                .ok_or_else(|| arg("normals", format!("row {i} (taxel {}) is zero", id.0)))?;
             taxels.push(Taxel {
-                id: TaxelId(id),
+                id,
                 position: Point3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]),
                 normal,
             });
@@ -438,6 +429,18 @@ pub(crate) fn read_map(py: Python<'_>, path: PathBuf, link: Option<String>) -> P
     let noted = py
         .detach(|| skin_geom::read_map(&path, &FlattenOptions::default()))
         .map_err(errors::geom)?;
+    if let Some(name) = link
+        && name != noted.value.name
+    {
+        return Err(arg(
+            "link",
+            format!(
+                "{}: a map of link {:?}, not {name:?}",
+                path.display(),
+                noted.value.name
+            ),
+        ));
+    }
     Ok(TactileMap { inner: noted.value })
 }
 
@@ -593,7 +596,10 @@ impl Imager {
             None => {
                 // numpy's allocator, not Rust's: numpy asks the kernel for huge pages on large
                 // arrays, and a batch's first write to fresh memory costs a fault per page.
-                let target = numpy::PyArray3::<u8>::zeros(py, shape, false);
+                let target = py
+                    .import("numpy")?
+                    .call_method1("zeros", (shape.to_vec(), "uint8"))?
+                    .cast_into::<PyArrayDyn<u8>>()?;
                 let mut w = target.try_readwrite().map_err(|_| arg("out", "in use"))?;
                 let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
                 py.detach(|| state.run(values, dst))?;
@@ -633,14 +639,7 @@ impl Imager {
 impl Imager {
     /// The imager's state, unless another thread is imaging with it.
     fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, ImagerState>> {
-        match self.state.try_lock() {
-            Ok(g) => Ok(g),
-            Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
-            Err(std::sync::TryLockError::WouldBlock) => Err(errors::error(
-                Kind::Other,
-                "the imager is in use by another thread: give each thread its own Imager",
-            )),
-        }
+        errors::claim(&self.state, Kind::Other, "the imager")
     }
 
     /// The values of a batch of frames of this imager's taxels, finite.

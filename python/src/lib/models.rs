@@ -5,7 +5,6 @@
 //! exception it raises is kept and re-raised to the caller as itself, with the frame, link and
 //! touch added as a note.
 
-use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use skin_core::image::{ImageSize, ImageView};
 use skin_learn::model::{HandClassifier, ModelError, PartSegmenter};
@@ -49,14 +48,12 @@ impl Callable {
                         format!("the Python {} returned None", self.what),
                     ));
                 }
-                let array = match result.cast::<PyArrayDyn<T>>() {
-                    Ok(a) if a.is_c_contiguous() => a.clone(),
-                    _ => py
-                        .import("numpy")?
-                        .call_method1("ascontiguousarray", (result, dtype))?
-                        .cast_into::<PyArrayDyn<T>>()?,
-                };
-                Ok(array.readonly().as_slice()?.to_vec())
+                // Any shape (a batch of one, an image of labels), read flat, through the
+                // conversion arguments go through (no fraction read as a label, no text).
+                let flat = py.import("numpy")?.call_method1("ravel", (result,))?;
+                let what = format!("the Python {}'s answer", self.what);
+                let array = crate::arrays::array::<T>(&what, &flat, dtype, 1)?;
+                Ok(crate::arrays::slice(&what, &array)?.to_vec())
             })();
             answer.map_err(|e| {
                 let text = format!("the Python {} raised {e}", self.what);

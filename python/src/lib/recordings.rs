@@ -13,6 +13,9 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
+/// The largest array `for_taxels` makes, bytes.
+const MAX_ARRAY_BYTES: usize = 8 << 30;
+
 /// A Cyskin recording, whole: frame numbers and times (T,), taxel ids (N,), readings (T, N).
 #[pyclass(module = "skin._skin", frozen)]
 pub(crate) struct Recording {
@@ -73,16 +76,20 @@ impl Recording {
             ));
         }
         let a = array::<i64>("ids", ids, "int64", 1)?;
-        let ids = slice("ids", &a)?
-            .iter()
-            .map(|&i| {
-                u32::try_from(i)
-                    .map(TaxelId)
-                    .map_err(|_| arg("ids", format!("{i} is not a taxel id")))
-            })
-            .collect::<PyResult<Vec<_>>>()?;
-        let columns = self.inner.columns(&ids);
+        let ids = crate::arrays::taxel_ids("ids", slice("ids", &a)?, false)?;
         let m = ids.len();
+        let bytes = self.inner.frames.len().saturating_mul(m).saturating_mul(4);
+        if bytes > MAX_ARRAY_BYTES {
+            return Err(arg(
+                "ids",
+                format!(
+                    "{m} ids over {} frames would take {:.1} GB",
+                    self.inner.frames.len(),
+                    bytes as f64 / 1e9
+                ),
+            ));
+        }
+        let columns = self.inner.columns(&ids);
         let mut out = vec![0.0f32; self.inner.frames.len() * m];
         if m > 0 {
             for (f, dst) in self.inner.frames.iter().zip(out.chunks_exact_mut(m)) {

@@ -31,7 +31,9 @@ use std::sync::{Arc, Mutex};
 #[pyclass(module = "skin._skin", frozen)]
 pub(crate) struct Event {
     kind: String,
-    fields: Py<PyDict>,
+    /// The fields as `events.jsonl` writes them; each access makes new Python objects, so an
+    /// event cannot be changed through what it returns.
+    fields: serde_json::Map<String, serde_json::Value>,
     image: Option<Py<PyAny>>,
 }
 
@@ -50,18 +52,12 @@ impl Event {
     }
 
     fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        match self.field(py, name)? {
-            Some(v) => Ok(v),
-            None => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
-                "a \"{}\" event has no field {name:?} (it has {})",
-                self.kind,
-                self.field_names(py).join(", ")
-            ))),
-        }
+        self.field(py, name)?
+            .ok_or_else(|| pyo3::exceptions::PyAttributeError::new_err(self.no_field(name)))
     }
 
-    fn __dir__(&self, py: Python<'_>) -> Vec<String> {
-        let mut names = self.field_names(py);
+    fn __dir__(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.fields.keys().cloned().collect();
         names.extend(["kind", "image", "to_dict"].map(String::from));
         names.sort();
         names
@@ -69,41 +65,31 @@ impl Event {
 
     /// A field by name: `event["class"]` (a Python keyword as an attribute).
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        match self.field(py, name)? {
-            Some(v) => Ok(v),
-            None => Err(pyo3::exceptions::PyKeyError::new_err(format!(
-                "a \"{}\" event has no field {name:?} (it has {})",
-                self.kind,
-                self.field_names(py).join(", ")
-            ))),
-        }
+        self.field(py, name)?
+            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(self.no_field(name)))
     }
 
     /// The event as the line `skin run` writes to `events.jsonl`: a dict with "event" and the
     /// fields.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = self.fields.bind(py).copy()?;
+        let d = PyDict::new(py);
         d.set_item("event", &self.kind)?;
+        for (k, v) in &self.fields {
+            d.set_item(k, json(py, v)?)?;
+        }
         Ok(d)
     }
 
-    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
-        match other.cast::<Event>() {
-            Ok(o) => {
-                let o = o.get();
-                Ok(self.kind == o.kind && self.fields.bind(py).eq(o.fields.bind(py))?)
-            }
-            Err(_) => Ok(false),
-        }
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Event>()
+            .is_ok_and(|o| self.kind == o.get().kind && self.fields == o.get().fields)
     }
 
-    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        let fields = self.fields.bind(py);
+    fn __repr__(&self) -> String {
         let mut parts = vec![self.kind.clone()];
-        for (k, v) in fields.iter() {
-            parts.push(format!("{}={}", k.str()?, v.repr()?));
-        }
-        Ok(format!("Event({})", parts.join(", ")))
+        parts.extend(self.fields.iter().map(|(k, v)| format!("{k}={v}")));
+        format!("Event({})", parts.join(", "))
     }
 }
 
@@ -112,8 +98,8 @@ impl Event {
     /// decision that is not a hand (an empty list), no `class` or `probability` on a touch
     /// released undecided (None).
     fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
-        if let Some(v) = self.fields.bind(py).get_item(name)? {
-            return Ok(Some(v.unbind()));
+        if let Some(v) = self.fields.get(name) {
+            return json(py, v).map(Some);
         }
         Ok(match (self.kind.as_str(), name) {
             ("classified", "parts") => Some(PyList::empty(py).into_any().unbind()),
@@ -122,29 +108,25 @@ impl Event {
         })
     }
 
-    fn field_names(&self, py: Python<'_>) -> Vec<String> {
-        self.fields
-            .bind(py)
-            .keys()
-            .iter()
-            .map(|k| k.to_string())
-            .collect()
+    fn no_field(&self, name: &str) -> String {
+        let names: Vec<&str> = self.fields.keys().map(String::as_str).collect();
+        format!(
+            "a \"{}\" event has no field {name:?} (it has {})",
+            self.kind,
+            names.join(", ")
+        )
     }
 
     /// The Python event of `event`: its JSON fields, and its image if it has one.
     fn of(py: Python<'_>, event: &RustEvent) -> PyResult<Event> {
         let value = serde_json::to_value(event).map_err(|e| errors::error(Kind::Session, e))?;
-        let serde_json::Value::Object(mut map) = value else {
+        let serde_json::Value::Object(mut fields) = value else {
             return Err(errors::error(Kind::Session, "an event that is not a JSON object"));
         };
-        let kind = match map.remove("event") {
+        let kind = match fields.remove("event") {
             Some(serde_json::Value::String(s)) => s,
             _ => String::new(),
         };
-        let fields = PyDict::new(py);
-        for (k, v) in map {
-            fields.set_item(k, json(py, &v)?)?;
-        }
         let image = match event {
             RustEvent::Classified { image, .. } if !image.pixels.is_empty() => Some(
                 crate::arrays::out(py, image.pixels.clone(), &[image.rows, image.cols])?
@@ -153,11 +135,7 @@ impl Event {
             ),
             _ => None,
         };
-        Ok(Event {
-            kind,
-            fields: fields.unbind(),
-            image,
-        })
+        Ok(Event { kind, fields, image })
     }
 }
 
@@ -255,7 +233,41 @@ struct ModelChoice<'py> {
     hand: Option<String>,
 }
 
-impl ModelChoice<'_> {
+impl<'py> ModelChoice<'py> {
+    /// The choice, the callables checked to be callable.
+    fn new(
+        classifier: Option<Bound<'py, PyAny>>,
+        segmenter: Option<Bound<'py, PyAny>>,
+        classes: Option<Vec<String>>,
+        hand: Option<String>,
+    ) -> PyResult<ModelChoice<'py>> {
+        check_callable("classifier", classifier.as_ref())?;
+        check_callable("segmenter", segmenter.as_ref())?;
+        let choice = ModelChoice {
+            classifier,
+            segmenter,
+            classes,
+            hand,
+        };
+        choice.check_names()?;
+        Ok(choice)
+    }
+
+    /// `classes` and `hand` name a callable classifier's scores: without one they are refused.
+    fn check_names(&self) -> PyResult<()> {
+        if self.classifier.is_none() {
+            for (name, given) in [("classes", self.classes.is_some()), ("hand", self.hand.is_some())] {
+                if given {
+                    return Err(arg(
+                        name,
+                        "names the scores of a Python classifier (classifier=); the configuration's classifier takes its classes from its model card",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn is_builtin(&self) -> bool {
         self.classifier.is_none() && self.segmenter.is_none()
     }
@@ -383,15 +395,8 @@ impl Session {
         classes: Option<Vec<String>>,
         hand: Option<String>,
     ) -> PyResult<Session> {
-        let choice = ModelChoice {
-            classifier,
-            segmenter,
-            classes,
-            hand,
-        };
-        check_callable("classifier", choice.classifier.as_ref())?;
-        check_callable("segmenter", choice.segmenter.as_ref())?;
-        let config = SessionConfig::read(&path).map_err(|e| errors::raise(Kind::Config, &e))?;
+        let choice = ModelChoice::new(classifier, segmenter, classes, hand)?;
+        let config = SessionConfig::read(&path).map_err(errors::config)?;
         let raised: Raised = Arc::default();
         let session = if choice.is_builtin() {
             py.detach(|| RustSession::from_config(&config))
@@ -431,35 +436,22 @@ impl Session {
         release_frames: Option<&Bound<'_, PyAny>>,
         gate: Option<std::collections::HashMap<String, String>>,
     ) -> PyResult<Session> {
-        let choice = ModelChoice {
-            classifier,
-            segmenter,
-            classes,
-            hand,
-        };
-        check_callable("classifier", choice.classifier.as_ref())?;
-        check_callable("segmenter", choice.segmenter.as_ref())?;
+        let choice = ModelChoice::new(classifier, segmenter, classes, hand)?;
         let (rows, cols) = image_size.map_or(Ok((68, 100)), |s| crate::arrays::pair("image_size", s))?;
         let size = ImageSize::new(rows, cols).map_err(|e| arg("image_size", e))?;
-        let whole =
-            |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, least: usize| -> PyResult<usize> {
-                let n = v.map_or(Ok(default), |v| crate::arrays::count(name, v))?;
-                if n < least {
-                    return Err(arg(name, format!("{n}: at least {least}")));
-                }
-                Ok(n)
-            };
-        let baseline_frames = whole("baseline_frames", baseline_frames, 20, 2)?;
-        if baseline_frames > 100_000 {
-            return Err(arg(
-                "baseline_frames",
-                format!("{baseline_frames}: at most 100,000"),
-            ));
-        }
-        let min_taxels = whole("min_taxels", min_taxels, 2, 1)?;
-        let decide_frames = whole("decide_frames", decide_frames, 3, 1)?;
-        let release_frames = whole("release_frames", release_frames, 2, 1)?;
-        if !(threshold.is_finite() && threshold >= 0.0) {
+        // run.toml's bounds for the same fields.
+        let whole = |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, range: (usize, usize)| {
+            let n = v.map_or(Ok(default), |v| crate::arrays::count(name, v))?;
+            if !(range.0..=range.1).contains(&n) {
+                return Err(arg(name, format!("{n}: expected {} to {}", range.0, range.1)));
+            }
+            Ok(n)
+        };
+        let baseline_frames = whole("baseline_frames", baseline_frames, 20, (2, 100_000))?;
+        let min_taxels = whole("min_taxels", min_taxels, 2, (1, 1_000_000))?;
+        let decide_frames = whole("decide_frames", decide_frames, 3, (1, 1_000_000))?;
+        let release_frames = whole("release_frames", release_frames, 2, (1, 1_000_000))?;
+        if !(0.0..=1e9).contains(&threshold) {
             return Err(arg(
                 "threshold",
                 format!("{threshold}: expected counts, 0 or more"),
@@ -570,13 +562,12 @@ impl Session {
             return Err(no_busmap());
         }
         fresh(inner, "run_log()")?;
+        // A file that cannot be opened leaves the session as it was.
+        let log = skin_can::candump::CandumpReader::open(&path).map_err(errors::can)?;
+        inner.ended = Some("run_log()");
         let session = &mut inner.session;
         let events = &mut inner.events;
-        let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
-            let log = skin_can::candump::CandumpReader::open(&path)?;
-            session.run_log(log, &path, events, &mut |_, _| {})?;
-            Ok(())
-        });
+        let result = py.detach(|| session.run_log(log, &path, events, &mut |_, _| {}).map(|_| ()));
         take(py, inner, result, &path.display().to_string())
     }
 
@@ -586,14 +577,11 @@ impl Session {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
         fresh(inner, "run_recording()")?;
+        let rec = skin_core::format::recording::RecordingReader::open(&path).map_err(errors::core)?;
+        inner.ended = Some("run_recording()");
         let session = &mut inner.session;
         let events = &mut inner.events;
-        let result = py.detach(|| -> Result<(), skin_learn::session::SessionError> {
-            let rec = skin_core::format::recording::RecordingReader::open(&path)?;
-            session.run_recording(rec, &path, events)?;
-            let _ = session.finish(events)?;
-            Ok(())
-        });
+        let result = py.detach(|| session.run_recording(rec, &path, events).map(|_| ()));
         take(py, inner, result, &path.display().to_string())
     }
 
@@ -685,14 +673,7 @@ impl Session {
 
     /// The session, unless another thread is using it (waiting would hold the GIL it needs).
     fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, Inner>> {
-        match self.inner.try_lock() {
-            Ok(g) => Ok(g),
-            Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
-            Err(std::sync::TryLockError::WouldBlock) => Err(errors::error(
-                Kind::Session,
-                "the session is in use (by another thread, or by a callable it is running): give each thread its own session",
-            )),
-        }
+        errors::claim(&self.inner, Kind::Session, "the session")
     }
 
     fn link_index(&self, link: &Bound<'_, PyAny>) -> PyResult<usize> {
@@ -838,8 +819,8 @@ fn taking(inner: &Inner, name: &str, time_us: u64) -> PyResult<()> {
     }
 }
 
-/// Whether the session can run a whole input (`what`): only a new one, which it then ends.
-fn fresh(inner: &mut Inner, what: &'static str) -> PyResult<()> {
+/// Whether the session can run a whole input (`what`): only a new one (which the run ends).
+fn fresh(inner: &Inner, what: &'static str) -> PyResult<()> {
     if let Some(by) = inner.ended {
         return Err(errors::error(
             Kind::Session,
@@ -852,7 +833,6 @@ fn fresh(inner: &mut Inner, what: &'static str) -> PyResult<()> {
             format!("the session has taken frames already: {what} takes a new Session"),
         ));
     }
-    inner.ended = Some(what);
     Ok(())
 }
 

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 const MAX_BYTES: usize = 8 << 30;
 
 /// `count` labelled contacts on `map`, the samples `skin synth` makes with the same `seed` (1),
-/// `subjects` (one per 40 samples) and `size` (68, 100) (sample i belongs to subject i * subjects / count): a dict of `images`
+/// `subjects` (one per 40 samples; at most `count`) and `size` (68, 100) (sample i belongs to subject i * subjects / count): a dict of `images`
 /// and part `masks` (S, rows, cols) uint8, `hand` (S,) bool, `kind` (names), `subject` (S,),
 /// `partial` and `fingertips` (S,) bool, `pressures` (S, N) float32 and `taxel_parts` (S, N) uint8
 /// in map order. Made in parallel with the GIL released.
