@@ -722,6 +722,15 @@ impl Session {
         if n == 1 && readings.hasattr("ndim")? && readings.getattr("ndim")?.extract::<usize>()? == 1 {
             return self.link_readings(0, readings, &mut out[0]);
         }
+        // A list, the per-frame case: read in place, nothing collected.
+        if let Ok(list) = readings.cast::<PyList>()
+            && list.len() == n
+        {
+            for (k, item) in list.iter().enumerate() {
+                self.link_readings(k, &item, &mut out[k])?;
+            }
+            return Ok(());
+        }
         let items: Vec<Bound<'_, PyAny>> = readings
             .try_iter()
             .map_err(|_| {
