@@ -19,4 +19,6 @@ fi
 CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev" \
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check ./python
 # pytest exits 5 when it collects nothing: that fails this script (set -e) as any failure does.
-SKIN="$PWD/target/debug/skin" "$venv/bin/python" -m pytest -q python/tests
+# The report (target/pytest.xml, written anew) lets .ci/run check what ran.
+rm -f target/pytest.xml
+SKIN="$PWD/target/debug/skin" "$venv/bin/python" -m pytest -q python/tests --junitxml=target/pytest.xml
