@@ -519,6 +519,17 @@ impl TouchPipeline {
             .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| &d.class))
     }
 
+    /// The tactile map of `link` as built (every taxel, before dead ones are bridged): where
+    /// each taxel sits on the flattened skin, for a viewer or a plot.
+    pub fn map(&self, link: usize) -> Option<&TactileMap> {
+        self.links.get(link).map(|l| &l.map)
+    }
+
+    /// The taxels of `link` declared dead ([`Self::set_dead`]): layout indices, increasing.
+    pub fn dead(&self, link: usize) -> &[usize] {
+        self.links.get(link).map_or(&[], |l| &l.dead)
+    }
+
     /// Taxels of `link`'s map.
     pub fn taxels(&self, link: usize) -> Option<usize> {
         self.links.get(link).map(|l| l.map.ids.len())
