@@ -40,6 +40,7 @@
 mod bridge;
 pub mod cdr;
 mod clock;
+pub mod decode;
 pub mod interfaces;
 #[cfg(feature = "mcap")]
 mod mcap_file;
@@ -53,7 +54,7 @@ mod zenoh_live;
 pub use bridge::{Outlet, RosOptions, RosSink};
 pub use clock::{ROS_TIME_END_NS, RosTime, StampError};
 #[cfg(feature = "mcap")]
-pub use mcap_file::McapOutlet;
+pub use mcap_file::{McapOutlet, written_by_skin as mcap_file_written_by_skin};
 pub use outlets::{DEFAULT_DRAIN_S, OutletOptions, Outlets};
 #[cfg(feature = "zenoh")]
 pub use zenoh_live::{
