@@ -1,0 +1,114 @@
+//! What the viewer costs the session: a frame of the thesis' full arm (3,495 taxels on three
+//! links, a hand held on the middle one) through `Session::push`, with
+//!
+//! - `no viewer`: a sink that keeps nothing (the session's own cost);
+//! - `viewer, no browser`: the [`ViewSink`](skin_view::ViewSink) of a serving viewer;
+//! - `viewer, stalled browser`: the same with a browser connected that stopped reading (its
+//!   socket buffers full, its thread blocked in a write): the session must not notice.
+//!
+//! The ratio of the last two to the first is in BENCHMARKS.md ("Live view").
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use skin_learn::model::Models;
+use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_view::{Scene, Viewer};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+
+const IDLE: f32 = 1000.0;
+
+struct Discard;
+
+impl Sink for Discard {
+    type Error = std::convert::Infallible;
+    fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
+        Ok(Flow::Continue(()))
+    }
+}
+
+/// Connects to the stream and never reads again once the handshake is answered.
+fn stalled_browser(viewer: &Viewer) -> TcpStream {
+    let mut s = TcpStream::connect(viewer.addr()).unwrap();
+    let host = viewer.addr();
+    write!(
+        s,
+        "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    )
+    .unwrap();
+    let mut head = [0u8; 129];
+    s.read_exact(&mut head).unwrap();
+    assert!(head.starts_with(b"HTTP/1.1 101"));
+    s
+}
+
+fn bench(c: &mut Criterion) {
+    let (links, maps) = links_and_maps();
+    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
+    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
+        .into_iter()
+        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
+        .collect();
+    let options = TouchOptions {
+        threshold: 5.0,
+        min_taxels: 2,
+        decide_frames: 3,
+        release_frames: 2,
+        ..TouchOptions::default()
+    };
+    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
+    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
+    let (mut t, mut cycle) = (0u64, 0u64);
+    for _ in 0..20 {
+        t += 20_000;
+        cycle += 1;
+        let _ = session.push(t, cycle, &idle, &mut Discard).unwrap();
+    }
+    let viewer = Viewer::bind(
+        "127.0.0.1:0".parse().unwrap(),
+        Scene::of_session(&session, "full arm"),
+    )
+    .unwrap();
+    let mut sink = viewer.sink();
+    let mut group = c.benchmark_group("live view/full arm frame, hand held");
+    group.bench_function("no viewer", |b| {
+        b.iter(|| {
+            t += 20_000;
+            cycle += 1;
+            session.push(t, cycle, &held, &mut Discard).unwrap()
+        })
+    });
+    group.bench_function("viewer, no browser", |b| {
+        b.iter(|| {
+            t += 20_000;
+            cycle += 1;
+            session.push(t, cycle, &held, &mut sink).unwrap()
+        })
+    });
+    let _browser = stalled_browser(&viewer);
+    // Fill its socket buffers: from here on its thread is blocked in a write.
+    for _ in 0..2_000 {
+        t += 20_000;
+        cycle += 1;
+        let _ = session.push(t, cycle, &held, &mut sink).unwrap();
+    }
+    group.bench_function("viewer, stalled browser", |b| {
+        b.iter(|| {
+            t += 20_000;
+            cycle += 1;
+            session.push(t, cycle, &held, &mut sink).unwrap()
+        })
+    });
+    group.finish();
+    let stats = viewer.stats();
+    eprintln!(
+        "stalled browser: {} frames sent, {} skipped, {} browser(s) connected",
+        stats.frames_sent, stats.frames_skipped, stats.browsers
+    );
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,186 @@
+//! Where the session (or a replay) leaves what the browsers are sent, and where each browser's
+//! thread picks it up. Only the latest frame and the latest image of each view are kept, and
+//! the last [`MAX_EVENTS`] events: a browser that cannot keep up gets the newest frame when it is
+//! ready again and skips the rest (counted), so the session never waits for a browser and the
+//! memory the viewer holds does not grow with a slow one.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+
+/// Events kept for browsers that are behind or connect later.
+pub const MAX_EVENTS: usize = 4096;
+
+/// A browser's request to a replay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Control {
+    /// Stop advancing.
+    Pause,
+    /// Advance again.
+    Play,
+    /// Show the frame at this time (s from the first), then go on as before.
+    Seek(f64),
+    /// Play at this many times real time.
+    Speed(f64),
+}
+
+/// The latest of something, numbered.
+#[derive(Debug, Default)]
+pub(crate) struct Latest {
+    /// 0: none yet.
+    pub seq: u64,
+    pub bytes: Vec<u8>,
+}
+
+/// What the browsers are sent, behind one lock.
+#[derive(Debug, Default)]
+pub(crate) struct Shared {
+    pub frame: Latest,
+    /// Per view: the links', then the stitched arm's.
+    pub images: Vec<Latest>,
+    /// `(number, JSON line)`; numbers count from 1 without gaps.
+    pub events: VecDeque<(u64, Arc<str>)>,
+    pub next_event: u64,
+    pub scene: Arc<str>,
+    /// Bumped by a replay's seek: browsers drop their timeline's current-frame state.
+    pub epoch: u64,
+}
+
+/// The hub: shared state, its wake-up, the counters and a replay's control queue.
+#[derive(Debug)]
+pub(crate) struct Hub {
+    shared: Mutex<Shared>,
+    changed: Condvar,
+    pub closing: AtomicBool,
+    pub clients: AtomicUsize,
+    pub sent: AtomicU64,
+    pub skipped: AtomicU64,
+    pub dropped: AtomicU64,
+    pub refused: AtomicU64,
+    control: Mutex<Option<SyncSender<Control>>>,
+}
+
+impl Hub {
+    pub fn new(scene: String, views: usize) -> Hub {
+        Hub {
+            shared: Mutex::new(Shared {
+                images: (0..views).map(|_| Latest::default()).collect(),
+                next_event: 1,
+                scene: scene.into(),
+                ..Shared::default()
+            }),
+            changed: Condvar::new(),
+            closing: AtomicBool::new(false),
+            clients: AtomicUsize::new(0),
+            sent: AtomicU64::new(0),
+            skipped: AtomicU64::new(0),
+            dropped: AtomicU64::new(0),
+            refused: AtomicU64::new(0),
+            control: Mutex::new(None),
+        }
+    }
+
+    /// The lock (a thread that panicked while holding it left plain bytes: still usable).
+    pub fn lock(&self) -> MutexGuard<'_, Shared> {
+        self.shared
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Wakes every browser's thread.
+    pub fn notify(&self) {
+        self.changed.notify_all();
+    }
+
+    /// Waits for a change or `timeout`.
+    pub fn wait<'a>(
+        &self,
+        guard: MutexGuard<'a, Shared>,
+        timeout: std::time::Duration,
+    ) -> MutexGuard<'a, Shared> {
+        match self.changed.wait_timeout(guard, timeout) {
+            Ok((g, _)) => g,
+            Err(poisoned) => poisoned.into_inner().0,
+        }
+    }
+
+    /// Swaps `bytes` in as the latest frame (the old frame's buffer comes back in `bytes`, for
+    /// the next one: no allocation once both have grown).
+    pub fn put_frame(&self, bytes: &mut Vec<u8>) {
+        {
+            let mut s = self.lock();
+            std::mem::swap(&mut s.frame.bytes, bytes);
+            s.frame.seq += 1;
+        }
+        self.notify();
+    }
+
+    /// Swaps `bytes` in as the latest image of `view` (ignored for a view the scene lacks).
+    pub fn put_image(&self, view: usize, bytes: &mut Vec<u8>) {
+        {
+            let mut s = self.lock();
+            let Some(slot) = s.images.get_mut(view) else {
+                return;
+            };
+            std::mem::swap(&mut slot.bytes, bytes);
+            slot.seq += 1;
+        }
+        self.notify();
+    }
+
+    /// Adds an event (a JSON line); the oldest goes once [`MAX_EVENTS`] are kept.
+    pub fn put_event(&self, line: &str) {
+        {
+            let mut s = self.lock();
+            let n = s.next_event;
+            s.next_event += 1;
+            if s.events.len() == MAX_EVENTS {
+                s.events.pop_front();
+            }
+            s.events.push_back((n, line.into()));
+        }
+        self.notify();
+    }
+
+    /// Replaces the scene (a replay's, once read) and tells browsers to start over.
+    pub fn put_scene(&self, scene: String) {
+        {
+            let mut s = self.lock();
+            s.scene = scene.into();
+            s.epoch += 1;
+        }
+        self.notify();
+    }
+
+    /// Takes browsers' replay controls from now on.
+    pub fn controls(&self) -> Receiver<Control> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(64);
+        *self
+            .control
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(tx);
+        rx
+    }
+
+    /// Whether browsers may control what is shown (a replay).
+    pub fn controllable(&self) -> bool {
+        self.control
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .is_some()
+    }
+
+    /// Passes a browser's control on; a full queue drops it (a browser sending faster than a
+    /// replay reads is not waited for).
+    pub fn send_control(&self, c: Control) {
+        if let Some(tx) = &*self
+            .control
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            && let Err(TrySendError::Full(_)) = tx.try_send(c)
+        {
+            self.refused.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}

@@ -1,0 +1,535 @@
+//! Replaying an MCAP file that skin wrote (`skin run --mcap`, `skin convert`) to the page, with
+//! pause, seek and speed (feature `mcap`).
+//!
+//! What the file holds is what the page shows: each link's pressure cloud (`PREFIX/<link>/
+//! pressure`: the taxels' positions, ids and pressures), the frame's contacts
+//! (`PREFIX/contacts`) and the session's events (`PREFIX/events`, each carrying its events.jsonl
+//! line). The tactile maps are made from the first cloud of each link (positions, normals
+//! estimated, triangulated and flattened as `skin flatten` does a layout without triangles),
+//! so the file needs nothing beside it. Seeking uses the file's chunk index (the mcap crate's
+//! indexed reader): a seek reads the chunks around the time asked for, not the file before it.
+
+use crate::hub::Control;
+use crate::scene::{ReplayInfo, Scene};
+use crate::sink::ViewSink;
+use crate::{MAX_TIMELINE, ViewError, Viewer};
+use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
+use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
+use nalgebra::{Point3, Unit, Vector3};
+use skin_core::{LinkSkin, Taxel, TaxelId};
+use skin_geom::{FlattenOptions, TactileMap};
+use skin_ros::decode::{self, CloudLayout};
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// The longest record read (a chunk, decompressed): skin's chunks are a few MB.
+const MAX_RECORD: usize = 512 * 1024 * 1024;
+
+/// An MCAP file opened for replay.
+#[derive(Debug)]
+pub struct Replay {
+    path: PathBuf,
+    file: File,
+    summary: mcap::Summary,
+    scene: Scene,
+    /// Pressure channel id -> link index, and how its messages lay their pressures out.
+    clouds: Clouds,
+    /// Contacts channel, if the file has one.
+    contacts: Option<u16>,
+    /// Taxel id -> layout index, per link; link index by frame id.
+    index: Vec<HashMap<u32, usize>>,
+    links_by_frame: HashMap<String, usize>,
+    origin_ns: u64,
+    first_ns: u64,
+    last_ns: u64,
+}
+
+fn err(path: &Path, why: impl Into<String>) -> ViewError {
+    ViewError::Replay {
+        path: path.to_owned(),
+        why: why.into(),
+    }
+}
+
+fn stamp_ns(s: skin_ros::messages::Stamp) -> u64 {
+    u64::try_from(s.sec).unwrap_or(0) * 1_000_000_000 + u64::from(s.nanosec)
+}
+
+/// Per pressure channel: its link and how its clouds lay their pressures out.
+type Clouds = HashMap<u16, (usize, CloudLayout)>;
+
+/// Takes one message (its header and bytes); false stops the reading.
+type OnMessage<'a> = dyn FnMut(&mcap::records::MessageHeader, &[u8]) -> Result<bool, ViewError> + 'a;
+
+/// Reads the messages `options` selects, in log-time order, handing each to `f` until it says
+/// stop.
+fn each_message(
+    file: &mut File,
+    summary: &mcap::Summary,
+    options: IndexedReaderOptions,
+    path: &Path,
+    f: &mut OnMessage<'_>,
+) -> Result<(), ViewError> {
+    let mut reader = IndexedReader::new_with_options(summary, options.with_record_length_limit(MAX_RECORD))
+        .map_err(|e| err(path, e.to_string()))?;
+    let mut buffer = Vec::new();
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| err(path, e.to_string()))? {
+            IndexedReadEvent::ReadChunkRequest { offset, length } => {
+                file.seek(SeekFrom::Start(offset))
+                    .map_err(|e| err(path, e.to_string()))?;
+                buffer.resize(length, 0);
+                file.read_exact(&mut buffer)
+                    .map_err(|e| err(path, format!("cut short ({e})")))?;
+                reader
+                    .insert_chunk_record_data(offset, &buffer)
+                    .map_err(|e| err(path, e.to_string()))?;
+            }
+            IndexedReadEvent::Message { header, data } => {
+                if !f(&header, data)? {
+                    return Ok(());
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Replay {
+    /// Opens `path`, reads its summary, its events and each link's first cloud, and makes the
+    /// links' maps. `threshold` (counts above the baseline) is where the page's colour scale
+    /// starts: the run's `[touch] threshold`.
+    pub fn open(path: &Path, threshold: f32) -> Result<Replay, ViewError> {
+        let mut file = open_skins(path)?;
+        let size = file.metadata().map_err(|e| err(path, e.to_string()))?.len();
+        let summary = read_summary(&mut file, size, path)?;
+        let mut channels: Vec<(&u16, &std::sync::Arc<mcap::Channel<'static>>)> =
+            summary.channels.iter().collect();
+        channels.sort_by_key(|(id, _)| **id);
+        let schema = |c: &mcap::Channel<'_>| c.schema.as_ref().map_or("", |s| s.name.as_str()).to_owned();
+        let pressure: Vec<u16> = channels
+            .iter()
+            .filter(|(_, c)| c.topic.ends_with("/pressure") && schema(c) == "sensor_msgs/msg/PointCloud2")
+            .map(|(id, _)| **id)
+            .collect();
+        if pressure.is_empty() {
+            return Err(err(
+                path,
+                "holds no pressure clouds (PREFIX/<link>/pressure): nothing to show",
+            ));
+        }
+        let find = |suffix: &str, ty: &str| {
+            channels
+                .iter()
+                .find(|(_, c)| c.topic.ends_with(suffix) && schema(c) == ty)
+                .map(|(id, _)| **id)
+        };
+        let events = find("/events", "skin_msgs/msg/TouchEvent");
+        let contacts = find("/contacts", "skin_msgs/msg/Contacts");
+        let topic = |id: u16| {
+            summary
+                .channels
+                .get(&id)
+                .map(|c| c.topic.clone())
+                .unwrap_or_default()
+        };
+
+        let (maps, clouds, first_ns) = links_of(&mut file, &summary, &pressure, path)?;
+        let index = maps
+            .iter()
+            .map(|m| m.ids.iter().enumerate().map(|(i, id)| (id.0, i)).collect())
+            .collect();
+        let links_by_frame = maps
+            .iter()
+            .enumerate()
+            .map(|(k, m)| (m.name.clone(), k))
+            .collect();
+
+        // The events, for the timeline; the first fixes the session's origin.
+        let (lines, left_out, origin_ns) = match events {
+            Some(id) => read_events(&mut file, &summary, &topic(id), path)?,
+            None => (Vec::new(), 0, None),
+        };
+        let last_ns = summary
+            .stats
+            .as_ref()
+            .map(|s| s.message_end_time)
+            .or_else(|| summary.chunk_indexes.iter().map(|c| c.message_end_time).max())
+            .unwrap_or(first_ns);
+        let origin_ns = origin_ns.unwrap_or(first_ns).min(first_ns);
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let mut scene = Scene::from_maps(&maps, &name);
+        scene.threshold = threshold;
+        scene.replay = Some(ReplayInfo {
+            duration: last_ns.saturating_sub(origin_ns) as f64 / 1e9,
+            events: lines,
+            events_left_out: left_out,
+        });
+        Ok(Replay {
+            path: path.to_owned(),
+            file,
+            summary,
+            scene,
+            clouds,
+            contacts,
+            index,
+            links_by_frame,
+            origin_ns,
+            first_ns,
+            last_ns,
+        })
+    }
+
+    /// What the page draws.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// From the session's start to the last message, s.
+    pub fn duration(&self) -> f64 {
+        self.last_ns.saturating_sub(self.origin_ns) as f64 / 1e9
+    }
+
+    /// Plays the file to `viewer` (whose scene is [`Replay::scene`]) from its first frame at
+    /// real time, following the browsers' controls, until `stop` is set. At the end it pauses on
+    /// the last frame (a seek plays again).
+    pub fn play(
+        &mut self,
+        viewer: &Viewer,
+        controls: &Receiver<Control>,
+        stop: &AtomicBool,
+    ) -> Result<(), ViewError> {
+        let mut sink = viewer.sink();
+        let mut speed = 1.0f64;
+        let mut paused = false;
+        let mut from = self.first_ns;
+        while !stop.load(Ordering::Relaxed) {
+            let mut player = Player {
+                replay: self,
+                sink: &mut sink,
+                controls,
+                stop,
+                speed: &mut speed,
+                paused: &mut paused,
+                seek: None,
+            };
+            match player.run(from)? {
+                Some(t) => from = t,
+                None => {
+                    // The end: wait for a seek.
+                    let t = wait_for_seek(controls, stop, &mut speed);
+                    match t {
+                        Some(t) => {
+                            paused = false;
+                            from = self.seek_ns(t);
+                        }
+                        None => return Ok(()),
+                    }
+                }
+            }
+            from = from.clamp(self.first_ns, self.last_ns);
+        }
+        Ok(())
+    }
+
+    fn seek_ns(&self, t: f64) -> u64 {
+        self.origin_ns.saturating_add((t.max(0.0) * 1e9) as u64)
+    }
+}
+
+/// Waits at the end of a replay for a seek (speed changes are kept); `None` once stopped.
+fn wait_for_seek(controls: &Receiver<Control>, stop: &AtomicBool, speed: &mut f64) -> Option<f64> {
+    while !stop.load(Ordering::Relaxed) {
+        match controls.recv_timeout(Duration::from_millis(50)) {
+            Ok(Control::Seek(t)) => return Some(t),
+            Ok(Control::Speed(s)) => *speed = s,
+            Ok(_) | Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
+        }
+    }
+    None
+}
+
+/// One pass of playback, from a time until the end or a seek.
+struct Player<'a> {
+    replay: &'a mut Replay,
+    sink: &'a mut ViewSink,
+    controls: &'a Receiver<Control>,
+    stop: &'a AtomicBool,
+    speed: &'a mut f64,
+    paused: &'a mut bool,
+    seek: Option<u64>,
+}
+
+/// A frame being gathered: every link's cloud of one stamp, and the contacts of that stamp.
+struct Gathered {
+    stamp: Option<u64>,
+    pressures: Vec<Vec<f32>>,
+    contacts: Vec<(usize, Vec<usize>, f32, f32)>,
+    frames: u64,
+}
+
+impl Player<'_> {
+    /// Plays from `from_ns`; returns the time of a seek (ns), or `None` at the end of the file.
+    fn run(&mut self, from_ns: u64) -> Result<Option<u64>, ViewError> {
+        let r = &mut *self.replay;
+        let mut topics: Vec<String> = r
+            .clouds
+            .keys()
+            .filter_map(|id| r.summary.channels.get(id).map(|c| c.topic.clone()))
+            .collect();
+        if let Some(id) = r.contacts
+            && let Some(c) = r.summary.channels.get(&id)
+        {
+            topics.push(c.topic.clone());
+        }
+        let mut g = Gathered {
+            stamp: None,
+            pressures: r.scene.links.iter().map(|l| vec![0.0; l.ids.len()]).collect(),
+            contacts: Vec::new(),
+            frames: 0,
+        };
+        // Wall time and stamp the pace counts from (set again after a pause or a speed change).
+        let mut anchor: Option<(Instant, u64)> = None;
+        let options = IndexedReaderOptions::new()
+            .include_topics(topics)
+            .starting_at(from_ns);
+        let path = r.path.clone();
+        let mut file = r.file.try_clone().map_err(|e| err(&path, e.to_string()))?;
+        let summary = std::mem::take(&mut r.summary);
+        let result = each_message(&mut file, &summary, options, &path, &mut |h, data| {
+            if g.stamp.is_some_and(|s| s != h.log_time) && !self.show(&mut g, &mut anchor)? {
+                return Ok(false);
+            }
+            g.stamp = Some(h.log_time);
+            self.gather(&mut g, h.channel_id, data);
+            Ok(true)
+        });
+        self.replay.summary = summary;
+        result?;
+        if self.seek.is_none() && g.stamp.is_some() {
+            self.show(&mut g, &mut anchor)?;
+        }
+        Ok(self.seek)
+    }
+
+    fn gather(&mut self, g: &mut Gathered, channel: u16, data: &[u8]) {
+        let r = &*self.replay;
+        if let Some(&(link, layout)) = r.clouds.get(&channel) {
+            if let Some(p) = g.pressures.get_mut(link) {
+                // A cloud laid out otherwise than the link's first is not shown (its pressures
+                // stay at the last frame's).
+                let _ = decode::cloud_pressures(data, &layout, p);
+            }
+        } else if Some(channel) == r.contacts
+            && let Ok((_, list)) = decode::contacts(data)
+        {
+            for c in list {
+                let Some(&link) = r.links_by_frame.get(&c.link) else {
+                    continue;
+                };
+                let taxels = c
+                    .taxel_ids
+                    .iter()
+                    .filter_map(|id| r.index[link].get(id).copied())
+                    .collect();
+                g.contacts.push((link, taxels, c.mean_pressure, c.peak_pressure));
+            }
+        }
+    }
+
+    /// Waits until the gathered frame is due, then shows it. False when playback must stop
+    /// here (a seek, or the viewer stopping).
+    fn show(&mut self, g: &mut Gathered, anchor: &mut Option<(Instant, u64)>) -> Result<bool, ViewError> {
+        let Some(stamp) = g.stamp else { return Ok(true) };
+        loop {
+            if self.stop.load(Ordering::Relaxed) {
+                return Ok(false);
+            }
+            while let Ok(c) = self.controls.try_recv() {
+                match c {
+                    Control::Pause => *self.paused = true,
+                    Control::Play => {
+                        *self.paused = false;
+                        *anchor = None;
+                    }
+                    Control::Speed(s) => {
+                        *self.speed = s;
+                        *anchor = None;
+                    }
+                    Control::Seek(t) => {
+                        self.seek = Some(self.replay.seek_ns(t));
+                        return Ok(false);
+                    }
+                }
+            }
+            if *self.paused {
+                std::thread::sleep(Duration::from_millis(20));
+                continue;
+            }
+            let (wall, from) = *anchor.get_or_insert((Instant::now(), stamp));
+            let due = wall + Duration::from_secs_f64(stamp.saturating_sub(from) as f64 / 1e9 / *self.speed);
+            let now = Instant::now();
+            if due <= now {
+                break;
+            }
+            std::thread::sleep((due - now).min(Duration::from_millis(20)));
+        }
+        g.frames += 1;
+        let time = stamp.saturating_sub(self.replay.origin_ns) as f64 / 1e9;
+        let contacts = g.contacts.iter().map(|(l, t, m, p)| (*l, t.as_slice(), *m, *p));
+        self.sink.publish(time, g.frames, &g.pressures, contacts);
+        g.contacts.clear();
+        Ok(true)
+    }
+}
+
+/// Each link's map from its first cloud, how its clouds lay their pressures out (by channel),
+/// and the first cloud's time (ns).
+fn links_of(
+    file: &mut File,
+    summary: &mcap::Summary,
+    pressure: &[u16],
+    path: &Path,
+) -> Result<(Vec<TactileMap>, Clouds, u64), ViewError> {
+    let topic = |id: u16| {
+        summary
+            .channels
+            .get(&id)
+            .map(|c| c.topic.clone())
+            .unwrap_or_default()
+    };
+    let mut first: HashMap<u16, (Vec<u8>, u64)> = HashMap::new();
+    let topics: Vec<String> = pressure.iter().map(|&id| topic(id)).collect();
+    let options = IndexedReaderOptions::new().include_topics(topics);
+    each_message(file, summary, options, path, &mut |h, data| {
+        first
+            .entry(h.channel_id)
+            .or_insert_with(|| (data.to_vec(), h.log_time));
+        Ok(first.len() < pressure.len())
+    })?;
+    let mut maps = Vec::new();
+    let mut clouds = HashMap::new();
+    let mut first_ns = u64::MAX;
+    for &id in pressure {
+        let Some((bytes, t)) = first.get(&id) else {
+            continue;
+        };
+        let cloud = decode::point_cloud(bytes).map_err(|e| err(path, format!("{}: {e}", topic(id))))?;
+        let layout = CloudLayout::of(bytes).map_err(|e| err(path, format!("{}: {e}", topic(id))))?;
+        first_ns = first_ns.min(*t);
+        clouds.insert(id, (maps.len(), layout));
+        maps.push(map_of(&cloud, path)?);
+    }
+    Ok((maps, clouds, first_ns))
+}
+
+/// Every event of the file (at most [`MAX_TIMELINE`]), how many more there are, and the
+/// session's origin (ns) the first one gives.
+fn read_events(
+    file: &mut File,
+    summary: &mcap::Summary,
+    topic: &str,
+    path: &Path,
+) -> Result<(Vec<serde_json::Value>, usize, Option<u64>), ViewError> {
+    let mut lines = Vec::new();
+    let mut left_out = 0usize;
+    let mut origin_ns = None;
+    let options = IndexedReaderOptions::new().include_topics([topic]);
+    each_message(file, summary, options, path, &mut |_, data| {
+        let Ok((stamp, json)) = decode::touch_event_json(data) else {
+            return Ok(true);
+        };
+        let Ok(value) = serde_json::from_str::<serde_json::Value>(&json) else {
+            return Ok(true);
+        };
+        if origin_ns.is_none()
+            && let Some(t) = value.get("time").and_then(serde_json::Value::as_f64)
+        {
+            origin_ns = Some(stamp_ns(stamp).saturating_sub((t * 1e9).round() as u64));
+        }
+        if lines.len() < MAX_TIMELINE {
+            lines.push(value);
+        } else {
+            left_out += 1;
+        }
+        Ok(true)
+    })?;
+    Ok((lines, left_out, origin_ns))
+}
+
+/// Opens an MCAP file that skin wrote; refuses any other.
+fn open_skins(path: &Path) -> Result<File, ViewError> {
+    if !skin_ros::mcap_file_written_by_skin(path) {
+        let why =
+            "not an MCAP file that skin wrote (missing, unreadable, or its header names another writer)";
+        return Err(err(path, why));
+    }
+    File::open(path).map_err(|e| err(path, e.to_string()))
+}
+
+fn read_summary(file: &mut File, size: u64, path: &Path) -> Result<mcap::Summary, ViewError> {
+    let options = SummaryReaderOptions::default()
+        .with_file_size(size)
+        .with_record_length_limit(MAX_RECORD);
+    let mut reader = SummaryReader::new_with_options(options);
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| err(path, e.to_string()))? {
+            SummaryReadEvent::ReadRequest(need) => {
+                let n = file
+                    .read(reader.insert(need))
+                    .map_err(|e| err(path, e.to_string()))?;
+                reader.notify_read(n);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let at = file.seek(to).map_err(|e| err(path, e.to_string()))?;
+                reader.notify_seeked(at);
+            }
+        }
+    }
+    reader.finish().ok_or_else(|| {
+        err(
+            path,
+            "has no summary section (a file cut short?): it cannot be sought in",
+        )
+    })
+}
+
+/// A link's tactile map from its cloud: taxel positions and ids, normals estimated, triangulated
+/// and flattened.
+fn map_of(cloud: &decode::Cloud, path: &Path) -> Result<TactileMap, ViewError> {
+    let positions: Vec<Point3<f64>> = cloud
+        .positions
+        .iter()
+        .map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+        .collect();
+    let normals: Vec<Unit<Vector3<f64>>> = skin_core::normals::estimate_normals(&positions, &[]);
+    let taxels = positions
+        .iter()
+        .zip(&normals)
+        .zip(&cloud.ids)
+        .map(|((p, n), id)| Taxel {
+            id: TaxelId(*id),
+            position: *p,
+            normal: *n,
+        })
+        .collect();
+    let link = LinkSkin::new(cloud.frame_id.clone(), taxels);
+    TactileMap::flatten(&link, &FlattenOptions::default()).map_err(|e| {
+        err(
+            path,
+            format!(
+                "link {}: cannot make its map from the cloud's positions: {e}",
+                cloud.frame_id
+            ),
+        )
+    })
+}

@@ -1,0 +1,264 @@
+//! The viewer's server from the outside, as browsers and hostile clients reach it: what it
+//! serves and refuses, the stream's messages, a client sending garbage, a client that stops
+//! reading, a port in use.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use skin_learn::model::Models;
+use skin_learn::session::{Session, SessionOptions};
+use skin_learn::touch::{TouchOptions, TouchPipeline};
+use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_view::wire::decode_frame;
+use skin_view::{Scene, ViewSink, Viewer};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::{Duration, Instant};
+use tungstenite::{Message, WebSocket};
+
+const IDLE: f32 = 1000.0;
+
+/// The full arm's session (tracking only), its baseline learned, and the idle and hand-held
+/// frames.
+fn arm() -> (Session, Vec<Vec<f32>>, Vec<Vec<f32>>) {
+    let (links, maps) = links_and_maps();
+    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
+    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
+        .into_iter()
+        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
+        .collect();
+    let options = TouchOptions {
+        threshold: 5.0,
+        ..TouchOptions::default()
+    };
+    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
+    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
+    let mut none = Vec::new();
+    for k in 0..20u64 {
+        let _ = session.push(k * 20_000, k, &idle, &mut none).unwrap();
+    }
+    (session, idle, held)
+}
+
+fn serve(session: &Session) -> Viewer {
+    Viewer::bind(
+        "127.0.0.1:0".parse().unwrap(),
+        Scene::of_session(session, "full arm"),
+    )
+    .unwrap()
+}
+
+/// A raw request, and the status line of the answer.
+fn status(viewer: &Viewer, request: &str) -> String {
+    let mut s = TcpStream::connect(viewer.addr()).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut answer = Vec::new();
+    let _ = s.read_to_end(&mut answer);
+    String::from_utf8_lossy(&answer)
+        .lines()
+        .next()
+        .unwrap_or("")
+        .to_owned()
+}
+
+fn browser(viewer: &Viewer) -> WebSocket<TcpStream> {
+    let stream = TcpStream::connect(viewer.addr()).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let url = format!("ws://{}/stream", viewer.addr());
+    tungstenite::client::client(url, stream).unwrap().0
+}
+
+/// The next frame the browser gets (text messages before it are skipped).
+fn next_frame(ws: &mut WebSocket<TcpStream>) -> skin_view::wire::DecodedFrame {
+    loop {
+        if let Message::Binary(b) = ws.read().unwrap()
+            && let Some(f) = decode_frame(&b)
+        {
+            return f;
+        }
+    }
+}
+
+#[test]
+fn only_the_page_and_its_stream_are_served() {
+    let (session, ..) = arm();
+    let viewer = serve(&session);
+    let host = viewer.addr();
+    let get = |path: &str| status(&viewer, &format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+    assert!(get("/").contains("200"), "{}", get("/"));
+    assert!(get("/index.html").contains("200"));
+    for path in [
+        "/favicon.ico",
+        "/../../../../etc/passwd",
+        "/%2e%2e/%2e%2e/etc/passwd",
+        "/..%2f..%2fetc%2fpasswd",
+        "//etc/passwd",
+        "/fixtures/",
+        "/src/",
+        "/stream/../index.html",
+        "*",
+    ] {
+        assert!(get(path).contains("404"), "{path}: {}", get(path));
+    }
+    assert!(
+        get("/stream").contains("426"),
+        "a plain GET of the stream is not a WebSocket"
+    );
+    let post = status(
+        &viewer,
+        &format!("POST / HTTP/1.1\r\nHost: {host}\r\nContent-Length: 0\r\n\r\n"),
+    );
+    assert!(post.contains("405"), "{post}");
+    // Another site's name for this machine (DNS rebinding), another origin's WebSocket.
+    assert!(status(&viewer, "GET / HTTP/1.1\r\nHost: evil.example\r\n\r\n").contains("403"));
+    let foreign = format!(
+        "GET /stream HTTP/1.1\r\nHost: {host}\r\nOrigin: http://evil.example\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    );
+    assert!(status(&viewer, &foreign).contains("403"));
+    // Garbage and a head too large are refused, not served.
+    assert!(status(&viewer, "\x00\x01garbage\r\n\r\n").contains("400"));
+    let huge = format!(
+        "GET / HTTP/1.1\r\nHost: {host}\r\nX: {}\r\n\r\n",
+        "a".repeat(20_000)
+    );
+    assert!(status(&viewer, &huge).contains("431"));
+}
+
+#[test]
+fn a_browser_gets_the_scene_then_each_frame_as_the_session_had_it() {
+    let (mut session, idle, held) = arm();
+    let viewer = serve(&session);
+    let mut sink = viewer.sink();
+    let mut ws = browser(&viewer);
+    let Message::Text(scene) = ws.read().unwrap() else {
+        panic!("the scene comes first")
+    };
+    let scene: serde_json::Value = serde_json::from_str(scene.as_str()).unwrap();
+    assert_eq!(scene["scene"]["links"].as_array().unwrap().len(), 3);
+    assert_eq!(
+        scene["scene"]["links"][1]["uv_mm"].as_array().unwrap().len(),
+        1165
+    );
+    let _ = session.push(10_000_000, 500, &held, &mut sink).unwrap();
+    let f = next_frame(&mut ws);
+    assert_eq!(f.head.cycle, 500);
+    assert_eq!(f.pressures.len(), 3495);
+    // The pressures are the session's: zero on the idle links, the hand's on the middle one.
+    let offset = 1165;
+    let hand = hand_on_middle_link(&links_and_maps().0, &links_and_maps().1[1]);
+    for (i, want) in hand[1].iter().enumerate() {
+        assert!((f.pressures[offset + i] - want).abs() < 1e-3, "taxel {i}");
+    }
+    assert!(f.pressures[..offset].iter().all(|p| p.abs() < 1e-3));
+    // Each contact is drawn where its taxels are on the middle link's map.
+    assert!(!f.contacts.is_empty());
+    assert!(f.contacts.iter().all(|c| c.link == 1 && c.taxels > 0));
+    let _ = session.push(10_020_000, 501, &idle, &mut sink).unwrap();
+    assert_eq!(next_frame(&mut ws).head.cycle, 501);
+}
+
+#[test]
+fn a_client_sending_garbage_is_dropped_and_the_others_go_on() {
+    let (mut session, idle, _) = arm();
+    let viewer = serve(&session);
+    let mut sink = viewer.sink();
+    let mut good = browser(&viewer);
+    let mut bad = browser(&viewer);
+    let mut big = browser(&viewer);
+    bad.send(Message::Text("garbage".into())).unwrap();
+    big.send(Message::Binary(vec![7u8; 100_000].into())).unwrap_or(());
+    // The live viewer takes no controls either: a well-formed one is refused all the same.
+    let mut control = browser(&viewer);
+    control.send(Message::Text(r#"{"cmd":"pause"}"#.into())).unwrap();
+    for (name, ws) in [
+        ("garbage", &mut bad),
+        ("oversized", &mut big),
+        ("control", &mut control),
+    ] {
+        let closed = (0..100).any(|_| match ws.read() {
+            Ok(Message::Close(Some(f))) => f.code == tungstenite::protocol::frame::coding::CloseCode::Policy,
+            Ok(_) => false,
+            Err(_) => true,
+        });
+        assert!(closed, "the {name} client was not dropped");
+    }
+    for k in 0..3u64 {
+        let _ = session
+            .push(20_000_000 + k * 20_000, 900 + k, &idle, &mut sink)
+            .unwrap();
+        assert_eq!(next_frame(&mut good).head.cycle, 900 + k);
+    }
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while viewer.stats().dropped < 3 && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(viewer.stats().dropped >= 3, "{:?}", viewer.stats());
+}
+
+/// Resident memory of this process, kB.
+fn resident_kb() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+fn push_many(session: &mut Session, sink: &mut ViewSink, frames: &[Vec<f32>], from: u64, n: u64) {
+    for k in from..from + n {
+        let _ = session.push(30_000_000 + k * 20_000, k, frames, sink).unwrap();
+    }
+}
+
+#[test]
+fn a_browser_that_stops_reading_costs_no_memory_and_others_keep_up() {
+    let (mut session, _, held) = arm();
+    let viewer = serve(&session);
+    let mut sink = viewer.sink();
+    // Connected, handshake answered, then never read again.
+    let mut stalled = TcpStream::connect(viewer.addr()).unwrap();
+    let host = viewer.addr();
+    write!(
+        stalled,
+        "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    )
+    .unwrap();
+    let mut live = browser(&viewer);
+    push_many(&mut session, &mut sink, &held, 0, 2_000);
+    let before = resident_kb();
+    push_many(&mut session, &mut sink, &held, 2_000, 20_000);
+    let after = resident_kb();
+    // 20,000 frames of 14 KB (280 MB) went by the stalled browser: the viewer kept none.
+    assert!(
+        after.saturating_sub(before) < 8 * 1024,
+        "resident memory grew from {before} kB to {after} kB"
+    );
+    // The other browser gets the newest frame, having skipped what it could not take.
+    let last = 21_999;
+    let mut f = next_frame(&mut live);
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while f.head.cycle != last && Instant::now() < deadline {
+        f = next_frame(&mut live);
+    }
+    assert_eq!(f.head.cycle, last);
+    assert!(f.skipped > 0, "the reading browser was told of no skipped frame");
+    drop(stalled);
+    let stats = viewer.stats();
+    assert!(stats.frames_skipped > 0, "{stats:?}");
+}
+
+#[test]
+fn a_port_in_use_is_one_clear_line() {
+    let (session, ..) = arm();
+    let first = serve(&session);
+    let Err(e) = Viewer::bind(first.addr(), Scene::of_session(&session, "x")) else {
+        panic!("a second viewer bound the same port")
+    };
+    let text = e.to_string();
+    assert!(
+        text.contains(&first.addr().to_string()) && text.contains("in use"),
+        "{text}"
+    );
+    assert!(!text.contains('\n'), "{text}");
+}
