@@ -11,7 +11,8 @@
 //! contacts; `skin classify` tells hand touches from others with an ONNX model, `skin segment`
 //! labels the hand parts, `skin eval` scores either on a dataset; `skin run` does it all at once,
 //! from CAN traffic (a log or a live bus) to touch decisions, and `skin convert` turns a log or
-//! a recording into a rosbag2 MCAP file without the models. Run `skin help <command>` for details.
+//! a recording into a rosbag2 MCAP file without the models; `skin run --view` shows a session
+//! live in a browser and `skin view` replays an MCAP file there. Run `skin help <command>` for details.
 
 mod busmap_cmd;
 mod calibrate_cmd;
@@ -37,6 +38,7 @@ mod segment_cmd;
 mod shared;
 mod stitch_cmd;
 mod synth_cmd;
+mod view_cmd;
 
 /// `println!` for reports: a closed stdout (`skin ... | head`) ends the report, not the program.
 macro_rules! say {
@@ -80,6 +82,8 @@ enum Command {
     Eval(eval_cmd::Args),
     Run(run_cmd::Args),
     Convert(convert_cmd::Args),
+    #[cfg(feature = "mcap")]
+    View(view_cmd::Args),
 }
 
 fn main() -> ExitCode {
@@ -111,6 +115,8 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval_cmd::run(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Convert(args) => convert_cmd::run(args),
+        #[cfg(feature = "mcap")]
+        Command::View(args) => view_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

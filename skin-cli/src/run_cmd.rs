@@ -7,6 +7,7 @@ use crate::run_sinks::{
     Images, Named, Sinks, check_cache, precheck_mcap, say_mcap, sinks, stage_mcap, still_there,
 };
 use crate::shared::LiveStep;
+use crate::view_cmd::{View, ViewArgs};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_can::candump::CandumpReader;
@@ -127,6 +128,8 @@ pub struct Args {
     quiet: bool,
     #[command(flatten)]
     ros: RosArgs,
+    #[command(flatten)]
+    view: ViewArgs,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -161,12 +164,16 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     session.set_frame_images(args.frames);
+    let viewer = crate::view_cmd::open(&args.view, &session, &args.config)?;
+    let view = viewer
+        .as_ref()
+        .map(|v| View::new(v, args.log.is_some().then_some(args.view.speed)));
     let mut out = match &args.output {
         Some(d) => Some(crate::output::open_dir(d, "skin run", args.force, &inputs)?),
         None => None,
     };
     let ros = args.ros.open(session.links(), &inputs)?;
-    let result = sinks(out.as_ref(), args.log.is_none(), ros).and_then(|mut sinks| {
+    let result = sinks(out.as_ref(), args.log.is_none(), ros, view).and_then(|mut sinks| {
         let span = match &args.log {
             Some(log) => offline(&mut session, log, &mut sinks, args.quiet)?,
             None => live(&mut session, &args, &mut sinks)?,
@@ -177,7 +184,7 @@ pub fn run(args: Args) -> Result<()> {
         if let Some(events) = sinks.0.take() {
             events.into_inner()?;
         }
-        let mut outlets = sinks.1.1.1.take().map(RosSink::into_outlet);
+        let mut outlets = sinks.1.1.1.0.take().map(RosSink::into_outlet);
         let mcap = stage_mcap(outlets.as_mut())?;
         let summary = session.summary(span).to_string();
         crate::say!("{summary}");
@@ -209,7 +216,10 @@ pub fn run(args: Args) -> Result<()> {
     });
     // A failed run leaves the previous output as it was: the half-built folder goes with `out`.
     drop(out);
-    result
+    result?;
+    // Live, Ctrl-C ended the run: it ends the page too.
+    crate::view_cmd::hold(viewer.as_ref().filter(|_| args.log.is_some()));
+    Ok(())
 }
 
 /// Refuses, before any work, every input that cannot be read (missing, a folder, no
@@ -317,6 +327,8 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
     );
     let mut session = Session::from_config(config)?;
     session.set_frame_images(args.frames);
+    let viewer = crate::view_cmd::open(&args.view, &session, &args.config)?;
+    let mut view = viewer.as_ref().map(|v| View::new(v, Some(args.view.speed)));
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
     let cannot = || format!("cannot write into {}", dir.display());
     for note in session.layout_notes() {
@@ -342,10 +354,10 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
             &shown.join("events.jsonl"),
         )?));
         let ros = args.ros.open(session.links(), inputs)?;
-        let mut sinks = (events, (Images::new(&here, &shown)?, ros));
+        let mut sinks = (events, (Images::new(&here, &shown)?, (ros, view.as_mut())));
         let span = session.run_recording(&mut rec, path, &mut sinks)?;
         sinks.0.into_inner()?;
-        if let Some(ros) = sinks.1.1 {
+        if let Some(ros) = sinks.1.1.0 {
             let mut outlets = ros.into_outlet();
             staged = stage_mcap(Some(&mut outlets))?;
             rest = Some(outlets);
@@ -381,5 +393,6 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
     if let Some(rest) = rest {
         rest.finish(args.ros.mcap_path())?;
     }
+    crate::view_cmd::hold(viewer.as_ref());
     Ok(())
 }

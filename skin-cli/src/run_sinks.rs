@@ -4,6 +4,7 @@
 
 use crate::output::{Inputs, OutputDir};
 use crate::ros_out::{Outlets, RosArgs};
+use crate::view_cmd::View;
 use anyhow::{Context, Result};
 use skin_core::output::{Staged, writing};
 use skin_learn::session::{
@@ -20,7 +21,7 @@ pub type Sinks = (
     Option<JsonLines<BufWriter<Named>>>,
     (
         Option<JsonLines<Stdout>>,
-        (Option<Images>, Option<RosSink<Outlets>>),
+        (Option<Images>, (Option<RosSink<Outlets>>, Option<View>)),
     ),
 );
 
@@ -125,8 +126,14 @@ impl Sink for Images {
     }
 }
 
-/// The sinks for an output folder (being built), live standard output, and the ROS outputs.
-pub fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>) -> Result<Sinks> {
+/// The sinks for an output folder (being built), live standard output, the ROS outputs and
+/// the viewer.
+pub fn sinks(
+    out: Option<&OutputDir>,
+    live: bool,
+    ros: Option<RosSink<Outlets>>,
+    view: Option<View>,
+) -> Result<Sinks> {
     let (events, images) = match out {
         Some(out) => {
             let file = Named::create(&out.path().join("events.jsonl"), &out.dir().join("events.jsonl"))?;
@@ -137,7 +144,10 @@ pub fn sinks(out: Option<&OutputDir>, live: bool, ros: Option<RosSink<Outlets>>)
     };
     Ok((
         events,
-        (live.then(|| JsonLines::new(std::io::stdout())), (images, ros)),
+        (
+            live.then(|| JsonLines::new(std::io::stdout())),
+            (images, (ros, view)),
+        ),
     ))
 }
 

@@ -1,0 +1,190 @@
+//! The viewer from the command line: `skin run ... --view ADDR` serves the session as it runs,
+//! `skin view FILE.mcap --view ADDR` replays an MCAP file skin wrote. The server is skin-view's;
+//! this parses the address, paces a file's frames to real time, and keeps the page up after a
+//! run until Ctrl-C.
+
+use anyhow::{Context, Result};
+use skin_learn::session::{Event, Flow, ProcessedFrame, Session, Sink};
+use skin_view::{Scene, ViewSink, Viewer};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// The viewer's flags of `skin run`.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ViewArgs {
+    /// Serve a live view of the session to a browser: every link's tactile map coloured by
+    /// pressure, contacts, touches with their decisions, the gate, missing modules. ADDR is a
+    /// port (8080: this machine only), or HOST:PORT; port 0 picks a free one. Only an address
+    /// given explicitly other than loopback (0.0.0.0:8080) serves other machines. A log or
+    /// recording plays at its own pace (see --speed); after it the page stays until Ctrl-C.
+    #[arg(long, value_name = "ADDR")]
+    pub view: Option<String>,
+    /// With --view and a log or recording: play it at this many times its own pace (0: as fast
+    /// as it can be processed).
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = crate::numbers::within(0.0, 1000.0))]
+    pub speed: f64,
+}
+
+/// A viewer's address: `PORT` on loopback, or `HOST:PORT`.
+pub fn parse_addr(text: &str) -> Result<SocketAddr> {
+    let text = text.trim();
+    if let Ok(port) = text.parse::<u16>() {
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
+    }
+    if let Ok(a) = text.parse::<SocketAddr>() {
+        return Ok(a);
+    }
+    let bad = || {
+        format!("--view {text}: not a port (8080) or HOST:PORT (127.0.0.1:8080, [::1]:8080, localhost:8080)")
+    };
+    anyhow::ensure!(
+        text.rsplit_once(':')
+            .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()),
+        bad()
+    );
+    text.to_socket_addrs().with_context(bad)?.next().with_context(bad)
+}
+
+/// Serves `scene` at the address of `--view`, saying where (and warning when other machines
+/// can reach it).
+pub fn serve(addr: &str, scene: Scene) -> Result<Viewer> {
+    let addr = parse_addr(addr)?;
+    let viewer = Viewer::bind(addr, scene)?;
+    eprintln!("view the skin at {}", viewer.url());
+    if !addr.ip().is_loopback() {
+        eprintln!(
+            "warning: the viewer listens on {} (not loopback only): anyone who can reach this port can watch the skin (read-only)",
+            addr.ip()
+        );
+    }
+    Ok(viewer)
+}
+
+/// The viewer of `--view`, if asked for, showing `session` (built from `config`).
+pub fn open(args: &ViewArgs, session: &Session, config: &Path) -> Result<Option<Viewer>> {
+    let name = config.file_name().map_or_else(
+        || config.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    args.view
+        .as_deref()
+        .map(|addr| serve(addr, Scene::of_session(session, &name)))
+        .transpose()
+}
+
+/// Keeps the page (if any) up after the run until Ctrl-C.
+pub fn hold(viewer: Option<&Viewer>) {
+    let Some(viewer) = viewer else { return };
+    crate::output::stop_gracefully();
+    let stop = crate::output::stop_flag();
+    if stop.load(Ordering::SeqCst) {
+        return;
+    }
+    eprintln!("the run is over; the page stays at {} until Ctrl-C", viewer.url());
+    while !stop.load(Ordering::SeqCst) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The viewer's sink and, for a file, its pacing.
+pub struct View {
+    sink: ViewSink,
+    pace: Option<Pace>,
+}
+
+impl View {
+    /// The sink of `viewer`; a file's frames paced to `speed` times their own pace (none: live,
+    /// or `speed` 0).
+    pub fn new(viewer: &Viewer, speed: Option<f64>) -> View {
+        View {
+            sink: viewer.sink(),
+            pace: speed
+                .filter(|s| *s > 0.0)
+                .map(|speed| Pace { speed, anchor: None }),
+        }
+    }
+}
+
+/// Holds each frame back until its time has come, counted from the first frame shown.
+struct Pace {
+    speed: f64,
+    anchor: Option<(Instant, u64)>,
+}
+
+impl Pace {
+    fn wait(&mut self, time_us: u64) {
+        let (wall, t0) = *self.anchor.get_or_insert((Instant::now(), time_us));
+        let due = wall + Duration::from_secs_f64(time_us.saturating_sub(t0) as f64 / 1e6 / self.speed);
+        let now = Instant::now();
+        if due > now {
+            std::thread::sleep(due - now);
+        }
+    }
+}
+
+/// `Ok` of a sink that cannot fail, as the other sinks' error type.
+fn infallible(r: Result<Flow, std::convert::Infallible>) -> std::io::Result<Flow> {
+    Ok(r.unwrap_or_else(|never| match never {}))
+}
+
+/// The same error type as `skin run`'s other sinks (it never fails).
+impl Sink for View {
+    type Error = std::io::Error;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, Self::Error> {
+        infallible(self.sink.event(event))
+    }
+
+    fn frame_image(
+        &mut self,
+        view: skin_learn::session::FrameView<'_>,
+        cycle: u64,
+        image: &skin_learn::session::GreyImage,
+    ) -> Result<Flow, Self::Error> {
+        infallible(self.sink.frame_image(view, cycle, image))
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, Self::Error> {
+        if let Some(p) = &mut self.pace {
+            p.wait(frame.time_us);
+        }
+        infallible(self.sink.frame(frame))
+    }
+}
+
+/// Replay an MCAP file that skin wrote to a browser, with pause, seek and speed.
+///
+/// The page shows what the file holds: each link's pressures (its tactile map is made from the
+/// taxel positions the file's pressure clouds carry), the contacts, and every event of the run
+/// on the timeline. Play, pause, seek and speed are on the page; Ctrl-C ends the replay.
+#[derive(clap::Args)]
+pub struct Args {
+    /// An MCAP file written by `skin run --mcap` or `skin convert`.
+    #[arg(value_name = "FILE.mcap")]
+    file: PathBuf,
+    /// Where to serve the page: a port (8080: this machine only), or HOST:PORT; 0 picks a
+    /// free port. Only an address given explicitly other than loopback serves other machines.
+    #[arg(long, value_name = "ADDR", default_value = "8080")]
+    view: String,
+    /// Counts above the baseline from which a taxel is drawn as pressed (the run's
+    /// `[touch] threshold`).
+    #[arg(long, value_name = "COUNTS", default_value_t = 5.0, value_parser = crate::numbers::within(0.0, 1e6))]
+    threshold: f64,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut replay = skin_view::replay::Replay::open(&args.file, args.threshold as f32)?;
+    let viewer = serve(&args.view, replay.scene().clone())?;
+    eprintln!(
+        "replaying {} ({:.1} s, {} links): Ctrl-C ends",
+        args.file.display(),
+        replay.duration(),
+        replay.scene().links.len()
+    );
+    crate::output::stop_gracefully();
+    let controls = viewer.controls();
+    replay.play(&viewer, &controls, crate::output::stop_flag())?;
+    Ok(())
+}
