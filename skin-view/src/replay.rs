@@ -371,9 +371,13 @@ impl Player<'_> {
                     }
                 }
             }
-            if *self.paused {
+            // Paused, a seek still shows the frame it lands on.
+            if *self.paused && g.frames > 0 {
                 std::thread::sleep(Duration::from_millis(20));
                 continue;
+            }
+            if *self.paused {
+                break;
             }
             let (wall, from) = *anchor.get_or_insert((Instant::now(), stamp));
             let due = wall + Duration::from_secs_f64(stamp.saturating_sub(from) as f64 / 1e9 / *self.speed);

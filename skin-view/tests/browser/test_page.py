@@ -1,0 +1,188 @@
+"""The live view in a real browser: the fixture session served by `skin run --view`, a module
+dropped from its log, and the MCAP replay of `skin view`, each checked on what the page shows:
+screenshot pixels against the map's geometry, the timeline, the header."""
+
+import io
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import FIXTURES, REPO, Served, skin_binary, transform, wait_for, xy
+from PIL import Image
+from selenium.webdriver.common.by import By
+
+RUN = FIXTURES / "session" / "run.toml"
+LOG = FIXTURES / "session" / "session.candump.log"
+# The page's colour of a taxel below the threshold (index.html: IDLE).
+IDLE = (0x3A, 0x45, 0x52)
+
+# A link's pressed taxels in the frame the page shows now, and that frame's number and time.
+SHOWN = """
+const V = window.skinView;
+if (!V.frame || !V.scene) return null;
+const L = V.links[arguments[0]], f = V.frame, pressed = [];
+for (let i = 0; i < L.n; i++) if (f.pressures[L.offset + i] > V.scene.threshold) pressed.push(i);
+return {number: f.number, time: f.time, pressed: pressed, missing: f.missing, incomplete: f.incomplete};
+"""
+
+
+def canvas_image(driver, k: int) -> Image.Image:
+    canvas = driver.find_elements(By.CSS_SELECTOR, "canvas.map")[k]
+    return Image.open(io.BytesIO(canvas.screenshot_as_png)).convert("RGB")
+
+
+def differs(a, b, by=40) -> bool:
+    return sum(abs(x - y) for x, y in zip(a, b)) > by
+
+
+def check_pixels(image: Image.Image, link: dict, pressed: set, near: set):
+    """Pressed taxels are painted in the pressure colours where the map puts them; taxels far
+    from any pressed one keep the idle colour."""
+    t = transform(link)
+    assert image.size == (t["w"], t["h"]), f"canvas {image.size}, map fitted to {(t['w'], t['h'])}"
+    hot = cold = far = 0
+    for i, uv in enumerate(link["uv_mm"]):
+        x, y = xy(t, uv)
+        px = image.getpixel((int(x), int(y)))
+        if i in pressed:
+            hot += differs(px, IDLE)
+        elif i not in near and i not in link["dead"]:
+            far += 1
+            cold += not differs(px, IDLE, by=6)
+    assert pressed and hot >= 0.9 * len(pressed), f"{hot} of {len(pressed)} pressed taxels painted"
+    assert far and cold >= 0.98 * far, f"{far - cold} of {far} taxels far from the press are not idle"
+
+
+def near_any(link: dict, taxels: set, within_pitches: float) -> set:
+    """Taxels within `within_pitches` of any of `taxels` on the map (contact outlines and
+    labels are drawn there)."""
+    uv = link["uv_mm"]
+    d2 = (within_pitches * link["pitch_mm"]) ** 2
+    return {
+        i
+        for i, (u, v) in enumerate(uv)
+        if any((u - uv[j][0]) ** 2 + (v - uv[j][1]) ** 2 <= d2 for j in taxels)
+    }
+
+
+def scene(driver) -> dict:
+    return wait_for(driver, "return window.skinView.scene", what="the scene")
+
+
+def test_a_press_is_painted_where_the_map_puts_it_and_touch_0_is_a_hand(browser, tmp_path):
+    served = Served("run", RUN, "--log", LOG, "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "2")
+    try:
+        browser.get(served.url)
+        link = scene(browser)["links"][0]
+        assert len(link["uv_mm"]) == 715
+        wait_for(browser, "return window.skinView.frames > 0", what="a frame")
+        checked = False
+        for _ in range(2000):
+            before = browser.execute_script(SHOWN, 0)
+            if not before or len(before["pressed"]) < 10:
+                continue
+            image = canvas_image(browser, 0)
+            after = browser.execute_script(SHOWN, 0)
+            # The screenshot shows one of the frames between the two readings: a taxel pressed
+            # in both is painted hot, one pressed in neither and far from both stays idle.
+            if after["number"] - before["number"] > 4:
+                continue
+            both = set(before["pressed"]) & set(after["pressed"])
+            either = set(before["pressed"]) | set(after["pressed"])
+            if len(both) < 10:
+                continue
+            check_pixels(image, link, both, near_any(link, either, 6))
+            checked = True
+            if os.environ.get("SKIN_VIEW_SCREENSHOT"):
+                browser.save_screenshot(os.environ["SKIN_VIEW_SCREENSHOT"])
+            break
+        assert checked, "no press was seen on the page"
+        row = '#touches tr[data-touch="0"] .class'
+        cls = wait_for(browser, f"const e = document.querySelector('{row}'); return e && e.textContent", what="touch 0")
+        assert cls == "hand"
+        # The session's frames reach the page in time (20 frames/s here; the full arm at 50 is
+        # the benchmark's).
+        p95 = wait_for(browser, "return window.skinView.latencies.length > 20 && window.skinView.p95()")
+        print(f"latency p95 {p95:.1f} ms over {browser.execute_script('return window.skinView.latencies.length')} frames")
+    finally:
+        said = served.stop()
+    assert "view the skin at" in said
+
+
+def drop_module(src: Path, dst: Path, address: int, cycles: range) -> None:
+    """Copies a skin16 log without module `address`'s data frames in the sync `cycles`."""
+    ids = {f"{0x200 + 4 * address + k:03X}" for k in range(3)}
+    syncs = -1
+    with open(src) as f, open(dst, "w") as out:
+        for line in f:
+            can_id = line.split()[2].split("#")[0]
+            if can_id == "080":
+                syncs += 1
+            if syncs in cycles and can_id in ids:
+                continue
+            out.write(line)
+
+
+def test_a_module_dropped_from_the_log_shows_as_missing(browser, tmp_path):
+    log = tmp_path / "dropped.log"
+    drop_module(LOG, log, address=5, cycles=range(40, 400))
+    served = Served("run", RUN, "--log", log, "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "4")
+    try:
+        browser.get(served.url)
+        sc = scene(browser)
+        module = next(k for k, m in enumerate(sc["modules"]) if m["bus"] == "can0" and m["address"] == 5)
+        wait_for(
+            browser,
+            "return document.getElementById('missing').textContent.includes('can0:5')",
+            what="can0:5 among the missing modules",
+        )
+        shown = browser.execute_script(SHOWN, 0)
+        assert shown["incomplete"] > 0
+        assert module in shown["missing"] or shown["incomplete"] > 0
+    finally:
+        served.stop()
+
+
+def test_the_mcap_replay_seeks_to_a_time_and_shows_that_frame(browser, tmp_path):
+    mcap = tmp_path / "session.mcap"
+    done = subprocess.run(
+        [str(skin_binary()), "run", str(RUN), "--log", str(LOG), "-o", str(tmp_path / "out"), "-q", "--mcap", str(mcap)],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    served = Served("view", mcap, "--view", "0")
+    try:
+        browser.get(served.url)
+        sc = scene(browser)
+        assert sc["replay"]["duration"] > 30
+        # The timeline holds the whole run at once.
+        cls = wait_for(
+            browser,
+            "const e = document.querySelector('#touches tr[data-touch=\"0\"] .class'); return e && e.textContent",
+            what="touch 0 on the timeline",
+        )
+        assert cls == "hand"
+        browser.execute_script("window.skinView.send({cmd: 'pause'})")
+        # Touch 2 (a hand pushing away) presses from 4.0 s to 5.0 s.
+        browser.execute_script("window.skinView.send({cmd: 'seek', time: 4.5})")
+        shown = wait_for(
+            browser,
+            "const f = window.skinView.frame; return f && Math.abs(f.time - 4.5) < 0.06 && f.time",
+            what="the frame at 4.5 s",
+        )
+        # Paused: the frame stays, so the screenshot shows exactly it.
+        state = browser.execute_script(SHOWN, 0)
+        image = canvas_image(browser, 0)
+        again = browser.execute_script(SHOWN, 0)
+        assert again["number"] == state["number"], "the paused replay moved on"
+        link = sc["links"][0]
+        pressed = set(state["pressed"])
+        assert len(pressed) >= 10, f"{len(pressed)} taxels pressed at {shown} s"
+        check_pixels(image, link, pressed, near_any(link, pressed, 6))
+        # Seeking back shows the earlier frame (touch 1, a bar, 2.5 s to 3.5 s).
+        browser.execute_script("window.skinView.send({cmd: 'seek', time: 2.75})")
+        wait_for(browser, "const f = window.skinView.frame; return f && Math.abs(f.time - 2.75) < 0.06", what="2.75 s")
+    finally:
+        served.stop()
