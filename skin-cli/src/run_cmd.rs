@@ -152,6 +152,7 @@ pub fn run(args: Args) -> Result<()> {
     if !args.recording.is_empty() {
         return recordings(&args, &config, &inputs);
     }
+    let mut viewer = crate::view_cmd::bind(&args.view, &args.config)?;
     let mut session = Session::from_config(&config)?;
     for note in session.layout_notes() {
         crate::say!("{note}");
@@ -164,7 +165,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     session.set_frame_images(args.frames);
-    let viewer = crate::view_cmd::open(&args.view, &session, &args.config)?;
+    crate::view_cmd::show(viewer.as_mut(), &session, &args.config);
     let view = viewer
         .as_ref()
         .map(|v| View::new(v, args.log.is_some().then_some(args.view.speed)));
@@ -325,9 +326,10 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         "--mcap and --zenoh take one recording at a time ({} given): a session each would restart the stamps",
         args.recording.len()
     );
+    let mut viewer = crate::view_cmd::bind(&args.view, &args.config)?;
     let mut session = Session::from_config(config)?;
     session.set_frame_images(args.frames);
-    let viewer = crate::view_cmd::open(&args.view, &session, &args.config)?;
+    crate::view_cmd::show(viewer.as_mut(), &session, &args.config);
     let mut view = viewer.as_ref().map(|v| View::new(v, Some(args.view.speed)));
     let out = crate::output::open_dir(dir, "skin run", args.force, inputs)?;
     let cannot = || format!("cannot write into {}", dir.display());

@@ -3,11 +3,11 @@
 //! this parses the address, paces a file's frames to real time, and keeps the page up after a
 //! run until Ctrl-C.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use skin_learn::session::{Event, Flow, ProcessedFrame, Session, Sink};
 use skin_view::{Scene, ViewSink, Viewer};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
@@ -19,16 +19,16 @@ pub struct ViewArgs {
     /// port (8080: this machine only), or HOST:PORT; port 0 picks a free one. Only an address
     /// given explicitly other than loopback (0.0.0.0:8080) serves other machines. A log or
     /// recording plays at its own pace (see --speed); after it the page stays until Ctrl-C.
-    #[arg(long, value_name = "ADDR")]
-    pub view: Option<String>,
+    #[arg(long, value_name = "ADDR", value_parser = parse_addr)]
+    pub view: Option<SocketAddr>,
     /// With --view and a log or recording: play it at this many times its own pace (0: as fast
     /// as it can be processed).
     #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = crate::numbers::within(0.0, 1000.0))]
     pub speed: f64,
 }
 
-/// A viewer's address: `PORT` on loopback, or `HOST:PORT`.
-pub fn parse_addr(text: &str) -> Result<SocketAddr> {
+/// A viewer's address: `PORT` on loopback, or `HOST:PORT` (checked by clap, before any work).
+pub fn parse_addr(text: &str) -> Result<SocketAddr, String> {
     let text = text.trim();
     if let Ok(port) = text.parse::<u16>() {
         return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
@@ -36,21 +36,21 @@ pub fn parse_addr(text: &str) -> Result<SocketAddr> {
     if let Ok(a) = text.parse::<SocketAddr>() {
         return Ok(a);
     }
-    let bad = || {
-        format!("--view {text}: not a port (8080) or HOST:PORT (127.0.0.1:8080, [::1]:8080, localhost:8080)")
-    };
-    anyhow::ensure!(
-        text.rsplit_once(':')
-            .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()),
-        bad()
-    );
-    text.to_socket_addrs().with_context(bad)?.next().with_context(bad)
+    let bad = || "not a port (8080) or HOST:PORT (127.0.0.1:8080, [::1]:8080, localhost:8080)".to_owned();
+    if !text
+        .rsplit_once(':')
+        .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok())
+    {
+        return Err(bad());
+    }
+    text.to_socket_addrs()
+        .map_err(|e| format!("{}: {e}", bad()))?
+        .next()
+        .ok_or_else(bad)
 }
 
-/// Serves `scene` at the address of `--view`, saying where (and warning when other machines
-/// can reach it).
-pub fn serve(addr: &str, scene: Scene) -> Result<Viewer> {
-    let addr = parse_addr(addr)?;
+/// Serves `scene` at `addr`, saying where (and warning when other machines can reach it).
+pub fn serve(addr: SocketAddr, scene: Scene) -> Result<Viewer> {
     let viewer = Viewer::bind(addr, scene)?;
     eprintln!("view the skin at {}", viewer.url());
     if !addr.ip().is_loopback() {
@@ -62,16 +62,27 @@ pub fn serve(addr: &str, scene: Scene) -> Result<Viewer> {
     Ok(viewer)
 }
 
-/// The viewer of `--view`, if asked for, showing `session` (built from `config`).
-pub fn open(args: &ViewArgs, session: &Session, config: &Path) -> Result<Option<Viewer>> {
-    let name = config.file_name().map_or_else(
-        || config.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
+/// The viewer of `--view`, if asked for, bound before the session is built (a port in use
+/// fails at once); its scene comes with [`show`].
+pub fn bind(args: &ViewArgs, config: &Path) -> Result<Option<Viewer>> {
     args.view
-        .as_deref()
-        .map(|addr| serve(addr, Scene::of_session(session, &name)))
+        .map(|addr| serve(addr, Scene::from_maps(&[], &name(config))))
         .transpose()
+}
+
+/// Shows `session` (built from `config`) on the viewer, if any.
+pub fn show(viewer: Option<&mut Viewer>, session: &Session, config: &Path) {
+    if let Some(v) = viewer {
+        v.set_scene(&Scene::of_session(session, &name(config)));
+    }
+}
+
+/// A path as the page names its source: the file's name.
+fn name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 /// Keeps the page (if any) up after the run until Ctrl-C.
@@ -154,37 +165,49 @@ impl Sink for View {
     }
 }
 
-/// Replay an MCAP file that skin wrote to a browser, with pause, seek and speed.
-///
-/// The page shows what the file holds: each link's pressures (its tactile map is made from the
-/// taxel positions the file's pressure clouds carry), the contacts, and every event of the run
-/// on the timeline. Play, pause, seek and speed are on the page; Ctrl-C ends the replay.
-#[derive(clap::Args)]
-pub struct Args {
-    /// An MCAP file written by `skin run --mcap` or `skin convert`.
-    #[arg(value_name = "FILE.mcap")]
-    file: PathBuf,
-    /// Where to serve the page: a port (8080: this machine only), or HOST:PORT; 0 picks a
-    /// free port. Only an address given explicitly other than loopback serves other machines.
-    #[arg(long, value_name = "ADDR", default_value = "8080")]
-    view: String,
-    /// Counts above the baseline from which a taxel is drawn as pressed (the run's
-    /// `[touch] threshold`).
-    #[arg(long, value_name = "COUNTS", default_value_t = 5.0, value_parser = crate::numbers::within(0.0, 1e6))]
-    threshold: f64,
-}
+/// Replay an MCAP file that skin wrote to a browser, with pause, seek and speed (feature
+/// `mcap`).
+#[cfg(feature = "mcap")]
+pub use replay::{Args, run};
 
-pub fn run(args: Args) -> Result<()> {
-    let mut replay = skin_view::replay::Replay::open(&args.file, args.threshold as f32)?;
-    let viewer = serve(&args.view, replay.scene().clone())?;
-    eprintln!(
-        "replaying {} ({:.1} s, {} links): Ctrl-C ends",
-        args.file.display(),
-        replay.duration(),
-        replay.scene().links.len()
-    );
-    crate::output::stop_gracefully();
-    let controls = viewer.controls();
-    replay.play(&viewer, &controls, crate::output::stop_flag())?;
-    Ok(())
+#[cfg(feature = "mcap")]
+mod replay {
+    use super::{SocketAddr, parse_addr, serve};
+    use anyhow::Result;
+    use std::path::PathBuf;
+
+    /// Replay an MCAP file that skin wrote to a browser, with pause, seek and speed.
+    ///
+    /// The page shows what the file holds: each link's pressures (its tactile map is made from the
+    /// taxel positions the file's pressure clouds carry), the contacts, and every event of the run
+    /// on the timeline. Play, pause, seek and speed are on the page; Ctrl-C ends the replay.
+    #[derive(clap::Args)]
+    pub struct Args {
+        /// An MCAP file written by `skin run --mcap` or `skin convert`.
+        #[arg(value_name = "FILE.mcap")]
+        file: PathBuf,
+        /// Where to serve the page: a port (8080: this machine only), or HOST:PORT; 0 picks a
+        /// free port. Only an address given explicitly other than loopback serves other machines.
+        #[arg(long, value_name = "ADDR", default_value = "8080", value_parser = parse_addr)]
+        view: SocketAddr,
+        /// Counts above the baseline from which a taxel is drawn as pressed (the run's
+        /// `[touch] threshold`).
+        #[arg(long, value_name = "COUNTS", default_value_t = 5.0, value_parser = crate::numbers::within(0.0, 1e6))]
+        threshold: f64,
+    }
+
+    pub fn run(args: Args) -> Result<()> {
+        let mut replay = skin_view::replay::Replay::open(&args.file, args.threshold as f32)?;
+        let viewer = serve(args.view, replay.scene().clone())?;
+        eprintln!(
+            "replaying {} ({:.1} s, {} links): Ctrl-C ends",
+            args.file.display(),
+            replay.duration(),
+            replay.scene().links.len()
+        );
+        crate::output::stop_gracefully();
+        let controls = viewer.controls();
+        replay.play(&viewer, &controls, crate::output::stop_flag())?;
+        Ok(())
+    }
 }

@@ -390,7 +390,7 @@ impl Player<'_> {
         g.frames += 1;
         let time = stamp.saturating_sub(self.replay.origin_ns) as f64 / 1e9;
         let contacts = g.contacts.iter().map(|(l, t, m, p)| (*l, t.as_slice(), *m, *p));
-        self.sink.publish(time, g.frames, &g.pressures, contacts);
+        self.sink.publish(time, g.frames, &g.pressures, contacts, &[]);
         g.contacts.clear();
         Ok(true)
     }
@@ -472,12 +472,12 @@ fn read_events(
 
 /// Opens an MCAP file that skin wrote; refuses any other.
 fn open_skins(path: &Path) -> Result<File, ViewError> {
+    let file = File::open(path).map_err(|e| err(path, format!("cannot open it: {e}")))?;
     if !skin_ros::mcap_file_written_by_skin(path) {
-        let why =
-            "not an MCAP file that skin wrote (missing, unreadable, or its header names another writer)";
+        let why = "not an MCAP file that skin wrote (its header names another writer, or it is no MCAP file)";
         return Err(err(path, why));
     }
-    File::open(path).map_err(|e| err(path, e.to_string()))
+    Ok(file)
 }
 
 fn read_summary(file: &mut File, size: u64, path: &Path) -> Result<mcap::Summary, ViewError> {
@@ -485,8 +485,14 @@ fn read_summary(file: &mut File, size: u64, path: &Path) -> Result<mcap::Summary
         .with_file_size(size)
         .with_record_length_limit(MAX_RECORD);
     let mut reader = SummaryReader::new_with_options(options);
+    let cut = |e: mcap::McapError| {
+        err(
+            path,
+            format!("its summary at the end cannot be read ({e}): a file cut short, or still being written"),
+        )
+    };
     while let Some(event) = reader.next_event() {
-        match event.map_err(|e| err(path, e.to_string()))? {
+        match event.map_err(cut)? {
             SummaryReadEvent::ReadRequest(need) => {
                 let n = file
                     .read(reader.insert(need))

@@ -26,6 +26,9 @@ pub struct Scene {
     pub gate_actions: [&'static str; 4],
     /// Pressure above which a taxel counts as pressed, counts (the colour scale starts there).
     pub threshold: f32,
+    /// Links stitched across joints: frames carry each link's placement in the stitched plane,
+    /// and the page draws the stitched arm at the current posture.
+    pub stitched: bool,
     /// Set for a replay: its length and every event of the file.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub replay: Option<ReplayInfo>,
@@ -79,6 +82,7 @@ impl Scene {
             classes: Vec::new(),
             gate_actions: GATE_ACTIONS,
             threshold: 0.0,
+            stitched: false,
             replay: None,
         }
     }
@@ -96,6 +100,7 @@ impl Scene {
             classes: session.classes().iter().map(|c| c.name().to_owned()).collect(),
             gate_actions: GATE_ACTIONS,
             threshold: pipeline.options().threshold,
+            stitched: session.stitched(),
             replay: None,
         };
         for (k, link) in scene.links.iter_mut().enumerate() {

@@ -4,7 +4,7 @@
 
 use crate::hub::Hub;
 use crate::scene::{GATE_ACTIONS, Scene};
-use crate::wire::{self, FrameHead, STITCHED, WireContact};
+use crate::wire::{self, FrameHead, STITCHED, WireContact, WirePlacement};
 use skin_learn::session::{Event, Flow, FrameView, GreyImage, ProcessedFrame, Sink};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -76,6 +76,7 @@ pub struct ViewSink {
     buffer: Vec<u8>,
     image: Vec<u8>,
     contacts: Vec<WireContact>,
+    placements: Vec<WirePlacement>,
     /// Modules missing from the frame at hand (its `incomplete` event comes before it).
     missing: Vec<u32>,
     head: FrameHead,
@@ -106,6 +107,7 @@ impl ViewSink {
             buffer: Vec::new(),
             image: Vec::new(),
             contacts: Vec::new(),
+            placements: Vec::new(),
             missing: Vec::new(),
             head: FrameHead::default(),
             views,
@@ -113,14 +115,20 @@ impl ViewSink {
     }
 
     /// Publishes a frame: `pressures` per link (scene order), `contacts` as `(link, taxels,
-    /// mean, peak)`.
+    /// mean, peak)`, the links' placements in the stitched plane (empty: not stitched).
     pub(crate) fn publish<'a>(
         &mut self,
         time: f64,
         cycle: u64,
         pressures: &[impl AsRef<[f32]>],
         contacts: impl Iterator<Item = (usize, &'a [usize], f32, f32)>,
+        placements: &[skin_geom::Placement],
     ) {
+        self.placements.clear();
+        self.placements.extend(placements.iter().map(|p| WirePlacement {
+            angle: p.angle as f32,
+            offset_mm: [(p.offset.x * 1e3) as f32, (p.offset.y * 1e3) as f32],
+        }));
         self.contacts.clear();
         for (link, taxels, mean, peak) in contacts {
             let p = pressures.get(link).map_or(&[][..], AsRef::as_ref);
@@ -142,6 +150,7 @@ impl ViewSink {
             &self.head,
             &self.missing,
             &self.contacts,
+            &self.placements,
             pressures.iter().map(AsRef::as_ref),
         );
         self.missing.clear();
@@ -238,7 +247,13 @@ impl Sink for ViewSink {
                 .iter()
                 .map(move |c| (k, c.taxels.as_slice(), c.mean_pressure, c.peak_pressure))
         });
-        self.publish(frame.time, frame.cycle, frame.pressures, contacts);
+        self.publish(
+            frame.time,
+            frame.cycle,
+            frame.pressures,
+            contacts,
+            frame.stitched_placements(),
+        );
         Ok(Flow::Continue(()))
     }
 }

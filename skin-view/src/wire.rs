@@ -20,8 +20,10 @@
 //! | 52 | `u32` | M: modules missing from this frame |
 //! | 56 | `u32` | C: contacts in this frame |
 //! | 60 | `u32` | N: taxels (the scene's links, in order) |
-//! | 64 | `M x u32` | the missing modules, indices into the scene's `modules` |
+//! | 64 | `u32` | P: placements (links stitched across joints: one per link; else 0) |
+//! | 68 | `M x u32` | the missing modules, indices into the scene's `modules` |
 //! | then | `C x 24 B` | each contact: link `u32`, centroid on the map `u`, `v` (`f32`, mm), taxels `u32`, mean and peak pressure (`f32`, counts) |
+//! | then | `P x 12 B` | each link's map in the stitched plane at this frame's posture: angle (`f32`, rad, counter-clockwise) and offset `u`, `v` (`f32`, mm): `p' = R(angle) p + offset` |
 //! | then | `N x f32` | pressures, counts above the baseline, links one after another |
 //!
 //! An image (`SKI1`), the latest tactile image of a link or of the stitched arm:
@@ -42,11 +44,13 @@ pub const FRAME_MAGIC: u32 = u32::from_le_bytes(*b"SKF1");
 /// First four bytes of an image.
 pub const IMAGE_MAGIC: u32 = u32::from_le_bytes(*b"SKI1");
 /// Bytes before a frame's missing modules.
-pub const FRAME_HEAD: usize = 64;
+pub const FRAME_HEAD: usize = 68;
 /// Bytes before an image's pixels.
 pub const IMAGE_HEAD: usize = 32;
 /// Bytes per contact of a frame.
 pub const CONTACT_BYTES: usize = 24;
+/// Bytes per placement of a frame.
+pub const PLACEMENT_BYTES: usize = 12;
 /// Where a frame's skipped count sits (patched per browser).
 pub const SKIPPED_AT: usize = 32;
 /// The image's view for the stitched arm.
@@ -88,6 +92,15 @@ pub struct WireContact {
     pub peak: f32,
 }
 
+/// A link's map in the stitched plane: `p' = R(angle) p + offset`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WirePlacement {
+    /// Rotation, radians, counter-clockwise.
+    pub angle: f32,
+    /// Translation, mm.
+    pub offset_mm: [f32; 2],
+}
+
 fn u32_at(out: &mut Vec<u8>, v: u32) {
     out.extend_from_slice(&v.to_le_bytes());
 }
@@ -103,6 +116,7 @@ pub fn encode_frame<'a>(
     head: &FrameHead,
     missing: &[u32],
     contacts: &[WireContact],
+    placements: &[WirePlacement],
     pressures: impl Iterator<Item = &'a [f32]> + Clone,
 ) {
     out.clear();
@@ -120,6 +134,7 @@ pub fn encode_frame<'a>(
     u32_at(out, count(missing.len()));
     u32_at(out, count(contacts.len()));
     u32_at(out, count(n));
+    u32_at(out, count(placements.len()));
     for &m in missing {
         u32_at(out, m);
     }
@@ -130,6 +145,11 @@ pub fn encode_frame<'a>(
         u32_at(out, c.taxels);
         f32_at(out, c.mean);
         f32_at(out, c.peak);
+    }
+    for p in placements {
+        f32_at(out, p.angle);
+        f32_at(out, p.offset_mm[0]);
+        f32_at(out, p.offset_mm[1]);
     }
     for link in pressures {
         for &p in link {
@@ -176,6 +196,8 @@ pub struct DecodedFrame {
     pub missing: Vec<u32>,
     /// Contacts.
     pub contacts: Vec<WireContact>,
+    /// The links' placements in the stitched plane (none without stitching).
+    pub placements: Vec<WirePlacement>,
     /// Pressures, all links one after another.
     pub pressures: Vec<f32>,
 }
@@ -188,9 +210,15 @@ pub fn decode_frame(bytes: &[u8]) -> Option<DecodedFrame> {
     if u32_(0)? != FRAME_MAGIC {
         return None;
     }
-    let (m, c, n) = (u32_(52)? as usize, u32_(56)? as usize, u32_(60)? as usize);
+    let (m, c, n, p) = (
+        u32_(52)? as usize,
+        u32_(56)? as usize,
+        u32_(60)? as usize,
+        u32_(64)? as usize,
+    );
     let contacts_at = FRAME_HEAD.checked_add(m.checked_mul(4)?)?;
-    let pressures_at = contacts_at.checked_add(c.checked_mul(CONTACT_BYTES)?)?;
+    let placements_at = contacts_at.checked_add(c.checked_mul(CONTACT_BYTES)?)?;
+    let pressures_at = placements_at.checked_add(p.checked_mul(PLACEMENT_BYTES)?)?;
     if bytes.len() != pressures_at.checked_add(n.checked_mul(4)?)? {
         return None;
     }
@@ -216,6 +244,15 @@ pub fn decode_frame(bytes: &[u8]) -> Option<DecodedFrame> {
                     taxels: u32_(at + 12)?,
                     mean: f32_(at + 16)?,
                     peak: f32_(at + 20)?,
+                })
+            })
+            .collect::<Option<_>>()?,
+        placements: (0..p)
+            .map(|k| {
+                let at = placements_at + PLACEMENT_BYTES * k;
+                Some(WirePlacement {
+                    angle: f32_(at)?,
+                    offset_mm: [f32_(at + 4)?, f32_(at + 8)?],
                 })
             })
             .collect::<Option<_>>()?,
@@ -252,12 +289,30 @@ mod tests {
         let a = [1.0f32, -2.0];
         let b = [3.5f32];
         let mut out = Vec::new();
-        encode_frame(&mut out, &head, &[4, 5], &contacts, [&a[..], &b[..]].into_iter());
-        assert_eq!(out.len(), FRAME_HEAD + 8 + CONTACT_BYTES + 12);
+        let placements = [
+            WirePlacement::default(),
+            WirePlacement {
+                angle: 0.5,
+                offset_mm: [100.0, -20.0],
+            },
+        ];
+        encode_frame(
+            &mut out,
+            &head,
+            &[4, 5],
+            &contacts,
+            &placements,
+            [&a[..], &b[..]].into_iter(),
+        );
+        assert_eq!(
+            out.len(),
+            FRAME_HEAD + 8 + CONTACT_BYTES + 2 * PLACEMENT_BYTES + 12
+        );
         let back = decode_frame(&out).unwrap();
         assert_eq!(back.head, head);
         assert_eq!(back.missing, [4, 5]);
         assert_eq!(back.contacts, contacts);
+        assert_eq!(back.placements, placements);
         assert_eq!(back.pressures, [1.0, -2.0, 3.5]);
         // The pressures start 4-byte aligned: the page reads them as a Float32Array in place.
         assert_eq!((out.len() - 12) % 4, 0);
@@ -271,9 +326,23 @@ mod tests {
     fn a_second_frame_of_the_same_size_reuses_the_buffer() {
         let p = vec![0.5f32; 3495];
         let mut out = Vec::new();
-        encode_frame(&mut out, &FrameHead::default(), &[], &[], std::iter::once(&p[..]));
+        encode_frame(
+            &mut out,
+            &FrameHead::default(),
+            &[],
+            &[],
+            &[],
+            std::iter::once(&p[..]),
+        );
         let (ptr, cap) = (out.as_ptr(), out.capacity());
-        encode_frame(&mut out, &FrameHead::default(), &[], &[], std::iter::once(&p[..]));
+        encode_frame(
+            &mut out,
+            &FrameHead::default(),
+            &[],
+            &[],
+            &[],
+            std::iter::once(&p[..]),
+        );
         assert_eq!((out.as_ptr(), out.capacity()), (ptr, cap));
     }
 }

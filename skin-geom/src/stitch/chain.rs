@@ -167,6 +167,15 @@ impl PostureChain {
         &self.whole.reports
     }
 
+    /// Where each link's whole map lies in the stitched plane at the posture in effect at
+    /// `time` (s): the solve of that posture. A viewer draws the stitched arm with them.
+    pub fn placements_at(&self, time: f64) -> &[super::Placement] {
+        self.whole
+            .reports
+            .get(self.postures.at(time))
+            .map_or(&[], |r| r.placements.as_slice())
+    }
+
     /// The dead taxels of each link.
     pub fn dead(&self) -> &[DeadTaxels] {
         &self.dead

@@ -203,6 +203,7 @@ pub struct ProcessedFrame<'a> {
     /// Pressures per link (layout order), counts above the baseline.
     pub pressures: &'a [Vec<f32>],
     pub(super) pipeline: &'a crate::touch::TouchPipeline,
+    pub(super) stitched: &'a [skin_geom::Placement],
 }
 
 impl<'a> ProcessedFrame<'a> {
@@ -222,7 +223,14 @@ impl<'a> ProcessedFrame<'a> {
             cycle,
             pressures,
             pipeline,
+            stitched: &[],
         }
+    }
+
+    /// With links stitched across joints: where each link's map lies in the stitched plane at
+    /// this frame's posture (one per link, layout order); empty otherwise.
+    pub fn stitched_placements(&self) -> &'a [skin_geom::Placement] {
+        self.stitched
     }
 
     /// The contacts of `link` in this frame (see [`TouchPipeline::contacts`](crate::touch::TouchPipeline::contacts)).

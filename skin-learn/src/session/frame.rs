@@ -83,6 +83,11 @@ impl Session {
             cycle,
             pressures: &self.pressures,
             pipeline: &self.pipeline,
+            stitched: self
+                .setup
+                .stitching
+                .as_ref()
+                .map_or(&[], |s| s.placements_at(time)),
         };
         send(&mut self.stopped, sink, |s| s.frame(&frame))?;
         if self.setup.options.frame_images {

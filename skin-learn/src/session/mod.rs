@@ -286,6 +286,12 @@ impl Session {
         self.setup.options.frame_images = on;
     }
 
+    /// Whether links are stitched across joints (a `[stitch]` section): frames then carry the
+    /// maps' placements ([`ProcessedFrame::stitched_placements`]).
+    pub fn stitched(&self) -> bool {
+        self.setup.stitching.is_some()
+    }
+
     /// The layout's taxels that no slot of the bus map covers, per link name, in layout
     /// order: they never get a reading (dead taxels). Empty without CAN input.
     pub fn uncovered(&self) -> Vec<(&str, skin_core::TaxelId)> {

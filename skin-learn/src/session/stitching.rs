@@ -91,6 +91,12 @@ impl Stitching {
             .collect())
     }
 
+    /// Where each link's map lies in the stitched plane at the posture in effect at `time` (s),
+    /// links in chain order (the layout's).
+    pub fn placements_at(&self, time: f64) -> &[skin_geom::Placement] {
+        self.chain.placements_at(time)
+    }
+
     /// The stitched tactile image of the last frame (contact-max grey, 1 mm pixels).
     pub fn image(&mut self) -> Result<ImageView<'_, u8>, skin_geom::Error> {
         self.chain.image()

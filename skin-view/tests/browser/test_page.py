@@ -3,6 +3,7 @@ dropped from its log, and the MCAP replay of `skin view`, each checked on what t
 screenshot pixels against the map's geometry, the timeline, the header."""
 
 import io
+import math
 import os
 import subprocess
 from pathlib import Path
@@ -67,7 +68,9 @@ def near_any(link: dict, taxels: set, within_pitches: float) -> set:
 
 
 def scene(driver) -> dict:
-    return wait_for(driver, "return window.skinView.scene", what="the scene")
+    """The scene once it has links (`skin run` serves the page before its session is built)."""
+    script = "const s = window.skinView.scene; return s && s.links.length && s"
+    return wait_for(driver, script, what="the scene")
 
 
 def test_a_press_is_painted_where_the_map_puts_it_and_touch_0_is_a_hand(browser, tmp_path):
@@ -99,7 +102,9 @@ def test_a_press_is_painted_where_the_map_puts_it_and_touch_0_is_a_hand(browser,
             break
         assert checked, "no press was seen on the page"
         row = '#touches tr[data-touch="0"] .class'
-        cls = wait_for(browser, f"const e = document.querySelector('{row}'); return e && e.textContent", what="touch 0")
+        # Its row appears with the touch, its class with the decision.
+        decided = f"const e = document.querySelector('{row} span'); return e && e.textContent"
+        cls = wait_for(browser, decided, what="touch 0's decision")
         assert cls == "hand"
         # The session's frames reach the page in time (20 frames/s here; the full arm at 50 is
         # the benchmark's).
@@ -186,3 +191,91 @@ def test_the_mcap_replay_seeks_to_a_time_and_shows_that_frame(browser, tmp_path)
         wait_for(browser, "const f = window.skinView.frame; return f && Math.abs(f.time - 2.75) < 0.06", what="2.75 s")
     finally:
         served.stop()
+
+
+ST_W, ST_H = 860, 360  # index.html: the stitched arm's canvas
+
+# Every link's pressed taxels and the placements of the frame the page shows now.
+STITCHED = """
+const V = window.skinView, f = V.frame;
+if (!f || !V.scene || !f.placements.length) return null;
+const pressed = V.links.map((L) => { const out = []; for (let i = 0; i < L.n; i++) if (f.pressures[L.offset + i] > V.scene.threshold) out.push(i); return out; });
+return {number: f.number, placements: f.placements, pressed: pressed};
+"""
+
+
+def placed(p: dict, uv) -> tuple:
+    c, s = math.cos(p["angle"]), math.sin(p["angle"])
+    return (c * uv[0] - s * uv[1] + p["du"], s * uv[0] + c * uv[1] + p["dv"])
+
+
+def test_a_stitched_arm_is_drawn_at_the_current_posture(browser, tmp_path):
+    served = Served("run", FIXTURES / "arm" / "run.toml", "--log", FIXTURES / "arm" / "touch.candump.log",
+                    "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "0.5")
+    try:
+        browser.get(served.url)
+        sc = scene(browser)
+        assert sc["stitched"] and len(sc["links"]) == 2
+        checked = False
+        for _ in range(3000):
+            before = browser.execute_script(STITCHED)
+            if not before or sum(map(len, before["pressed"])) < 10 or not all(before["pressed"]):
+                continue
+            canvas = browser.find_element(By.CSS_SELECTOR, "canvas.stitched")
+            image = Image.open(io.BytesIO(canvas.screenshot_as_png)).convert("RGB")
+            after = browser.execute_script(STITCHED)
+            if after["number"] - before["number"] > 2 or after["placements"] != before["placements"]:
+                continue
+            # The fit of the placed links into the canvas, as index.html documents it.
+            pl = before["placements"]
+            pts = [[placed(pl[k], uv) for uv in link["uv_mm"]] for k, link in enumerate(sc["links"])]
+            half = min(link["pitch_mm"] for link in sc["links"]) / 2
+            us = [p[0] for ps in pts for p in ps]
+            vs = [p[1] for ps in pts for p in ps]
+            u0, u1, v0, v1 = min(us) - half, max(us) + half, min(vs) - half, max(vs) + half
+            scale = min((ST_W - 2 * 10) / (u1 - u0), (ST_H - 2 * 10) / (v1 - v0))
+            hot = total = 0
+            for k, ps in enumerate(pts):
+                both = set(before["pressed"][k]) & set(after["pressed"][k])
+                for i in both:
+                    x, y = 10 + (ps[i][0] - u0) * scale, 10 + (v1 - ps[i][1]) * scale
+                    total += 1
+                    hot += differs(image.getpixel((int(x), int(y))), IDLE)
+            if total < 10:
+                continue
+            assert hot >= 0.9 * total, f"{hot} of {total} pressed taxels painted on the stitched arm"
+            # The press crosses the joint: both links are pressed in the stitched view.
+            checked = True
+            break
+        assert checked, "no press across the joint was seen on the stitched arm"
+    finally:
+        served.stop()
+
+
+def test_a_port_in_use_is_one_clear_line_before_any_work(tmp_path):
+    """No browser needed: `skin run --view PORT` on a taken port says so in one line, before
+    the session is built, and writes nothing."""
+    import socket
+
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen(1)
+    port = taken.getsockname()[1]
+    try:
+        done = subprocess.run(
+            [str(skin_binary()), "run", str(RUN), "--log", str(LOG), "-o", str(tmp_path / "out"), "--view", str(port)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        taken.close()
+    assert done.returncode != 0
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert f"127.0.0.1:{port}" in lines[0] and "in use" in lines[0], lines[0]
+    assert not (tmp_path / "out").exists()
+    # A mistyped address is refused by the argument parser, before anything is read.
+    bad = subprocess.run([str(skin_binary()), "run", str(RUN), "--log", str(LOG), "-o", str(tmp_path / "o"), "--view", "80800"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "--view" in bad.stderr
