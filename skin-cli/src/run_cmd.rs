@@ -120,7 +120,7 @@ pub struct Args {
     /// Also write the tactile image of every frame with contact.
     #[arg(long)]
     frames: bool,
-    /// Print the time spent per stage.
+    /// Print the time spent per stage (with --view, a log's pacing counts as output).
     #[arg(long)]
     timings: bool,
     /// No progress bar.
@@ -343,6 +343,9 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         let mut rec = skin_core::format::recording::RecordingReader::open(path)?;
         if k > 0 {
             session = session.restarted()?;
+        }
+        if let Some(v) = view.as_mut() {
+            v.restart();
         }
         let here = out.path().join(name);
         let shown = dir.join(name);

@@ -118,6 +118,16 @@ impl View {
     }
 }
 
+impl View {
+    /// The next input starts (a batch's next recording): its frames are paced from its own
+    /// first one.
+    pub fn restart(&mut self) {
+        if let Some(p) = &mut self.pace {
+            p.anchor = None;
+        }
+    }
+}
+
 /// Holds each frame back until its time has come, counted from the first frame shown.
 struct Pace {
     speed: f64,

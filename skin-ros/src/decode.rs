@@ -214,15 +214,21 @@ pub fn point_cloud(bytes: &[u8]) -> Result<Cloud, DecodeError> {
 pub fn cloud_pressures(bytes: &[u8], layout: &CloudLayout, out: &mut [f32]) -> Result<Stamp, DecodeError> {
     let mut r = CdrReader::new(bytes, "sensor_msgs/msg/PointCloud2")?;
     let (stamp, _) = r.header()?;
-    let end = layout
+    // The same length, and the same length of data where the first cloud had it: the same
+    // frame id, points and fields, so the pressures are where they were.
+    let data_len = layout.step.checked_mul(layout.points);
+    let declared = layout
         .data_at
-        .checked_add(layout.step * out.len())
-        .filter(|&e| e <= bytes.len() && out.len() == layout.points)
-        .ok_or_else(|| r.error("not laid out as the link's first cloud"))?;
-    let _ = end;
+        .checked_sub(4)
+        .and_then(|at| bytes.get(at..at + 4))
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+    if bytes.len() != layout.len || out.len() != layout.points || declared != data_len {
+        return Err(r.error("not laid out as the link's first cloud"));
+    }
     for (k, p) in out.iter_mut().enumerate() {
         let s = layout.data_at + k * layout.step + layout.pressure_at;
-        *p = f32::from_le_bytes([bytes[s], bytes[s + 1], bytes[s + 2], bytes[s + 3]]);
+        let b = bytes.get(s..s + 4).ok_or_else(|| r.error("cut short"))?;
+        *p = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
     }
     Ok(stamp)
 }
@@ -239,6 +245,8 @@ pub struct CloudLayout {
     pub pressure_at: usize,
     /// Points.
     pub points: usize,
+    /// The whole message's length.
+    pub len: usize,
 }
 
 impl CloudLayout {
@@ -271,6 +279,7 @@ impl CloudLayout {
             step,
             pressure_at,
             points,
+            len: bytes.len(),
         })
     }
 }

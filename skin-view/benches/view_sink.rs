@@ -74,6 +74,11 @@ fn bench(c: &mut Criterion) {
     .unwrap();
     let mut sink = viewer.sink();
     let mut group = c.benchmark_group("live view/full arm frame, hand held");
+    // Short enough that the stalled browser is still connected at the end of its bench (a
+    // browser that takes nothing for 20 s is dropped).
+    group
+        .warm_up_time(std::time::Duration::from_secs(1))
+        .measurement_time(std::time::Duration::from_secs(4));
     group.bench_function("no viewer", |b| {
         b.iter(|| {
             t += 20_000;
@@ -104,6 +109,11 @@ fn bench(c: &mut Criterion) {
     });
     group.finish();
     let stats = viewer.stats();
+    // Still connected: the last figure is the stalled browser's, not one already dropped.
+    assert_eq!(
+        stats.browsers, 1,
+        "the stalled browser was dropped during the bench"
+    );
     eprintln!(
         "stalled browser: {} frames sent, {} skipped, {} browser(s) connected",
         stats.frames_sent, stats.frames_skipped, stats.browsers

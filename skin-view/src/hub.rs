@@ -3,6 +3,11 @@
 //! the last [`MAX_EVENTS`] events: a browser that cannot keep up gets the newest frame when it is
 //! ready again and skips the rest (counted), so the session never waits for a browser and the
 //! memory the viewer holds does not grow with a slow one.
+//!
+//! Frames and images are shared, not copied, under the lock: a browser's thread takes a
+//! reference to the latest buffer and copies it (to stamp its own skipped count) after letting
+//! go. The sink encodes each frame into the buffer of the frame before last, which no browser
+//! holds by then in the steady state: no allocation per frame.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -19,7 +24,7 @@ pub enum Control {
     Pause,
     /// Advance again.
     Play,
-    /// Show the frame at this time (s from the first), then go on as before.
+    /// Show the frame at this time (s from the session's start), then go on as before.
     Seek(f64),
     /// Play at this many times real time.
     Speed(f64),
@@ -30,7 +35,15 @@ pub enum Control {
 pub(crate) struct Latest {
     /// 0: none yet.
     pub seq: u64,
-    pub bytes: Vec<u8>,
+    pub bytes: Arc<Vec<u8>>,
+}
+
+impl Latest {
+    /// Puts `bytes` in as the latest, giving back the buffer it replaces.
+    fn put(&mut self, bytes: &mut Arc<Vec<u8>>) {
+        std::mem::swap(&mut self.bytes, bytes);
+        self.seq += 1;
+    }
 }
 
 /// What the browsers are sent, behind one lock.
@@ -43,8 +56,10 @@ pub(crate) struct Shared {
     pub events: VecDeque<(u64, Arc<str>)>,
     pub next_event: u64,
     pub scene: Arc<str>,
-    /// Bumped by a replay's seek: browsers drop their timeline's current-frame state.
+    /// Bumped with each new scene: browsers get it and start over.
     pub epoch: u64,
+    /// A replay's state (JSON: paused, speed), numbered like [`Latest`].
+    pub status: (u64, Arc<str>),
 }
 
 /// The hub: shared state, its wake-up, the counters and a replay's control queue.
@@ -61,6 +76,15 @@ pub(crate) struct Hub {
     control: Mutex<Option<SyncSender<Control>>>,
 }
 
+/// A buffer to encode the next frame or image into: `spare` itself when no browser still holds
+/// it (the steady state), else a new one.
+pub(crate) fn writable(spare: &mut Arc<Vec<u8>>) -> &mut Vec<u8> {
+    if Arc::get_mut(spare).is_none() {
+        *spare = Arc::new(Vec::with_capacity(spare.capacity()));
+    }
+    Arc::make_mut(spare)
+}
+
 impl Hub {
     pub fn new(scene: String, views: usize) -> Hub {
         Hub {
@@ -68,6 +92,7 @@ impl Hub {
                 images: (0..views).map(|_| Latest::default()).collect(),
                 next_event: 1,
                 scene: scene.into(),
+                status: (0, Arc::from("")),
                 ..Shared::default()
             }),
             changed: Condvar::new(),
@@ -105,32 +130,27 @@ impl Hub {
         }
     }
 
-    /// Swaps `bytes` in as the latest frame (the old frame's buffer comes back in `bytes`, for
-    /// the next one: no allocation once both have grown).
-    pub fn put_frame(&self, bytes: &mut Vec<u8>) {
-        {
-            let mut s = self.lock();
-            std::mem::swap(&mut s.frame.bytes, bytes);
-            s.frame.seq += 1;
-        }
+    /// Swaps `bytes` in as the latest frame; the frame it replaces comes back in `bytes`, to be
+    /// written over next time ([`writable`]).
+    pub fn put_frame(&self, bytes: &mut Arc<Vec<u8>>) {
+        self.lock().frame.put(bytes);
         self.notify();
     }
 
     /// Swaps `bytes` in as the latest image of `view` (ignored for a view the scene lacks).
-    pub fn put_image(&self, view: usize, bytes: &mut Vec<u8>) {
+    pub fn put_image(&self, view: usize, bytes: &mut Arc<Vec<u8>>) {
         {
             let mut s = self.lock();
             let Some(slot) = s.images.get_mut(view) else {
                 return;
             };
-            std::mem::swap(&mut slot.bytes, bytes);
-            slot.seq += 1;
+            slot.put(bytes);
         }
         self.notify();
     }
 
     /// Adds an event (a JSON line); the oldest goes once [`MAX_EVENTS`] are kept.
-    pub fn put_event(&self, line: &str) {
+    pub fn put_event(&self, line: Arc<str>) {
         {
             let mut s = self.lock();
             let n = s.next_event;
@@ -138,17 +158,28 @@ impl Hub {
             if s.events.len() == MAX_EVENTS {
                 s.events.pop_front();
             }
-            s.events.push_back((n, line.into()));
+            s.events.push_back((n, line));
         }
         self.notify();
     }
 
-    /// Replaces the scene (a replay's, once read) and tells browsers to start over.
-    pub fn put_scene(&self, scene: String) {
+    /// Replaces the scene (with `views` image views: its links and the stitched arm), and tells
+    /// browsers to start over.
+    pub fn put_scene(&self, scene: String, views: usize) {
         {
             let mut s = self.lock();
             s.scene = scene.into();
+            s.images.resize_with(views, Latest::default);
             s.epoch += 1;
+        }
+        self.notify();
+    }
+
+    /// Sets a replay's state (JSON), sent to every browser.
+    pub fn put_status(&self, json: String) {
+        {
+            let mut s = self.lock();
+            s.status = (s.status.0 + 1, json.into());
         }
         self.notify();
     }
@@ -182,5 +213,30 @@ impl Hub {
         {
             self.refused.fetch_add(1, Ordering::Relaxed);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_frame_buffer_is_reused_once_no_browser_holds_it() {
+        let hub = Hub::new(String::new(), 1);
+        let mut spare = Arc::new(Vec::new());
+        writable(&mut spare).extend_from_slice(&[1u8; 1000]);
+        hub.put_frame(&mut spare);
+        writable(&mut spare).extend_from_slice(&[2u8; 1000]);
+        hub.put_frame(&mut spare);
+        // The first frame's buffer came back and no browser holds it: written over in place.
+        let before = Arc::as_ptr(&spare);
+        writable(&mut spare).clear();
+        assert_eq!(Arc::as_ptr(&spare), before);
+        // A browser still holding the latest frame's buffer gets to keep it untouched.
+        let held = hub.lock().frame.bytes.clone();
+        let mut other = held.clone();
+        writable(&mut other).clear();
+        assert_eq!(held.len(), 1000);
+        assert!(held.iter().all(|&b| b == 2));
     }
 }

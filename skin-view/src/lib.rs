@@ -120,6 +120,6 @@ impl Viewer {
     pub fn set_scene(&mut self, scene: &Scene) {
         self.geometry = Arc::new(sink::Geometry::of(scene));
         let json = serde_json::to_string(scene).unwrap_or_else(|_| "{}".into());
-        self.server.hub.put_scene(json);
+        self.server.hub.put_scene(json, scene.links.len() + 1);
     }
 }

@@ -75,7 +75,10 @@ fn each_message(
     path: &Path,
     f: &mut OnMessage<'_>,
 ) -> Result<(), ViewError> {
-    let mut reader = IndexedReader::new_with_options(summary, options.with_record_length_limit(MAX_RECORD))
+    // A record longer than the file is a lie of the index: refused before it sizes a buffer.
+    let size = file.metadata().map_or(0, |m| m.len());
+    let limit = usize::try_from(size).unwrap_or(usize::MAX).min(MAX_RECORD);
+    let mut reader = IndexedReader::new_with_options(summary, options.with_record_length_limit(limit))
         .map_err(|e| err(path, e.to_string()))?;
     let mut buffer = Vec::new();
     while let Some(event) = reader.next_event() {
@@ -108,29 +111,13 @@ impl Replay {
         let mut file = open_skins(path)?;
         let size = file.metadata().map_err(|e| err(path, e.to_string()))?.len();
         let summary = read_summary(&mut file, size, path)?;
-        let mut channels: Vec<(&u16, &std::sync::Arc<mcap::Channel<'static>>)> =
-            summary.channels.iter().collect();
-        channels.sort_by_key(|(id, _)| **id);
-        let schema = |c: &mcap::Channel<'_>| c.schema.as_ref().map_or("", |s| s.name.as_str()).to_owned();
-        let pressure: Vec<u16> = channels
-            .iter()
-            .filter(|(_, c)| c.topic.ends_with("/pressure") && schema(c) == "sensor_msgs/msg/PointCloud2")
-            .map(|(id, _)| **id)
-            .collect();
+        let (pressure, events, contacts) = channels_of(&summary);
         if pressure.is_empty() {
             return Err(err(
                 path,
                 "holds no pressure clouds (PREFIX/<link>/pressure): nothing to show",
             ));
         }
-        let find = |suffix: &str, ty: &str| {
-            channels
-                .iter()
-                .find(|(_, c)| c.topic.ends_with(suffix) && schema(c) == ty)
-                .map(|(id, _)| **id)
-        };
-        let events = find("/events", "skin_msgs/msg/TouchEvent");
-        let contacts = find("/contacts", "skin_msgs/msg/Contacts");
         let topic = |id: u16| {
             summary
                 .channels
@@ -140,6 +127,9 @@ impl Replay {
         };
 
         let (maps, clouds, first_ns) = links_of(&mut file, &summary, &pressure, path)?;
+        if maps.is_empty() {
+            return Err(err(path, "its pressure topics hold no message: nothing to show"));
+        }
         let index = maps
             .iter()
             .map(|m| m.ids.iter().enumerate().map(|(i, id)| (id.0, i)).collect())
@@ -208,8 +198,15 @@ impl Replay {
         stop: &AtomicBool,
     ) -> Result<(), ViewError> {
         let mut sink = viewer.sink();
-        let mut speed = 1.0f64;
-        let mut paused = false;
+        let mut state = PlayState {
+            speed: 1.0,
+            paused: false,
+            frames: 0,
+        };
+        let hub = &viewer.server.hub;
+        let tell =
+            |st: &PlayState| hub.put_status(format!(r#"{{"paused":{},"speed":{}}}"#, st.paused, st.speed));
+        tell(&state);
         let mut from = self.first_ns;
         while !stop.load(Ordering::Relaxed) {
             let mut player = Player {
@@ -217,25 +214,19 @@ impl Replay {
                 sink: &mut sink,
                 controls,
                 stop,
-                speed: &mut speed,
-                paused: &mut paused,
+                state: &mut state,
+                tell: &tell,
                 seek: None,
             };
             match player.run(from)? {
                 Some(t) => from = t,
-                None => {
-                    // The end: wait for a seek.
-                    let t = wait_for_seek(controls, stop, &mut speed);
-                    match t {
-                        Some(t) => {
-                            paused = false;
-                            from = self.seek_ns(t);
-                        }
-                        None => return Ok(()),
-                    }
-                }
+                // The end: the last frame stays until a seek.
+                None => match wait_for_seek(controls, stop, &mut state, &tell) {
+                    Some(t) => from = self.seek_ns(t),
+                    None => return Ok(()),
+                },
             }
-            from = from.clamp(self.first_ns, self.last_ns);
+            from = from.max(self.first_ns).min(self.last_ns);
         }
         Ok(())
     }
@@ -245,15 +236,33 @@ impl Replay {
     }
 }
 
-/// Waits at the end of a replay for a seek (speed changes are kept); `None` once stopped.
-fn wait_for_seek(controls: &Receiver<Control>, stop: &AtomicBool, speed: &mut f64) -> Option<f64> {
+/// Whether a replay advances, how fast, and the frames it has shown.
+#[derive(Debug, Clone, Copy)]
+struct PlayState {
+    speed: f64,
+    paused: bool,
+    /// Frames shown since the replay began (the frames' cycle numbers).
+    frames: u64,
+}
+
+/// Waits at the end of a replay for a seek (pause, play and speed are kept); `None` once
+/// stopped.
+fn wait_for_seek(
+    controls: &Receiver<Control>,
+    stop: &AtomicBool,
+    state: &mut PlayState,
+    tell: &dyn Fn(&PlayState),
+) -> Option<f64> {
     while !stop.load(Ordering::Relaxed) {
         match controls.recv_timeout(Duration::from_millis(50)) {
             Ok(Control::Seek(t)) => return Some(t),
-            Ok(Control::Speed(s)) => *speed = s,
-            Ok(_) | Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            Ok(Control::Speed(s)) => state.speed = s,
+            Ok(Control::Pause) => state.paused = true,
+            Ok(Control::Play) => state.paused = false,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
         }
+        tell(state);
     }
     None
 }
@@ -264,8 +273,9 @@ struct Player<'a> {
     sink: &'a mut ViewSink,
     controls: &'a Receiver<Control>,
     stop: &'a AtomicBool,
-    speed: &'a mut f64,
-    paused: &'a mut bool,
+    state: &'a mut PlayState,
+    /// Tells the browsers the state once it changed.
+    tell: &'a dyn Fn(&PlayState),
     seek: Option<u64>,
 }
 
@@ -274,6 +284,7 @@ struct Gathered {
     stamp: Option<u64>,
     pressures: Vec<Vec<f32>>,
     contacts: Vec<(usize, Vec<usize>, f32, f32)>,
+    /// Frames shown in this pass.
     frames: u64,
 }
 
@@ -356,13 +367,13 @@ impl Player<'_> {
             }
             while let Ok(c) = self.controls.try_recv() {
                 match c {
-                    Control::Pause => *self.paused = true,
+                    Control::Pause => self.state.paused = true,
                     Control::Play => {
-                        *self.paused = false;
+                        self.state.paused = false;
                         *anchor = None;
                     }
                     Control::Speed(s) => {
-                        *self.speed = s;
+                        self.state.speed = s;
                         *anchor = None;
                     }
                     Control::Seek(t) => {
@@ -370,17 +381,19 @@ impl Player<'_> {
                         return Ok(false);
                     }
                 }
+                (self.tell)(self.state);
             }
             // Paused, a seek still shows the frame it lands on.
-            if *self.paused && g.frames > 0 {
+            if self.state.paused && g.frames > 0 {
                 std::thread::sleep(Duration::from_millis(20));
                 continue;
             }
-            if *self.paused {
+            if self.state.paused {
                 break;
             }
             let (wall, from) = *anchor.get_or_insert((Instant::now(), stamp));
-            let due = wall + Duration::from_secs_f64(stamp.saturating_sub(from) as f64 / 1e9 / *self.speed);
+            let due =
+                wall + Duration::from_secs_f64(stamp.saturating_sub(from) as f64 / 1e9 / self.state.speed);
             let now = Instant::now();
             if due <= now {
                 break;
@@ -388,9 +401,11 @@ impl Player<'_> {
             std::thread::sleep((due - now).min(Duration::from_millis(20)));
         }
         g.frames += 1;
+        self.state.frames += 1;
         let time = stamp.saturating_sub(self.replay.origin_ns) as f64 / 1e9;
         let contacts = g.contacts.iter().map(|(l, t, m, p)| (*l, t.as_slice(), *m, *p));
-        self.sink.publish(time, g.frames, &g.pressures, contacts, &[]);
+        self.sink
+            .publish(time, self.state.frames, &g.pressures, contacts, &[]);
         g.contacts.clear();
         Ok(true)
     }
@@ -470,6 +485,31 @@ fn read_events(
     Ok((lines, left_out, origin_ns))
 }
 
+/// The channels a replay reads: each link's pressure clouds (channel order, which is the
+/// links'), the events and the contacts.
+fn channels_of(summary: &mcap::Summary) -> (Vec<u16>, Option<u16>, Option<u16>) {
+    let mut channels: Vec<(&u16, &std::sync::Arc<mcap::Channel<'static>>)> =
+        summary.channels.iter().collect();
+    channels.sort_by_key(|(id, _)| **id);
+    let schema = |c: &mcap::Channel<'_>| c.schema.as_ref().map_or("", |s| s.name.as_str()).to_owned();
+    let pressure = channels
+        .iter()
+        .filter(|(_, c)| c.topic.ends_with("/pressure") && schema(c) == "sensor_msgs/msg/PointCloud2")
+        .map(|(id, _)| **id)
+        .collect();
+    let find = |suffix: &str, ty: &str| {
+        channels
+            .iter()
+            .find(|(_, c)| c.topic.ends_with(suffix) && schema(c) == ty)
+            .map(|(id, _)| **id)
+    };
+    (
+        pressure,
+        find("/events", "skin_msgs/msg/TouchEvent"),
+        find("/contacts", "skin_msgs/msg/Contacts"),
+    )
+}
+
 /// Opens an MCAP file that skin wrote; refuses any other.
 fn open_skins(path: &Path) -> Result<File, ViewError> {
     let file = File::open(path).map_err(|e| err(path, format!("cannot open it: {e}")))?;
@@ -483,7 +523,7 @@ fn open_skins(path: &Path) -> Result<File, ViewError> {
 fn read_summary(file: &mut File, size: u64, path: &Path) -> Result<mcap::Summary, ViewError> {
     let options = SummaryReaderOptions::default()
         .with_file_size(size)
-        .with_record_length_limit(MAX_RECORD);
+        .with_record_length_limit(usize::try_from(size).unwrap_or(usize::MAX).min(MAX_RECORD));
     let mut reader = SummaryReader::new_with_options(options);
     let cut = |e: mcap::McapError| {
         err(

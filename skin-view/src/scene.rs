@@ -22,6 +22,8 @@ pub struct Scene {
     pub modules: Vec<SceneModule>,
     /// The classifier's class names, in output order (empty: tracking only).
     pub classes: Vec<String>,
+    /// The class that is a human hand, if the model card names one.
+    pub hand: Option<String>,
     /// The gate's action names (a frame's `gate` is 1 + an index into them).
     pub gate_actions: [&'static str; 4],
     /// Pressure above which a taxel counts as pressed, counts (the colour scale starts there).
@@ -80,6 +82,7 @@ impl Scene {
             links: maps.iter().map(SceneLink::from_map).collect(),
             modules: Vec::new(),
             classes: Vec::new(),
+            hand: None,
             gate_actions: GATE_ACTIONS,
             threshold: 0.0,
             stitched: false,
@@ -98,6 +101,7 @@ impl Scene {
             links: maps.iter().map(|m| SceneLink::from_map(m)).collect(),
             modules: Vec::new(),
             classes: session.classes().iter().map(|c| c.name().to_owned()).collect(),
+            hand: session.classes().hand().map(|c| c.name().to_owned()),
             gate_actions: GATE_ACTIONS,
             threshold: pipeline.options().threshold,
             stitched: session.stitched(),

@@ -85,7 +85,8 @@ pub struct ViewStats {
     /// Frames browsers were not sent because a newer one was ready by the time they could take
     /// one, over all browsers.
     pub frames_skipped: u64,
-    /// Browsers dropped: sent garbage, took nothing for 20 s, or closed.
+    /// Browsers dropped: sent something other than a replay's controls, took nothing for 20 s,
+    /// or lost their connection (a browser that closes its page is not counted).
     pub dropped: u64,
 }
 
@@ -181,7 +182,15 @@ struct Head {
 fn read_head(stream: &mut TcpStream) -> Result<(Head, Vec<u8>), u16> {
     let mut buf = Vec::with_capacity(1024);
     let mut chunk = [0u8; 1024];
+    // The whole head within HEAD_TIMEOUT, not each read: a byte every few seconds does not
+    // hold a connection.
+    let deadline = std::time::Instant::now() + HEAD_TIMEOUT;
     loop {
+        let left = deadline
+            .checked_duration_since(std::time::Instant::now())
+            .filter(|d| !d.is_zero())
+            .ok_or(408u16)?;
+        stream.set_read_timeout(Some(left)).map_err(|_| 408u16)?;
         let n = stream.read(&mut chunk).map_err(|_| 408u16)?;
         if n == 0 {
             return Err(400);
@@ -256,38 +265,68 @@ fn respond(
     stream.flush()
 }
 
-/// The page's own policy: its inline script and style, its stream, images it makes itself;
-/// nothing fetched from anywhere else, and no framing by another site.
-const CSP: &str = "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; connect-src 'self'; img-src data: blob:; frame-ancestors 'none'";
+/// The page's own policy: its inline script (by its SHA-256, so no other script runs, injected
+/// or not) and style, its stream, images it makes itself; nothing fetched from anywhere else,
+/// and no framing by another site.
+static CSP: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    use sha2::Digest as _;
+    let script = PAGE
+        .split_once("<script>")
+        .and_then(|(_, rest)| rest.split_once("</script>"))
+        .map_or("", |(script, _)| script);
+    let hash = data_encoding::BASE64.encode(&sha2::Sha256::digest(script.as_bytes()));
+    format!(
+        "default-src 'none'; script-src 'sha256-{hash}'; style-src 'unsafe-inline'; connect-src 'self'; img-src data: blob:; frame-ancestors 'none'"
+    )
+});
 
-/// The host part of a `Host` or `Origin` value (`http://` dropped, port dropped, brackets kept
+/// The host part of a `Host` value or of an `Origin`'s authority (port dropped, brackets kept
 /// off an IPv6 address).
 fn host_of(value: &str) -> &str {
-    let v = value.split("://").last().unwrap_or(value);
-    let v = v.split('/').next().unwrap_or(v);
+    let v = authority_of(value);
     if let Some(rest) = v.strip_prefix('[') {
         return rest.split(']').next().unwrap_or(rest);
     }
     v.rsplit_once(':').map_or(v, |(h, _)| h)
 }
 
-/// Whether a request may be served: on a loopback address the `Host` must name this machine
-/// (a web page elsewhere cannot reach the viewer by a name it controls: DNS rebinding), and a
-/// WebSocket's `Origin`, when the browser sends one, must be the page's own host.
+/// `host:port` of an `Origin` (`http://host:port`) or a `Host` value as it is.
+fn authority_of(value: &str) -> &str {
+    let v = value.trim();
+    let v = v.split_once("://").map_or(v, |(_, rest)| rest);
+    v.split('/').next().unwrap_or(v)
+}
+
+/// This machine's name (Linux), which a browser on the network may use to reach the viewer.
+fn machine_name() -> Option<String> {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|n| n.trim().to_ascii_lowercase())
+        .filter(|n| !n.is_empty())
+}
+
+/// Whether a request may be served. The `Host` must name this machine by an address, as
+/// `localhost` or by its own name (on loopback: `localhost` or a loopback address), so a web page
+/// elsewhere cannot reach the viewer through a name it controls (DNS rebinding); a WebSocket's
+/// `Origin`, when the browser sends one, must be the page's own host and port.
 fn allowed(head: &Head, local: SocketAddr) -> bool {
-    let Some(host) = head.host.as_deref().map(host_of) else {
+    let Some(host_value) = head.host.as_deref() else {
         return false;
     };
-    if local.ip().is_loopback() {
-        let named =
-            host.eq_ignore_ascii_case("localhost") || host.parse::<IpAddr>().is_ok_and(|ip| ip.is_loopback());
-        if !named {
-            return false;
-        }
-    }
-    head.origin
-        .as_deref()
-        .is_none_or(|o| host_of(o).eq_ignore_ascii_case(host))
+    let host = host_of(host_value).to_ascii_lowercase();
+    let ip = host.parse::<IpAddr>().ok();
+    let named = if local.ip().is_loopback() {
+        host == "localhost" || ip.is_some_and(|ip| ip.is_loopback())
+    } else {
+        host == "localhost"
+            || ip.is_some()
+            || machine_name().is_some_and(|n| n == host || format!("{n}.local") == host)
+    };
+    named
+        && head
+            .origin
+            .as_deref()
+            .is_none_or(|o| authority_of(o).eq_ignore_ascii_case(authority_of(host_value)))
 }
 
 fn serve(mut stream: TcpStream, hub: &Arc<Hub>, local: SocketAddr) {
@@ -328,7 +367,7 @@ fn serve(mut stream: TcpStream, hub: &Arc<Hub>, local: SocketAddr) {
                 200,
                 "text/html; charset=utf-8",
                 body,
-                &[("Content-Security-Policy", CSP)],
+                &[("Content-Security-Policy", CSP.as_str())],
             );
         }
         "/stream" => match (&head.key, head.upgrade && head.version_13 && head.method == "GET") {
@@ -377,6 +416,7 @@ enum Ended {
 /// What one browser has been sent.
 struct Seen {
     epoch: Option<u64>,
+    status: u64,
     frame: u64,
     images: Vec<u64>,
     next_event: u64,
@@ -387,16 +427,19 @@ struct Seen {
 #[derive(Default)]
 struct Outbox {
     scene: Option<Arc<str>>,
+    status: Option<Arc<str>>,
     events: Vec<Arc<str>>,
     lost_events: u64,
-    images: Vec<Vec<u8>>,
-    frame: Option<Vec<u8>>,
+    images: Vec<Arc<Vec<u8>>>,
+    /// The frame, and the skipped count to stamp on this browser's copy of it.
+    frame: Option<(Arc<Vec<u8>>, u32)>,
 }
 
 fn stream_to(mut ws: WebSocket<TcpStream>, hub: &Arc<Hub>) -> Ended {
     let _ = ws.get_mut().set_read_timeout(Some(Duration::from_millis(1)));
     let mut seen = Seen {
         epoch: None,
+        status: 0,
         frame: 0,
         images: Vec::new(),
         next_event: 1,
@@ -423,6 +466,7 @@ fn collect(hub: &Hub, seen: &mut Seen) -> Outbox {
     let mut s = hub.lock();
     let fresh = |s: &crate::hub::Shared, seen: &Seen| {
         seen.epoch != Some(s.epoch)
+            || s.status.0 != seen.status
             || s.frame.seq != seen.frame
             || s.next_event != seen.next_event
             || s.images.iter().zip(&seen.images).any(|(i, &k)| i.seq != k)
@@ -435,6 +479,10 @@ fn collect(hub: &Hub, seen: &mut Seen) -> Outbox {
         seen.epoch = Some(s.epoch);
         seen.images = vec![0; s.images.len()];
         out.scene = Some(s.scene.clone());
+    }
+    if s.status.0 != seen.status {
+        seen.status = s.status.0;
+        out.status = Some(s.status.1.clone());
     }
     if s.next_event != seen.next_event {
         let first = s.events.front().map_or(s.next_event, |e| e.0);
@@ -462,11 +510,7 @@ fn collect(hub: &Hub, seen: &mut Seen) -> Outbox {
             hub.skipped.fetch_add(behind, Ordering::Relaxed);
         }
         seen.frame = s.frame.seq;
-        let mut bytes = s.frame.bytes.clone();
-        if let Some(at) = bytes.get_mut(SKIPPED_AT..SKIPPED_AT + 4) {
-            at.copy_from_slice(&seen.skipped.to_le_bytes());
-        }
-        out.frame = Some(bytes);
+        out.frame = Some((s.frame.bytes.clone(), seen.skipped));
     }
     out
 }
@@ -477,6 +521,9 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
         if let Some(scene) = out.scene {
             ws.write(text(format!("{{\"scene\":{scene}}}")))?;
         }
+        if let Some(status) = out.status.filter(|s| !s.is_empty()) {
+            ws.write(text(format!("{{\"replay_state\":{status}}}")))?;
+        }
         if out.lost_events > 0 {
             ws.write(text(format!("{{\"lost_events\":{}}}", out.lost_events)))?;
         }
@@ -484,11 +531,16 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
             ws.write(text(format!("{{\"event\":{e}}}")))?;
         }
         for i in out.images {
-            ws.write(Message::Binary(i.into()))?;
+            ws.write(Message::Binary(i.as_slice().to_vec().into()))?;
         }
         let frame = out.frame.is_some();
-        if let Some(f) = out.frame {
-            ws.write(Message::Binary(f.into()))?;
+        if let Some((f, skipped)) = out.frame {
+            // This browser's copy, with its own skipped count.
+            let mut bytes = f.as_slice().to_vec();
+            if let Some(at) = bytes.get_mut(SKIPPED_AT..SKIPPED_AT + 4) {
+                at.copy_from_slice(&skipped.to_le_bytes());
+            }
+            ws.write(Message::Binary(bytes.into()))?;
         }
         ws.flush()?;
         if frame {
@@ -499,9 +551,13 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
     result.map_err(|_| Ended::Dropped)
 }
 
+/// Messages read from a browser between two sends: one that keeps sending (pings, controls)
+/// still gets its frames.
+const READS_PER_TURN: usize = 16;
+
 /// Reads what the browser sent, if anything: a replay's controls; anything else drops it.
 fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<(), Ended> {
-    loop {
+    for _ in 0..READS_PER_TURN {
         match ws.read() {
             Ok(Message::Text(t)) => match control(t.as_str()) {
                 Some(c) if hub.controllable() => hub.send_control(c),
@@ -532,6 +588,7 @@ fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<(), Ended> {
             Err(_) => return Err(Ended::Dropped),
         }
     }
+    Ok(())
 }
 
 /// Closes a browser's stream with "policy violation" and the reason.

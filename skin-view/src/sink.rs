@@ -2,7 +2,7 @@
 //! path it encodes the frame into a buffer it keeps and swaps it into the hub: a few
 //! microseconds, no allocation, and never a wait on a browser.
 
-use crate::hub::Hub;
+use crate::hub::{Hub, writable};
 use crate::scene::{GATE_ACTIONS, Scene};
 use crate::wire::{self, FrameHead, STITCHED, WireContact, WirePlacement};
 use skin_learn::session::{Event, Flow, FrameView, GreyImage, ProcessedFrame, Sink};
@@ -14,8 +14,8 @@ use std::sync::Arc;
 pub(crate) struct Geometry {
     /// Each link's taxels on its map, mm.
     pub uv_mm: Vec<Vec<[f32; 2]>>,
-    /// Module index by (bus, address).
-    pub modules: HashMap<(String, u32), u32>,
+    /// Module index by bus, then address.
+    pub modules: HashMap<String, HashMap<u32, u32>>,
     /// Link index by name.
     pub links: HashMap<String, u32>,
 }
@@ -24,12 +24,16 @@ impl Geometry {
     pub fn of(scene: &Scene) -> Geometry {
         Geometry {
             uv_mm: scene.links.iter().map(|l| l.uv_mm.clone()).collect(),
-            modules: scene
-                .modules
-                .iter()
-                .enumerate()
-                .map(|(k, m)| ((m.bus.clone(), m.address), k as u32))
-                .collect(),
+            modules: scene.modules.iter().enumerate().fold(
+                HashMap::new(),
+                |mut by_bus: HashMap<String, HashMap<u32, u32>>, (k, m)| {
+                    by_bus
+                        .entry(m.bus.clone())
+                        .or_default()
+                        .insert(m.address, k as u32);
+                    by_bus
+                },
+            ),
             links: scene
                 .links
                 .iter()
@@ -72,15 +76,18 @@ impl Geometry {
 pub struct ViewSink {
     hub: Arc<Hub>,
     geometry: Arc<Geometry>,
-    /// The frame being encoded (swapped with the hub's).
-    buffer: Vec<u8>,
-    image: Vec<u8>,
+    /// The frame being encoded (swapped with the hub's latest: see [`crate::hub::writable`]).
+    buffer: Arc<Vec<u8>>,
+    image: Arc<Vec<u8>>,
+    /// An event's JSON line, being written.
+    line: Vec<u8>,
     contacts: Vec<WireContact>,
     placements: Vec<WirePlacement>,
     /// Modules missing from the frame at hand (its `incomplete` event comes before it).
     missing: Vec<u32>,
     head: FrameHead,
-    views: usize,
+    /// Links: the image slots before the stitched arm's.
+    links: usize,
 }
 
 impl std::fmt::Debug for ViewSink {
@@ -100,17 +107,18 @@ pub(crate) fn now_ms() -> f64 {
 
 impl ViewSink {
     pub(crate) fn new(hub: Arc<Hub>, geometry: Arc<Geometry>) -> ViewSink {
-        let views = geometry.uv_mm.len();
+        let links = geometry.uv_mm.len();
         ViewSink {
             hub,
             geometry,
-            buffer: Vec::new(),
-            image: Vec::new(),
+            buffer: Arc::new(Vec::new()),
+            image: Arc::new(Vec::new()),
+            line: Vec::new(),
             contacts: Vec::new(),
             placements: Vec::new(),
             missing: Vec::new(),
             head: FrameHead::default(),
-            views,
+            links,
         }
     }
 
@@ -146,7 +154,7 @@ impl ViewSink {
         self.head.cycle = cycle;
         self.head.handed_ms = now_ms();
         wire::encode_frame(
-            &mut self.buffer,
+            writable(&mut self.buffer),
             &self.head,
             &self.missing,
             &self.contacts,
@@ -165,10 +173,13 @@ impl ViewSink {
                 self.head.incomplete = self.head.incomplete.saturating_add(1);
                 self.missing.clear();
                 for m in missing {
-                    if let Some(&k) = self.geometry.modules.get(&(m.bus.clone(), m.address)) {
+                    if let Some(&k) = self.geometry.modules.get(&m.bus).and_then(|b| b.get(&m.address)) {
                         self.missing.push(k);
                     }
                 }
+                // Counted and shown with the frame; kept out of the events a browser is sent
+                // (a module that stays dead would push the touches out of the last 4,096).
+                return;
             }
             Event::CounterReset { .. } => self.head.resets = self.head.resets.saturating_add(1),
             Event::Gate { action, .. } => {
@@ -186,12 +197,12 @@ impl ViewSink {
             }
             _ => {}
         }
-        self.hub.put_event(line);
+        self.hub.put_event(Arc::from(line));
     }
 
     fn put_image(&mut self, view: u32, decision: bool, time: f64, image: &GreyImage) {
         wire::encode_image(
-            &mut self.image,
+            writable(&mut self.image),
             view,
             decision,
             time,
@@ -200,7 +211,7 @@ impl ViewSink {
             &image.pixels,
         );
         let slot = if view == STITCHED {
-            self.views
+            self.links
         } else {
             view as usize
         };
@@ -212,11 +223,13 @@ impl Sink for ViewSink {
     type Error = std::convert::Infallible;
 
     fn event(&mut self, event: &Event) -> Result<Flow, Self::Error> {
-        let mut line = Vec::new();
-        // An event that cannot be written as JSON (none can't: plain fields) is still counted.
+        let mut line = std::mem::take(&mut self.line);
+        line.clear();
+        // Events are plain fields: writing one as JSON does not fail (if it did, the event would
+        // still be counted, with an empty line).
         let _ = event.write_json(&mut line);
-        let line = String::from_utf8_lossy(&line).into_owned();
-        self.note(event, &line);
+        self.note(event, std::str::from_utf8(&line).unwrap_or(""));
+        self.line = line;
         Ok(Flow::Continue(()))
     }
 

@@ -106,10 +106,20 @@ def test_a_press_is_painted_where_the_map_puts_it_and_touch_0_is_a_hand(browser,
         decided = f"const e = document.querySelector('{row} span'); return e && e.textContent"
         cls = wait_for(browser, decided, what="touch 0's decision")
         assert cls == "hand"
-        # The session's frames reach the page in time (20 frames/s here; the full arm at 50 is
-        # the benchmark's).
-        p95 = wait_for(browser, "return window.skinView.latencies.length > 20 && window.skinView.p95()")
-        print(f"latency p95 {p95:.1f} ms over {browser.execute_script('return window.skinView.latencies.length')} frames")
+        # A hand decided: the gate says comply (run.toml's [gate] hand = "comply").
+        wait_for(browser, "return document.getElementById('gate').textContent === 'comply'", what="the gate")
+        # The contacts drawn are the session's: centroid among the pressed taxels on the map.
+        contact = wait_for(
+            browser,
+            "const f = window.skinView.frame; return f && f.contacts.length && {c: f.contacts[0], pressed: "
+            "Array.from(f.pressures).map((p, i) => [p, i]).filter(([p]) => p > window.skinView.scene.threshold).map(([, i]) => i)}",
+            what="a contact",
+        )
+        uv = [link["uv_mm"][i] for i in contact["pressed"]]
+        c = contact["c"]
+        assert min(u for u, _ in uv) <= c["u"] <= max(u for u, _ in uv)
+        assert min(v for _, v in uv) <= c["v"] <= max(v for _, v in uv)
+        assert 0 < c["taxels"] <= len(uv) and c["peak"] >= c["mean"] > 0
     finally:
         said = served.stop()
     assert "view the skin at" in said
@@ -142,9 +152,10 @@ def test_a_module_dropped_from_the_log_shows_as_missing(browser, tmp_path):
             "return document.getElementById('missing').textContent.includes('can0:5')",
             what="can0:5 among the missing modules",
         )
-        shown = browser.execute_script(SHOWN, 0)
-        assert shown["incomplete"] > 0
-        assert module in shown["missing"] or shown["incomplete"] > 0
+        # The frame says which module: its index among the scene's modules, and its taxels are
+        # the ones ringed on the map.
+        wait_for(browser, f"const f = window.skinView.frame; return f && f.missing.includes({module}) && f.incomplete > 0",
+                 what=f"module {module} missing from a frame")
     finally:
         served.stop()
 
@@ -211,7 +222,7 @@ def placed(p: dict, uv) -> tuple:
 
 def test_a_stitched_arm_is_drawn_at_the_current_posture(browser, tmp_path):
     served = Served("run", FIXTURES / "arm" / "run.toml", "--log", FIXTURES / "arm" / "touch.candump.log",
-                    "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "0.5")
+                    "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "0.5", "--frames")
     try:
         browser.get(served.url)
         sc = scene(browser)
@@ -248,6 +259,8 @@ def test_a_stitched_arm_is_drawn_at_the_current_posture(browser, tmp_path):
             checked = True
             break
         assert checked, "no press across the joint was seen on the stitched arm"
+        # With --frames, each link's tactile image and the stitched arm's are shown beside it.
+        wait_for(browser, "return document.querySelectorAll('.imgbox.on').length >= 3", what="three tactile images")
     finally:
         served.stop()
 
