@@ -23,8 +23,17 @@ pub struct ViewArgs {
     pub view: Option<SocketAddr>,
     /// With --view and a log or recording: play it at this many times its own pace (0: as fast
     /// as it can be processed).
-    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = crate::numbers::within(0.0, 1000.0))]
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = speed)]
     pub speed: f64,
+}
+
+/// A play speed: 0 (as fast as it goes), or 0.01 to 100 times the input's own pace (what the
+/// page's replay controls take too).
+fn speed(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(x) if x == 0.0 || (0.01..=100.0).contains(&x) => Ok(x),
+        _ => Err("must be 0 (as fast as it goes) or from 0.01 to 100".to_owned()),
+    }
 }
 
 /// A viewer's address: `PORT` on loopback, or `HOST:PORT` (checked by clap, before any work).
@@ -52,14 +61,27 @@ pub fn parse_addr(text: &str) -> Result<SocketAddr, String> {
 /// Serves `scene` at `addr`, saying where (and warning when other machines can reach it).
 pub fn serve(addr: SocketAddr, scene: Scene) -> Result<Viewer> {
     let viewer = Viewer::bind(addr, scene)?;
+    say_where(&viewer);
+    Ok(viewer)
+}
+
+/// Where the page is; a warning when other machines can reach it.
+fn say_where(viewer: &Viewer) {
     eprintln!("view the skin at {}", viewer.url());
-    if !addr.ip().is_loopback() {
+    let ip = viewer.addr().ip();
+    if !ip.is_loopback() {
+        let on = if ip.is_unspecified() {
+            format!(
+                "every interface (other machines: this machine's address or name, port {})",
+                viewer.addr().port()
+            )
+        } else {
+            ip.to_string()
+        };
         eprintln!(
-            "warning: the viewer listens on {} (not loopback only): anyone who can reach this port can watch the skin (read-only)",
-            addr.ip()
+            "warning: the viewer listens on {on}, not loopback only: anyone who can reach this port can watch the skin (read-only)"
         );
     }
-    Ok(viewer)
 }
 
 /// The viewer of `--view`, if asked for, bound before the session is built (a port in use
@@ -88,6 +110,7 @@ fn name(path: &Path) -> String {
 /// Keeps the page (if any) up after the run until Ctrl-C.
 pub fn hold(viewer: Option<&Viewer>) {
     let Some(viewer) = viewer else { return };
+    viewer.finished();
     crate::output::stop_gracefully();
     let stop = crate::output::stop_flag();
     if stop.load(Ordering::SeqCst) {
@@ -137,7 +160,10 @@ struct Pace {
 impl Pace {
     fn wait(&mut self, time_us: u64) {
         let (wall, t0) = *self.anchor.get_or_insert((Instant::now(), time_us));
-        let due = wall + Duration::from_secs_f64(time_us.saturating_sub(t0) as f64 / 1e6 / self.speed);
+        let after = Duration::try_from_secs_f64(time_us.saturating_sub(t0) as f64 / 1e6 / self.speed);
+        let Some(due) = after.ok().and_then(|d| wall.checked_add(d)) else {
+            return;
+        };
         let now = Instant::now();
         if due > now {
             std::thread::sleep(due - now);

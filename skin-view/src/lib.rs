@@ -52,7 +52,7 @@ pub mod replay;
 
 pub use hub::Control;
 pub use scene::Scene;
-pub use server::{MAX_CONNECTIONS, ViewError, ViewStats};
+pub use server::{MAX_CONNECTIONS, MAX_STREAMS, ViewError, ViewStats};
 pub use sink::ViewSink;
 
 use std::net::SocketAddr;
@@ -94,9 +94,24 @@ impl Viewer {
         self.server.addr
     }
 
-    /// The page's address, `http://127.0.0.1:8080/`.
+    /// The page's address, `http://127.0.0.1:8080/`; for a viewer on every interface
+    /// (`0.0.0.0`, `::`), its address on this machine (other machines use one of its network
+    /// addresses, or its name, with the same port).
     pub fn url(&self) -> String {
-        format!("http://{}/", self.server.addr)
+        let mut addr = self.server.addr;
+        if addr.ip().is_unspecified() {
+            addr.set_ip(match addr {
+                SocketAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+                SocketAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+            });
+        }
+        format!("http://{addr}/")
+    }
+
+    /// Tells the pages the session is over (they say so, and stop counting frames and
+    /// latency); the last frame stays shown.
+    pub fn finished(&self) {
+        self.server.hub.put_status(r#"{"ended":true}"#.to_owned());
     }
 
     /// A sink for the session whose scene this is. Several may exist; frames from all of them

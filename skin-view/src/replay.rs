@@ -220,11 +220,15 @@ impl Replay {
             };
             match player.run(from)? {
                 Some(t) => from = t,
-                // The end: the last frame stays until a seek.
-                None => match wait_for_seek(controls, stop, &mut state, &tell) {
-                    Some(t) => from = self.seek_ns(t),
-                    None => return Ok(()),
-                },
+                // The end: paused on the last frame until a seek, or play (from the start).
+                None => {
+                    state.paused = true;
+                    tell(&state);
+                    match wait_for_seek(controls, stop, &mut state, &tell) {
+                        Some(t) => from = self.seek_ns(t),
+                        None => return Ok(()),
+                    }
+                }
             }
             from = from.max(self.first_ns).min(self.last_ns);
         }
@@ -245,8 +249,8 @@ struct PlayState {
     frames: u64,
 }
 
-/// Waits at the end of a replay for a seek (pause, play and speed are kept); `None` once
-/// stopped.
+/// Waits at the end of a replay for a seek, or play (from the start: 0 s); speed changes are
+/// kept. `None` once stopped.
 fn wait_for_seek(
     controls: &Receiver<Control>,
     stop: &AtomicBool,
@@ -258,7 +262,11 @@ fn wait_for_seek(
             Ok(Control::Seek(t)) => return Some(t),
             Ok(Control::Speed(s)) => state.speed = s,
             Ok(Control::Pause) => state.paused = true,
-            Ok(Control::Play) => state.paused = false,
+            Ok(Control::Play) => {
+                state.paused = false;
+                tell(state);
+                return Some(0.0);
+            }
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
         }
@@ -392,8 +400,11 @@ impl Player<'_> {
                 break;
             }
             let (wall, from) = *anchor.get_or_insert((Instant::now(), stamp));
-            let due =
-                wall + Duration::from_secs_f64(stamp.saturating_sub(from) as f64 / 1e9 / self.state.speed);
+            let after = stamp.saturating_sub(from) as f64 / 1e9 / self.state.speed;
+            let due = Duration::try_from_secs_f64(after)
+                .ok()
+                .and_then(|d| wall.checked_add(d))
+                .unwrap_or(wall);
             let now = Instant::now();
             if due <= now {
                 break;
@@ -512,6 +523,9 @@ fn channels_of(summary: &mcap::Summary) -> (Vec<u16>, Option<u16>, Option<u16>) 
 
 /// Opens an MCAP file that skin wrote; refuses any other.
 fn open_skins(path: &Path) -> Result<File, ViewError> {
+    if path.is_dir() {
+        return Err(err(path, "a folder, not an MCAP file"));
+    }
     let file = File::open(path).map_err(|e| err(path, format!("cannot open it: {e}")))?;
     if !skin_ros::mcap_file_written_by_skin(path) {
         let why = "not an MCAP file that skin wrote (its header names another writer, or it is no MCAP file)";

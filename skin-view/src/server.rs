@@ -14,7 +14,7 @@ use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use tungstenite::protocol::frame::CloseFrame;
 use tungstenite::protocol::frame::coding::CloseCode;
 use tungstenite::protocol::{Role, WebSocketConfig};
@@ -25,6 +25,15 @@ const PAGE: &str = include_str!("page/index.html");
 
 /// Connections served at once (browsers and page loads); more are answered 503.
 pub const MAX_CONNECTIONS: usize = 64;
+/// Streams (browsers) served at once, fewer than [`MAX_CONNECTIONS`]: the page itself can still
+/// be loaded when every stream is taken, and says so.
+pub const MAX_STREAMS: usize = 48;
+/// How often a browser is pinged; one that has answered nothing for [`SILENT_LIMIT`] is dropped
+/// (a browser reads its stream and answers pings by itself; a client that stopped reading does
+/// not, and gives its place back).
+const PING_EVERY: Duration = Duration::from_secs(5);
+/// See [`PING_EVERY`].
+const SILENT_LIMIT: Duration = Duration::from_secs(30);
 /// The longest request head read.
 const MAX_HEAD: usize = 8 * 1024;
 /// The longest message a browser may send.
@@ -86,7 +95,8 @@ pub struct ViewStats {
     /// one, over all browsers.
     pub frames_skipped: u64,
     /// Browsers dropped: sent something other than a replay's controls, took nothing for 20 s,
-    /// or lost their connection (a browser that closes its page is not counted).
+    /// answered no ping for 30 s, or lost their connection (a browser that closes its page is
+    /// not counted).
     pub dropped: u64,
 }
 
@@ -245,16 +255,28 @@ fn reason(status: u16) -> &'static str {
 }
 
 fn respond(
-    mut stream: &TcpStream,
+    stream: &TcpStream,
     status: u16,
     kind: &str,
     body: &[u8],
     extra: &[(&str, &str)],
 ) -> std::io::Result<()> {
+    respond_head(stream, status, kind, body, body.len(), extra)
+}
+
+/// Answers with `body` after a head that says `length` (a HEAD request's answer says the
+/// page's length and sends no body).
+fn respond_head(
+    mut stream: &TcpStream,
+    status: u16,
+    kind: &str,
+    body: &[u8],
+    length: usize,
+    extra: &[(&str, &str)],
+) -> std::io::Result<()> {
     let mut head = format!(
-        "HTTP/1.1 {status} {}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n",
+        "HTTP/1.1 {status} {}\r\nContent-Type: {kind}\r\nContent-Length: {length}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n",
         reason(status),
-        body.len()
     );
     for (k, v) in extra {
         head.push_str(&format!("{k}: {v}\r\n"));
@@ -362,15 +384,19 @@ fn serve(mut stream: TcpStream, hub: &Arc<Hub>, local: SocketAddr) {
             } else {
                 PAGE.as_bytes()
             };
-            let _ = respond(
+            let _ = respond_head(
                 &stream,
                 200,
                 "text/html; charset=utf-8",
                 body,
+                PAGE.len(),
                 &[("Content-Security-Policy", CSP.as_str())],
             );
         }
         "/stream" => match (&head.key, head.upgrade && head.version_13 && head.method == "GET") {
+            (Some(_), true) if hub.clients.load(Ordering::Relaxed) >= MAX_STREAMS => {
+                let _ = respond(&stream, 503, "text/plain", b"too many browsers watching\n", &[]);
+            }
             (Some(key), true) => {
                 let accept = tungstenite::handshake::derive_accept_key(key.trim().as_bytes());
                 let answer = format!(
@@ -445,6 +471,7 @@ fn stream_to(mut ws: WebSocket<TcpStream>, hub: &Arc<Hub>) -> Ended {
         next_event: 1,
         skipped: 0,
     };
+    let (mut pinged, mut heard) = (Instant::now(), Instant::now());
     loop {
         if hub.closing.load(Ordering::Relaxed) {
             let _ = ws.close(None);
@@ -455,8 +482,19 @@ fn stream_to(mut ws: WebSocket<TcpStream>, hub: &Arc<Hub>) -> Ended {
         if let Err(ended) = send(&mut ws, hub, out) {
             return ended;
         }
-        if let Err(ended) = listen(&mut ws, hub) {
-            return ended;
+        match listen(&mut ws, hub) {
+            Ok(true) => heard = Instant::now(),
+            Ok(false) => {}
+            Err(ended) => return ended,
+        }
+        if heard.elapsed() > SILENT_LIMIT {
+            return Ended::Dropped;
+        }
+        if pinged.elapsed() > PING_EVERY {
+            pinged = Instant::now();
+            if ws.send(Message::Ping(Vec::new().into())).is_err() {
+                return Ended::Dropped;
+            }
         }
     }
 }
@@ -522,7 +560,7 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
             ws.write(text(format!("{{\"scene\":{scene}}}")))?;
         }
         if let Some(status) = out.status.filter(|s| !s.is_empty()) {
-            ws.write(text(format!("{{\"replay_state\":{status}}}")))?;
+            ws.write(text(format!("{{\"status\":{status}}}")))?;
         }
         if out.lost_events > 0 {
             ws.write(text(format!("{{\"lost_events\":{}}}", out.lost_events)))?;
@@ -555,12 +593,17 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
 /// still gets its frames.
 const READS_PER_TURN: usize = 16;
 
-/// Reads what the browser sent, if anything: a replay's controls; anything else drops it.
-fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<(), Ended> {
+/// Reads what the browser sent, if anything: a replay's controls and pongs; anything else
+/// drops it. Says whether the browser was heard from.
+fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<bool, Ended> {
+    let mut heard = false;
     for _ in 0..READS_PER_TURN {
         match ws.read() {
             Ok(Message::Text(t)) => match control(t.as_str()) {
-                Some(c) if hub.controllable() => hub.send_control(c),
+                Some(c) if hub.controllable() => {
+                    heard = true;
+                    hub.send_control(c);
+                }
                 _ => return Err(refuse(ws, "not a request this viewer takes")),
             },
             Ok(Message::Binary(_)) => return Err(refuse(ws, "binary messages are not taken")),
@@ -568,14 +611,14 @@ fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<(), Ended> {
                 let _ = ws.flush();
                 return Err(Ended::Closed);
             }
-            Ok(_) => {}
+            Ok(_) => heard = true,
             Err(tungstenite::Error::Io(e))
                 if matches!(
                     e.kind(),
                     std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
                 ) =>
             {
-                return Ok(());
+                return Ok(heard);
             }
             Err(tungstenite::Error::ConnectionClosed) => return Err(Ended::Closed),
             Err(
@@ -588,7 +631,7 @@ fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<(), Ended> {
             Err(_) => return Err(Ended::Dropped),
         }
     }
-    Ok(())
+    Ok(heard)
 }
 
 /// Closes a browser's stream with "policy violation" and the reason.

@@ -1,5 +1,10 @@
-//! What goes down the page's WebSocket. Text messages are JSON: the scene once, first
-//! ([`crate::Scene`]), then the session's events, each the line `events.jsonl` would hold.
+//! What goes down the page's WebSocket. Text messages are JSON objects with one key: `scene`
+//! (first, and again when it changes: [`crate::Scene`]), `event` (the session's events, each
+//! the line `events.jsonl` would hold; incomplete frames are counted in the frames instead),
+//! `lost_events` (how many events before these are no longer kept), `status` (a replay's
+//! `paused` and `speed`, or `ended` once a run is over). The page sends nothing, but to a
+//! replay: `{"cmd": "pause" | "play"}`, `{"cmd": "seek", "time": S}`, `{"cmd": "speed",
+//! "value": X}` (X from 0.01 to 100).
 //! Binary messages carry what changes every frame, little-endian, so that a frame of the full arm
 //! (3,495 taxels) is 14 KB of float32 pressures instead of 60 KB of JSON text:
 //!

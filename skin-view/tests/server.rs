@@ -86,6 +86,18 @@ fn only_the_page_and_its_stream_are_served() {
     let host = viewer.addr();
     let get = |path: &str| status(&viewer, &format!("GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n"));
     assert!(get("/").contains("200"), "{}", get("/"));
+    // HEAD: the page's length, no body.
+    let mut s = TcpStream::connect(viewer.addr()).unwrap();
+    write!(s, "HEAD / HTTP/1.1\r\nHost: {host}\r\n\r\n").unwrap();
+    let mut answer = String::new();
+    s.read_to_string(&mut answer).unwrap();
+    let length: usize = answer
+        .lines()
+        .find_map(|l| l.strip_prefix("Content-Length: "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(length > 10_000 && answer.ends_with("\r\n\r\n"), "{answer}");
     assert!(get("/index.html").contains("200"));
     for path in [
         "/favicon.ico",
@@ -293,4 +305,25 @@ fn on_the_network_a_foreign_name_or_origin_is_refused() {
     assert!(ask(&format!("evil.example:{port}"), None).contains("403"));
     assert!(ask(&own, Some("http://evil.example")).contains("403"));
     assert!(ask(&own, Some("http://127.0.0.1:3000")).contains("403"));
+}
+
+#[test]
+fn browsers_beyond_the_limit_are_refused_and_the_page_still_loads() {
+    let (session, ..) = arm();
+    let viewer = serve(&session);
+    let streams: Vec<_> = (0..skin_view::MAX_STREAMS).map(|_| browser(&viewer)).collect();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while viewer.stats().browsers < streams.len() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let host = viewer.addr();
+    let one_more = status(
+        &viewer,
+        &format!(
+            "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ),
+    );
+    assert!(one_more.contains("503"), "{one_more}");
+    assert!(status(&viewer, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n")).contains("200"));
+    drop(streams);
 }

@@ -156,6 +156,8 @@ def test_a_module_dropped_from_the_log_shows_as_missing(browser, tmp_path):
         # the ones ringed on the map.
         wait_for(browser, f"const f = window.skinView.frame; return f && f.missing.includes({module}) && f.incomplete > 0",
                  what=f"module {module} missing from a frame")
+        # Once the log is over, the page says so (and keeps the last frame).
+        wait_for(browser, "return document.getElementById('state').textContent.startsWith('run over')", what="the run's end")
     finally:
         served.stop()
 
@@ -197,6 +199,13 @@ def test_the_mcap_replay_seeks_to_a_time_and_shows_that_frame(browser, tmp_path)
         pressed = set(state["pressed"])
         assert len(pressed) >= 10, f"{len(pressed)} taxels pressed at {shown} s"
         check_pixels(image, link, pressed, near_any(link, pressed, 6))
+        # Past the end: the last frame, paused; play starts again from the beginning.
+        browser.execute_script("window.skinView.send({cmd: 'play'}); window.skinView.send({cmd: 'seek', time: 1e6})")
+        wait_for(browser, "return window.skinView.paused && window.skinView.frame.time > 30", what="the end, paused")
+        browser.execute_script("window.skinView.send({cmd: 'play'})")
+        wait_for(browser, "return !window.skinView.paused && window.skinView.frame.time < 5", what="playing from the start")
+        browser.execute_script("window.skinView.send({cmd: 'pause'})")
+        wait_for(browser, "return window.skinView.paused", what="paused again")
         # Seeking back shows the earlier frame (touch 1, a bar, 2.5 s to 3.5 s).
         browser.execute_script("window.skinView.send({cmd: 'seek', time: 2.75})")
         wait_for(browser, "const f = window.skinView.frame; return f && Math.abs(f.time - 2.75) < 0.06", what="2.75 s")
