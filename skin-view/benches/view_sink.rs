@@ -3,8 +3,9 @@
 //!
 //! - `no viewer`: a sink that keeps nothing (the session's own cost);
 //! - `viewer, no browser`: the [`ViewSink`](skin_view::ViewSink) of a serving viewer;
-//! - `viewer, stalled browser`: the same with a browser connected that stopped reading (its
-//!   socket buffers full, its thread blocked in a write): the session must not notice.
+//! - `viewer, a browser reading`: a client reading every frame it is sent, on the other core;
+//! - `viewer, stalled browser`: a client that stopped reading instead (its socket buffers full,
+//!   its thread blocked in a write): the session must not notice.
 //!
 //! The ratio of the last two to the first is in BENCHMARKS.md ("Live view").
 
@@ -18,6 +19,8 @@ use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
 use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
 use std::net::TcpStream;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 const IDLE: f32 = 1000.0;
 
@@ -45,7 +48,8 @@ fn stalled_browser(viewer: &Viewer) -> TcpStream {
     s
 }
 
-fn bench(c: &mut Criterion) {
+/// The full arm's session (tracking only), its baseline learned, and the hand-held frame.
+fn arm() -> (Session, Vec<Vec<f32>>) {
     let (links, maps) = links_and_maps();
     let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
     let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
@@ -61,12 +65,32 @@ fn bench(c: &mut Criterion) {
     };
     let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
     let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
-    let (mut t, mut cycle) = (0u64, 0u64);
-    for _ in 0..20 {
-        t += 20_000;
-        cycle += 1;
-        let _ = session.push(t, cycle, &idle, &mut Discard).unwrap();
+    for k in 0..20u64 {
+        let _ = session.push(k * 20_000, k, &idle, &mut Discard).unwrap();
     }
+    (session, held)
+}
+
+/// A browser reading everything it is sent, on its own thread, until the flag is cleared.
+fn reading_browser(viewer: &Viewer) -> (Arc<AtomicBool>, std::thread::JoinHandle<()>) {
+    let url = format!("ws://{}/stream", viewer.addr());
+    let stream = TcpStream::connect(viewer.addr()).unwrap();
+    let (mut ws, _) = tungstenite::client::client(url, stream).unwrap();
+    let reading = Arc::new(AtomicBool::new(true));
+    let go = reading.clone();
+    let thread = std::thread::spawn(move || {
+        while go.load(Ordering::Relaxed) {
+            if ws.read().is_err() {
+                break;
+            }
+        }
+    });
+    (reading, thread)
+}
+
+fn bench(c: &mut Criterion) {
+    let (mut session, held) = arm();
+    let (mut t, mut cycle) = (1_000_000u64, 100u64);
     let viewer = Viewer::bind(
         "127.0.0.1:0".parse().unwrap(),
         Scene::of_session(&session, "full arm"),
@@ -93,6 +117,17 @@ fn bench(c: &mut Criterion) {
             session.push(t, cycle, &held, &mut sink).unwrap()
         })
     });
+    let (reading, reader) = reading_browser(&viewer);
+    group.bench_function("viewer, a browser reading", |b| {
+        b.iter(|| {
+            t += 20_000;
+            cycle += 1;
+            session.push(t, cycle, &held, &mut sink).unwrap()
+        })
+    });
+    reading.store(false, Ordering::Relaxed);
+    let _ = session.push(t + 20_000, cycle + 1, &held, &mut sink).unwrap();
+    reader.join().unwrap();
     let _browser = stalled_browser(&viewer);
     // Fill its socket buffers: from here on its thread is blocked in a write.
     for _ in 0..2_000 {

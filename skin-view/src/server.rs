@@ -569,12 +569,17 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
             ws.write(text(format!("{{\"event\":{e}}}")))?;
         }
         for i in out.images {
-            ws.write(Message::Binary(i.as_slice().to_vec().into()))?;
+            let bytes = i.as_slice().to_vec();
+            // The shared buffer goes back before a write that may block.
+            drop(i);
+            ws.write(Message::Binary(bytes.into()))?;
         }
         let frame = out.frame.is_some();
         if let Some((f, skipped)) = out.frame {
-            // This browser's copy, with its own skipped count.
+            // This browser's copy, with its own skipped count; the shared buffer goes back
+            // before a write that may block, for the session to write over.
             let mut bytes = f.as_slice().to_vec();
+            drop(f);
             if let Some(at) = bytes.get_mut(SKIPPED_AT..SKIPPED_AT + 4) {
                 at.copy_from_slice(&skipped.to_le_bytes());
             }

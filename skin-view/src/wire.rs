@@ -156,10 +156,10 @@ pub fn encode_frame<'a>(
         f32_at(out, p.offset_mm[0]);
         f32_at(out, p.offset_mm[1]);
     }
+    out.reserve(4 * n);
     for link in pressures {
-        for &p in link {
-            f32_at(out, p);
-        }
+        // Whole chunks of little-endian floats: the compiler turns this into a copy.
+        out.extend(link.iter().flat_map(|p| p.to_le_bytes()));
     }
 }
 

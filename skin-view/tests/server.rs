@@ -245,6 +245,7 @@ fn a_browser_that_stops_reading_costs_no_memory_and_others_keep_up() {
     let before = resident_kb();
     push_many(&mut session, &mut sink, &held, 2_000, 20_000);
     let after = resident_kb();
+    eprintln!("resident memory: {before} kB after 2,000 frames, {after} kB after 22,000 (a browser stalled)");
     // 20,000 frames of 14 KB (280 MB) went by the stalled browser: the viewer kept none.
     assert!(
         after.saturating_sub(before) < 8 * 1024,
