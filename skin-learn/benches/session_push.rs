@@ -18,24 +18,11 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use skin_core::{LinkSkin, SkinLayout};
 use skin_learn::model::Models;
-use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink};
+use skin_learn::session::{Session, SessionOptions};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_test_support::full_arm::{Discard, idle_and_held, links_and_maps};
 use std::io::Write as _;
 use std::path::PathBuf;
-
-/// The raw reading of an untouched taxel, counts.
-const IDLE: f32 = 1000.0;
-
-/// Keeps nothing: a robot stack acting on events.
-struct Discard;
-
-impl Sink for Discard {
-    type Error = std::convert::Infallible;
-    fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
-        Ok(Flow::Continue(()))
-    }
-}
 
 fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
     let dir = std::env::var_os("CARGO_TARGET_DIR")
@@ -55,11 +42,7 @@ fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
 
 fn bench(c: &mut Criterion) {
     let (links, maps) = links_and_maps();
-    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
-    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
-        .into_iter()
-        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
-        .collect();
+    let (idle, held) = idle_and_held(&links, &maps);
     dump(&links, &idle, &held);
     // The settings of `Session.from_layout`'s defaults (and of the fixture session's run.toml).
     let options = TouchOptions {

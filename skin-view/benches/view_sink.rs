@@ -12,26 +12,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use skin_learn::model::Models;
-use skin_learn::session::{Event, Flow, Session, SessionOptions, Sink};
-use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_test_support::full_arm::{Discard, tracking_session};
 use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-
-const IDLE: f32 = 1000.0;
-
-struct Discard;
-
-impl Sink for Discard {
-    type Error = std::convert::Infallible;
-    fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
-        Ok(Flow::Continue(()))
-    }
-}
 
 /// Connects to the stream and never reads again once the handshake is answered.
 fn stalled_browser(viewer: &Viewer) -> TcpStream {
@@ -46,29 +32,6 @@ fn stalled_browser(viewer: &Viewer) -> TcpStream {
     s.read_exact(&mut head).unwrap();
     assert!(head.starts_with(b"HTTP/1.1 101"));
     s
-}
-
-/// The full arm's session (tracking only), its baseline learned, and the hand-held frame.
-fn arm() -> (Session, Vec<Vec<f32>>) {
-    let (links, maps) = links_and_maps();
-    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
-    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
-        .into_iter()
-        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
-        .collect();
-    let options = TouchOptions {
-        threshold: 5.0,
-        min_taxels: 2,
-        decide_frames: 3,
-        release_frames: 2,
-        ..TouchOptions::default()
-    };
-    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
-    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
-    for k in 0..20u64 {
-        let _ = session.push(k * 20_000, k, &idle, &mut Discard).unwrap();
-    }
-    (session, held)
 }
 
 /// A browser reading everything it is sent, on its own thread, until the flag is cleared.
@@ -89,7 +52,7 @@ fn reading_browser(viewer: &Viewer) -> (Arc<AtomicBool>, std::thread::JoinHandle
 }
 
 fn bench(c: &mut Criterion) {
-    let (mut session, held) = arm();
+    let (mut session, _, held) = tracking_session();
     let (mut t, mut cycle) = (1_000_000u64, 100u64);
     let viewer = Viewer::bind(
         "127.0.0.1:0".parse().unwrap(),

@@ -12,31 +12,18 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // an example: a failed set-up should stop it
 
-use skin_learn::model::Models;
-use skin_learn::session::{Session, SessionOptions};
-use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_test_support::full_arm::tracking_session;
 use skin_view::{Scene, Viewer};
 use std::io::Write as _;
 use std::time::{Duration, Instant};
-
-/// The raw reading of an untouched taxel, counts.
-const IDLE: f32 = 1000.0;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |k: usize, default: f64| args.get(k).map_or(default, |a| a.parse().expect("a number"));
     let (port, seconds, rate) = (arg(0, 8080.0) as u16, arg(1, 60.0), arg(2, 50.0));
 
-    let (links, maps) = links_and_maps();
-    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
-    let hand = hand_on_middle_link(&links, &maps[1]);
-    let options = TouchOptions {
-        threshold: 5.0,
-        ..TouchOptions::default()
-    };
-    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
-    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
+    // Tracking only (no model): the decisions' cost is not the view's.
+    let (mut session, idle, held) = tracking_session();
     let viewer = Viewer::bind(
         std::net::SocketAddr::from(([127, 0, 0, 1], port)),
         Scene::of_session(&session, "full arm (synthetic)"),
@@ -58,12 +45,15 @@ fn main() {
         } else {
             0.0
         };
-        for ((f, i), h) in frame.iter_mut().zip(&idle).zip(&hand) {
+        for ((f, i), h) in frame.iter_mut().zip(&idle).zip(&held) {
             for ((f, i), h) in f.iter_mut().zip(i).zip(h) {
-                *f = i + squeeze * h;
+                *f = i + squeeze * (h - i);
             }
         }
-        let _ = session.push((t * 1e6) as u64, k, &frame, &mut sink).unwrap();
+        // After the baseline's 20 frames (0 to 0.38 s).
+        let _ = session
+            .push(1_000_000 + (t * 1e6) as u64, 100 + k, &frame, &mut sink)
+            .unwrap();
         let due = start + step * (k as u32 + 1);
         if let Some(wait) = due.checked_duration_since(Instant::now()) {
             std::thread::sleep(wait);

@@ -118,13 +118,7 @@ impl Replay {
                 "holds no pressure clouds (PREFIX/<link>/pressure): nothing to show",
             ));
         }
-        let topic = |id: u16| {
-            summary
-                .channels
-                .get(&id)
-                .map(|c| c.topic.clone())
-                .unwrap_or_default()
-        };
+        let topic = |id: u16| topic_of(&summary, id);
 
         let (maps, clouds, first_ns) = links_of(&mut file, &summary, &pressure, path)?;
         if maps.is_empty() {
@@ -430,13 +424,7 @@ fn links_of(
     pressure: &[u16],
     path: &Path,
 ) -> Result<(Vec<TactileMap>, Clouds, u64), ViewError> {
-    let topic = |id: u16| {
-        summary
-            .channels
-            .get(&id)
-            .map(|c| c.topic.clone())
-            .unwrap_or_default()
-    };
+    let topic = |id: u16| topic_of(summary, id);
     let mut first: HashMap<u16, (Vec<u8>, u64)> = HashMap::new();
     let topics: Vec<String> = pressure.iter().map(|&id| topic(id)).collect();
     let options = IndexedReaderOptions::new().include_topics(topics);
@@ -494,6 +482,15 @@ fn read_events(
         Ok(true)
     })?;
     Ok((lines, left_out, origin_ns))
+}
+
+/// The topic of channel `id` (empty for a channel the summary lacks).
+fn topic_of(summary: &mcap::Summary, id: u16) -> String {
+    summary
+        .channels
+        .get(&id)
+        .map(|c| c.topic.clone())
+        .unwrap_or_default()
 }
 
 /// The channels a replay reads: each link's pressure clouds (channel order, which is the

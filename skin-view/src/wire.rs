@@ -331,23 +331,12 @@ mod tests {
     fn a_second_frame_of_the_same_size_reuses_the_buffer() {
         let p = vec![0.5f32; 3495];
         let mut out = Vec::new();
-        encode_frame(
-            &mut out,
-            &FrameHead::default(),
-            &[],
-            &[],
-            &[],
-            std::iter::once(&p[..]),
-        );
+        let encode = |out: &mut Vec<u8>| {
+            encode_frame(out, &FrameHead::default(), &[], &[], &[], std::iter::once(&p[..]));
+        };
+        encode(&mut out);
         let (ptr, cap) = (out.as_ptr(), out.capacity());
-        encode_frame(
-            &mut out,
-            &FrameHead::default(),
-            &[],
-            &[],
-            &[],
-            std::iter::once(&p[..]),
-        );
+        encode(&mut out);
         assert_eq!((out.as_ptr(), out.capacity()), (ptr, cap));
     }
 }

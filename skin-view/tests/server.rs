@@ -4,39 +4,19 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use skin_learn::model::Models;
-use skin_learn::session::{Session, SessionOptions};
-use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps};
+use skin_learn::session::Session;
+use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps, tracking_session};
 use skin_view::wire::decode_frame;
-use skin_view::{Scene, ViewSink, Viewer};
+use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 use tungstenite::{Message, WebSocket};
 
-const IDLE: f32 = 1000.0;
-
 /// The full arm's session (tracking only), its baseline learned, and the idle and hand-held
 /// frames.
 fn arm() -> (Session, Vec<Vec<f32>>, Vec<Vec<f32>>) {
-    let (links, maps) = links_and_maps();
-    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
-    let held: Vec<Vec<f32>> = hand_on_middle_link(&links, &maps[1])
-        .into_iter()
-        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
-        .collect();
-    let options = TouchOptions {
-        threshold: 5.0,
-        ..TouchOptions::default()
-    };
-    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
-    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
-    let mut none = Vec::new();
-    for k in 0..20u64 {
-        let _ = session.push(k * 20_000, k, &idle, &mut none).unwrap();
-    }
-    (session, idle, held)
+    tracking_session()
 }
 
 fn serve(session: &Session) -> Viewer {
@@ -206,63 +186,6 @@ fn a_client_sending_garbage_is_dropped_and_the_others_go_on() {
         std::thread::sleep(Duration::from_millis(20));
     }
     assert!(viewer.stats().dropped >= 3, "{:?}", viewer.stats());
-}
-
-/// Resident memory of this process, kB.
-#[cfg(target_os = "linux")]
-fn resident_kb() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
-        .and_then(|v| v.split_whitespace().next()?.parse().ok())
-        .unwrap()
-}
-
-#[cfg(target_os = "linux")]
-fn push_many(session: &mut Session, sink: &mut ViewSink, frames: &[Vec<f32>], from: u64, n: u64) {
-    for k in from..from + n {
-        let _ = session.push(30_000_000 + k * 20_000, k, frames, sink).unwrap();
-    }
-}
-
-#[test]
-#[cfg(target_os = "linux")] // resident memory is read from /proc
-fn a_browser_that_stops_reading_costs_no_memory_and_others_keep_up() {
-    let (mut session, _, held) = arm();
-    let viewer = serve(&session);
-    let mut sink = viewer.sink();
-    // Connected, handshake answered, then never read again.
-    let mut stalled = TcpStream::connect(viewer.addr()).unwrap();
-    let host = viewer.addr();
-    write!(
-        stalled,
-        "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
-    )
-    .unwrap();
-    let mut live = browser(&viewer);
-    push_many(&mut session, &mut sink, &held, 0, 2_000);
-    let before = resident_kb();
-    push_many(&mut session, &mut sink, &held, 2_000, 20_000);
-    let after = resident_kb();
-    eprintln!("resident memory: {before} kB after 2,000 frames, {after} kB after 22,000 (a browser stalled)");
-    // 20,000 frames of 14 KB (280 MB) went by the stalled browser: the viewer kept none.
-    assert!(
-        after.saturating_sub(before) < 8 * 1024,
-        "resident memory grew from {before} kB to {after} kB"
-    );
-    // The other browser gets the newest frame, having skipped what it could not take.
-    let last = 21_999;
-    let mut f = next_frame(&mut live);
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while f.head.cycle != last && Instant::now() < deadline {
-        f = next_frame(&mut live);
-    }
-    assert_eq!(f.head.cycle, last);
-    assert!(f.skipped > 0, "the reading browser was told of no skipped frame");
-    drop(stalled);
-    let stats = viewer.stats();
-    assert!(stats.frames_skipped > 0, "{stats:?}");
 }
 
 #[test]

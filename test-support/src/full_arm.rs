@@ -58,3 +58,53 @@ pub fn hand_on_middle_link(links: &[LinkSkin], middle: &TactileMap) -> Vec<Vec<f
     }
     pressures
 }
+
+/// The raw reading of an untouched taxel, counts (the benches' idle skin).
+pub const IDLE: f32 = 1000.0;
+
+/// The arm's raw frames (layout order): untouched, every taxel at [`IDLE`]; and with the hand of
+/// [`hand_on_middle_link`] held on the middle link.
+pub fn idle_and_held(links: &[LinkSkin], maps: &[TactileMap]) -> (Vec<Vec<f32>>, Vec<Vec<f32>>) {
+    let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
+    let held = hand_on_middle_link(links, &maps[1])
+        .into_iter()
+        .map(|p| p.into_iter().map(|x| IDLE + x).collect())
+        .collect();
+    (idle, held)
+}
+
+/// A session over the arm that tracks touches (no model) with the fixture session's settings
+/// (threshold 5 counts, 2 taxels, decided after 3 frames, released after 2), its baseline
+/// learned from 20 idle frames 20 ms apart (the last at 0.38 s, cycle 19); and the idle and
+/// hand-held frames.
+pub fn tracking_session() -> (skin_learn::session::Session, Vec<Vec<f32>>, Vec<Vec<f32>>) {
+    use skin_learn::session::{Session, SessionOptions};
+    use skin_learn::touch::{TouchOptions, TouchPipeline};
+    let (links, maps) = links_and_maps();
+    let (idle, held) = idle_and_held(&links, &maps);
+    let options = TouchOptions {
+        threshold: 5.0,
+        min_taxels: 2,
+        decide_frames: 3,
+        release_frames: 2,
+        ..TouchOptions::default()
+    };
+    let pipeline = TouchPipeline::new(maps, skin_learn::model::Models::none(), options).unwrap();
+    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
+    for k in 0..20u64 {
+        let _ = session.push(k * 20_000, k, &idle, &mut Discard).unwrap();
+    }
+    (session, idle, held)
+}
+
+/// A sink that keeps nothing: a robot stack acting on events, for benches of the session's own
+/// cost.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Discard;
+
+impl skin_learn::session::Sink for Discard {
+    type Error = std::convert::Infallible;
+    fn event(&mut self, _: &skin_learn::session::Event) -> Result<skin_learn::session::Flow, Self::Error> {
+        Ok(std::ops::ControlFlow::Continue(()))
+    }
+}
