@@ -5,31 +5,15 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![cfg(target_os = "linux")] // resident memory is read from /proc
 
+mod common;
+use common::{browser, next_frame};
+
 use skin_learn::session::Session;
 use skin_test_support::full_arm::tracking_session;
-use skin_view::wire::decode_frame;
 use skin_view::{Scene, ViewSink, Viewer};
 use std::io::Write;
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
-use tungstenite::{Message, WebSocket};
-
-fn browser(viewer: &Viewer) -> WebSocket<TcpStream> {
-    let stream = TcpStream::connect(viewer.addr()).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    let url = format!("ws://{}/stream", viewer.addr());
-    tungstenite::client::client(url, stream).unwrap().0
-}
-
-fn next_frame(ws: &mut WebSocket<TcpStream>) -> skin_view::wire::DecodedFrame {
-    loop {
-        if let Message::Binary(b) = ws.read().unwrap()
-            && let Some(f) = decode_frame(&b)
-        {
-            return f;
-        }
-    }
-}
 
 /// Resident memory of this process, kB.
 fn resident_kb() -> u64 {

@@ -4,14 +4,17 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+use common::{browser, next_frame};
+
 use skin_learn::session::Session;
 use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps, tracking_session};
-use skin_view::wire::decode_frame;
+
 use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
-use tungstenite::{Message, WebSocket};
+use tungstenite::Message;
 
 /// The full arm's session (tracking only), its baseline learned, and the idle and hand-held
 /// frames.
@@ -39,24 +42,6 @@ fn status(viewer: &Viewer, request: &str) -> String {
         .next()
         .unwrap_or("")
         .to_owned()
-}
-
-fn browser(viewer: &Viewer) -> WebSocket<TcpStream> {
-    let stream = TcpStream::connect(viewer.addr()).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    let url = format!("ws://{}/stream", viewer.addr());
-    tungstenite::client::client(url, stream).unwrap().0
-}
-
-/// The next frame the browser gets (text messages before it are skipped).
-fn next_frame(ws: &mut WebSocket<TcpStream>) -> skin_view::wire::DecodedFrame {
-    loop {
-        if let Message::Binary(b) = ws.read().unwrap()
-            && let Some(f) = decode_frame(&b)
-        {
-            return f;
-        }
-    }
 }
 
 #[test]
