@@ -236,10 +236,11 @@ mod replay {
         let mut replay = skin_view::replay::Replay::open(&args.file, args.threshold as f32)?;
         let viewer = serve(args.view, replay.scene().clone())?;
         eprintln!(
-            "replaying {} ({:.1} s, {} links): Ctrl-C ends",
+            "replaying {} ({:.1} s, {} link{}): Ctrl-C ends",
             args.file.display(),
             replay.duration(),
-            replay.scene().links.len()
+            replay.scene().links.len(),
+            if replay.scene().links.len() == 1 { "" } else { "s" }
         );
         crate::output::stop_gracefully();
         let controls = viewer.controls();
