@@ -17,10 +17,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use skin_core::{LinkSkin, SkinLayout};
-use skin_learn::model::Models;
-use skin_learn::session::{Session, SessionOptions};
-use skin_learn::touch::{TouchOptions, TouchPipeline};
-use skin_test_support::full_arm::{Discard, idle_and_held, links_and_maps};
+use skin_learn::session::Session;
+use skin_test_support::full_arm::{Discard, tracking_session};
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -41,28 +39,16 @@ fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
 }
 
 fn bench(c: &mut Criterion) {
-    let (links, maps) = links_and_maps();
-    let (idle, held) = idle_and_held(&links, &maps);
-    dump(&links, &idle, &held);
-    // The settings of `Session.from_layout`'s defaults (and of the fixture session's run.toml).
-    let options = TouchOptions {
-        threshold: 5.0,
-        min_taxels: 2,
-        decide_frames: 3,
-        release_frames: 2,
-        ..TouchOptions::default()
-    };
-    let pipeline = TouchPipeline::new(maps, Models::none(), options).unwrap();
-    let mut session = Session::new(links, pipeline, SessionOptions::default()).unwrap();
-    let (mut t, mut cycle) = (0u64, 0u64);
+    // Tracking only, the settings of `Session.from_layout`'s defaults (and of the fixture
+    // session's run.toml), the baseline learned.
+    let (mut session, idle, held) = tracking_session();
+    dump(session.links(), &idle, &held);
+    let (mut t, mut cycle) = (1_000_000u64, 100u64);
     let mut push = |session: &mut Session, frame: &[Vec<f32>]| {
         t += 50_000;
         cycle += 1;
         session.push(t, cycle, frame, &mut Discard).unwrap()
     };
-    for _ in 0..20 {
-        let _ = push(&mut session, &idle);
-    }
     let mut group = c.benchmark_group("session_push");
     group.bench_function("no contact", |b| b.iter(|| push(&mut session, &idle)));
     let _ = push(&mut session, &held);

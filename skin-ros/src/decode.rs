@@ -144,6 +144,8 @@ pub struct Cloud {
     pub pressures: Vec<f32>,
     /// Each point's `id`.
     pub ids: Vec<u32>,
+    /// Where the message keeps its pressures (for [`cloud_pressures`] on the link's next ones).
+    pub layout: CloudLayout,
 }
 
 /// Reads a `sensor_msgs/msg/PointCloud2` with float32 fields `x y z pressure` and a uint32
@@ -176,6 +178,7 @@ pub fn point_cloud(bytes: &[u8]) -> Result<Cloud, DecodeError> {
     let step = r.u32()? as usize;
     let _row_step = r.u32()?;
     let len = r.seq_len(1)?;
+    let data_at = r.at;
     let data = r.bytes(len)?;
     let _dense = r.u8()?;
     let points = height
@@ -205,6 +208,13 @@ pub fn point_cloud(bytes: &[u8]) -> Result<Cloud, DecodeError> {
             .collect(),
         pressures: (0..points).map(|p| f32::from_bits(word(p, 3))).collect(),
         ids: (0..points).map(|p| word(p, 4)).collect(),
+        layout: CloudLayout {
+            data_at,
+            step,
+            pressure_at: at[3],
+            points,
+            len: bytes.len(),
+        },
     })
 }
 
@@ -252,35 +262,7 @@ pub struct CloudLayout {
 impl CloudLayout {
     /// The layout of a cloud message of skin's; checks it by reading it whole.
     pub fn of(bytes: &[u8]) -> Result<CloudLayout, DecodeError> {
-        let cloud = point_cloud(bytes)?;
-        let points = cloud.ids.len();
-        // The data is the message's last sequence but for the `is_dense` byte after it.
-        let mut r = CdrReader::new(bytes, "sensor_msgs/msg/PointCloud2")?;
-        r.header()?;
-        r.u32()?;
-        r.u32()?;
-        let fields = r.seq_len(13)?;
-        let mut pressure_at = 0;
-        for _ in 0..fields {
-            let name = r.string()?;
-            let offset = r.u32()? as usize;
-            r.u8()?;
-            r.u32()?;
-            if name == "pressure" {
-                pressure_at = offset;
-            }
-        }
-        r.u8()?;
-        let step = r.u32()? as usize;
-        r.u32()?;
-        r.seq_len(1)?;
-        Ok(CloudLayout {
-            data_at: r.at,
-            step,
-            pressure_at,
-            points,
-            len: bytes.len(),
-        })
+        point_cloud(bytes).map(|c| c.layout)
     }
 }
 

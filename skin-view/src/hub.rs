@@ -10,8 +10,8 @@
 //! holds by then in the steady state: no allocation per frame.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize};
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 /// Events kept for browsers that are behind or connect later.
@@ -72,7 +72,6 @@ pub(crate) struct Hub {
     pub sent: AtomicU64,
     pub skipped: AtomicU64,
     pub dropped: AtomicU64,
-    pub refused: AtomicU64,
     control: Mutex<Option<SyncSender<Control>>>,
 }
 
@@ -101,7 +100,6 @@ impl Hub {
             sent: AtomicU64::new(0),
             skipped: AtomicU64::new(0),
             dropped: AtomicU64::new(0),
-            refused: AtomicU64::new(0),
             control: Mutex::new(None),
         }
     }
@@ -209,9 +207,8 @@ impl Hub {
             .control
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
-            && let Err(TrySendError::Full(_)) = tx.try_send(c)
         {
-            self.refused.fetch_add(1, Ordering::Relaxed);
+            let _ = tx.try_send(c);
         }
     }
 }

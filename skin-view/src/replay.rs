@@ -442,9 +442,8 @@ fn links_of(
             continue;
         };
         let cloud = decode::point_cloud(bytes).map_err(|e| err(path, format!("{}: {e}", topic(id))))?;
-        let layout = CloudLayout::of(bytes).map_err(|e| err(path, format!("{}: {e}", topic(id))))?;
         first_ns = first_ns.min(*t);
-        clouds.insert(id, (maps.len(), layout));
+        clouds.insert(id, (maps.len(), cloud.layout));
         maps.push(map_of(&cloud, path)?);
     }
     Ok((maps, clouds, first_ns))

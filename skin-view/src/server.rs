@@ -319,12 +319,16 @@ fn authority_of(value: &str) -> &str {
     v.split('/').next().unwrap_or(v)
 }
 
-/// This machine's name (Linux), which a browser on the network may use to reach the viewer.
-fn machine_name() -> Option<String> {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|n| n.trim().to_ascii_lowercase())
-        .filter(|n| !n.is_empty())
+/// This machine's name (Linux), which a browser on the network may use to reach the viewer;
+/// read once.
+fn machine_name() -> Option<&'static str> {
+    static NAME: std::sync::LazyLock<Option<String>> = std::sync::LazyLock::new(|| {
+        std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .map(|n| n.trim().to_ascii_lowercase())
+            .filter(|n| !n.is_empty())
+    });
+    NAME.as_deref()
 }
 
 /// Whether a request may be served. The `Host` must name this machine by an address, as
