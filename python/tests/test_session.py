@@ -71,6 +71,58 @@ def test_push_readings_per_link(builtin_session_events):
         assert decisions(events) == decisions(builtin_session_events), form
 
 
+def test_push_bus_takes_slots_as_a_log_frame_does(builtin_session_events):
+    # Each frame of the log, given as the buses' slots: the same decisions as the log.
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    where = {int(t): i for i, t in enumerate(layout[0].ids)}
+    slot_of = np.array([where[int(t)] for t in busmap.ids])
+    session = skin.Session.from_config(CONFIG)
+    events = []
+    for f in log_frames():
+        events += session.push_bus(f.values[0][slot_of], f.time)
+    events += session.finish()
+    assert decisions(events) == decisions(builtin_session_events)
+
+
+def test_push_bus_reports_a_missing_module_and_refuses_what_does_not_fit():
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    modules = busmap.modules
+    assert len(modules) == 65 and modules[5][:2] == ("can0", 5)
+    assert [s for m in modules for s in m[2]] == list(range(len(busmap.ids)))
+    session = skin.Session.from_config(CONFIG)
+    rest = np.full(len(busmap.ids), 100.0)
+    for k in range(25):
+        session.push_bus(rest, 0.05 * k)
+    events = session.push_bus(rest, 1.25, [("can0", 5)])
+    incomplete = [e for e in events if e.kind == "incomplete"]
+    assert incomplete and incomplete[0].missing == [{"bus": "can0", "address": 5}]
+    assert session.stats["incomplete"] == 1
+    with pytest.raises(ValueError, match="no module can0:99"):
+        session.push_bus(rest, 1.3, [("can0", 99)])
+    with pytest.raises(ValueError, match="714 values, this session's bus map has 715 slots"):
+        session.push_bus(rest[1:], 1.3)
+    bad = rest.copy()
+    bad[3] = np.nan
+    with pytest.raises(ValueError, match=r"slot 3 \(taxel 19\) is NaN"):
+        session.push_bus(bad, 1.3)
+    with pytest.raises(skin.SessionError, match="bus map"):
+        skin.Session.from_layout(skin.read_layout(FIXTURES / "forearm" / "layout.json")).push_bus(rest, 0.0)
+
+
+def test_the_sim_table_is_read_with_its_defaults(tmp_path):
+    defaults = skin.read_sim_config()
+    assert skin.read_sim_config(CONFIG) == defaults
+    assert defaults["frame_rate_hz"] == 20.0 and defaults["missing_modules"] == []
+    config = tmp_path / "run.toml"
+    config.write_text('layout = "l.json"\n[sim]\nnoise = 3\ndead = [16]\n')
+    sim = skin.read_sim_config(config)
+    assert sim["noise"] == 3.0 and sim["dead"] == [16] and sim["cover_mm"] == defaults["cover_mm"]
+    config.write_text('layout = "l.json"\n[sim]\ndropout = 2\n')
+    with pytest.raises(skin.ConfigError, match=r"\[sim\] dropout = 2"):
+        skin.read_sim_config(config)
+
+
 def test_contacts_of_the_last_frame():
     frames = log_frames()
     session = skin.Session.from_config(CONFIG)

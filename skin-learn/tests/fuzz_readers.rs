@@ -127,6 +127,16 @@ mod session_config {
             ("[touch]\nrelease_frames = 0", "release_frames = 0"),
             ("image_size = \"0x5\"", "image_size = 0x5"),
             ("image_size = \"5000x5\"", "image_size = 5000x5"),
+            ("[sim]\nframe_rate_hz = 0", "[sim] frame_rate_hz = 0"),
+            ("[sim]\ncover_mm = inf", "[sim] cover_mm = inf"),
+            ("[sim]\nfull_scale = 70000", "[sim] full_scale = 70000"),
+            ("[sim]\nrest = 5000", "[sim] rest = 5000"),
+            ("[sim]\ndropout = 1.5", "[sim] dropout = 1.5"),
+            (
+                "[sim]\nmissing_modules = [\"can0\"]",
+                "[sim] missing_modules = can0",
+            ),
+            ("[sim]\nmissing_modules = [\":5\"]", "[sim] missing_modules = :5"),
         ] {
             let text = format!("layout = \"l.json\"\nbusmap = \"b.toml\"\n{edit}\n");
             let e = SessionConfig::parse(&text, Path::new("run.toml"))
@@ -134,6 +144,26 @@ mod session_config {
                 .to_string();
             assert!(e.starts_with("run.toml: ") && e.contains(field), "{edit}: {e}");
         }
+    }
+
+    #[test]
+    fn a_sim_table_is_read_with_its_defaults() {
+        let text = "layout = \"l.json\"\n[sim]\nframe_rate_hz = 50\nmissing_modules = [\"can0:5\"]\n";
+        let c = SessionConfig::parse(text, Path::new("run.toml")).unwrap();
+        let sim = c.sim.unwrap();
+        assert_eq!(sim.frame_rate_hz, 50.0);
+        assert_eq!(sim.missing_modules, ["can0:5"]);
+        assert_eq!(sim.cover_mm, skin_learn::session::SimConfig::default().cover_mm);
+        let e = SessionConfig::parse("layout = \"l.json\"\n[sim]\ngain = 2\n", Path::new("run.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3") && e.contains("gain"), "{e}");
+        assert!(
+            SessionConfig::parse(SESSION, Path::new("run.toml"))
+                .unwrap()
+                .sim
+                .is_none()
+        );
     }
 
     proptest! {

@@ -7,7 +7,7 @@
 //! |---|---|
 //! | `read_layout`, `Link`, `flatten`, `read_map`, `TactileMap`, `Imager` | skin-geom ([`geometry`]) |
 //! | `read_recording`, `BusMap`, `read_log`, `CanFrame` | skin-core, skin-can ([`recordings`]) |
-//! | `Session`, `Event`, `Contact`, Python models | skin-learn session ([`session`], [`models`]) |
+//! | `Session`, `Event`, `Contact`, `read_sim_config`, Python models | skin-learn session ([`session`], [`models`]) |
 //! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
 //! | `synthesize`, `read_grey` | skin-learn synth, dataset ([`synth`]) |
 //! | `TaskStack` | skin-control ([`control`]) |
@@ -44,6 +44,7 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<session::Session>()?;
     m.add_class::<session::Event>()?;
     m.add_class::<session::Contact>()?;
+    m.add_function(wrap_pyfunction!(session::read_sim_config, m)?)?;
     m.add_class::<calibration::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibration::read_probes, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

@@ -158,6 +158,22 @@ impl BusMap {
         arrays::out(py, ids.iter().map(|t| t.0).collect(), &[ids.len()])
     }
 
+    /// Each module in bus-map order: (interface, address, its slots), the slots as indices into
+    /// `ids` (its unused slots left out).
+    #[getter]
+    fn modules(&self) -> Vec<(String, u32, Vec<usize>)> {
+        let mut slot = 0;
+        let mut modules = Vec::new();
+        for bus in &self.inner.buses {
+            for m in &bus.modules {
+                let used = m.taxels.iter().filter(|&&t| t >= 0).count();
+                modules.push((bus.interface.clone(), m.address, (slot..slot + used).collect()));
+                slot += used;
+            }
+        }
+        modules
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "BusMap(interfaces {:?}, {} slots)",

@@ -215,6 +215,23 @@ struct Inner {
     ended: Option<&'static str>,
 }
 
+/// A run configuration's `[sim]` table, checked, with the defaults filled in (all of them when
+/// the file has none, or with no file): how a simulated skin answers (`skin.sim`). Units in the
+/// keys' names.
+#[pyfunction]
+#[pyo3(signature = (path = None))]
+pub(crate) fn read_sim_config(py: Python<'_>, path: Option<PathBuf>) -> PyResult<Py<PyAny>> {
+    let sim = match path {
+        Some(path) => SessionConfig::read(&path)
+            .map_err(errors::config)?
+            .sim
+            .unwrap_or_default(),
+        None => skin_learn::session::SimConfig::default(),
+    };
+    let text = serde_json::to_string(&sim).map_err(|e| errors::error(Kind::Config, e.to_string()))?;
+    Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+}
+
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
 /// in, events out. Build it with `Session.from_config` or `Session.from_layout`. Methods on many
 /// frames (`run_log`, `run_recording`) release the GIL. One thread uses a session at a time.
@@ -538,6 +555,93 @@ impl Session {
         taking(inner, "frame", frame.frame.time_us)?;
         inner.last_us = Some(frame.frame.time_us);
         let result = inner.session.push_can(&frame.frame, &mut inner.events);
+        take(py, inner, result.map(|_| ()), "")
+    }
+
+    /// One frame as the buses would deliver it: `values`, (S,) raw counts in bus-map slot order
+    /// (`BusMap.ids`; rounded, within 0 and 65,535), and the modules whose data did not arrive,
+    /// as (interface, address) (their slots' values are not read). The same path as a CAN log's
+    /// frame: an incomplete frame is reported, its modules held at their last reading. `time` in
+    /// seconds, in order. Needs a bus map. Returns the frame's events.
+    #[pyo3(signature = (values, time, missing = Vec::new()))]
+    fn push_bus(
+        &self,
+        py: Python<'_>,
+        values: &Bound<'_, PyAny>,
+        time: f64,
+        missing: Vec<(String, u32)>,
+    ) -> PyResult<Vec<Event>> {
+        let time_us = seconds("time", time)?;
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        let Some(busmap) = inner.session.busmap() else {
+            return Err(no_busmap());
+        };
+        let values = array::<f32>("values", values, "float32", 1)?;
+        let values = slice("values", &values)?;
+        let slots = busmap.taxel_ids().len();
+        if values.len() != slots {
+            return Err(arg(
+                "values",
+                format!(
+                    "{} values, this session's bus map has {slots} slots",
+                    values.len()
+                ),
+            ));
+        }
+        let mut refs = Vec::with_capacity(missing.len());
+        let mut skip = vec![false; slots];
+        for (interface, address) in &missing {
+            let mut slot = 0;
+            let mut found = None;
+            for (b, bus) in busmap.buses.iter().enumerate() {
+                for m in &bus.modules {
+                    let used = m.taxels.iter().filter(|&&t| t >= 0).count();
+                    if bus.interface == *interface && m.address == *address {
+                        found = Some((b, slot..slot + used));
+                    }
+                    slot += used;
+                }
+            }
+            let Some((bus, range)) = found else {
+                return Err(arg(
+                    "missing",
+                    format!("no module {interface}:{address} in this session's bus map"),
+                ));
+            };
+            skip[range].iter_mut().for_each(|s| *s = true);
+            refs.push(skin_can::ModuleRef {
+                bus: u16::try_from(bus).unwrap_or(u16::MAX),
+                address: *address,
+            });
+        }
+        let mut out = Vec::with_capacity(slots);
+        for (i, (&v, &skipped)) in values.iter().zip(&skip).enumerate() {
+            if skipped {
+                out.push(None);
+            } else if v.is_finite() {
+                out.push(Some(v.round().clamp(0.0, 65_535.0) as u16));
+            } else {
+                return Err(arg(
+                    "values",
+                    format!(
+                        "slot {i} (taxel {}) is {v}: give its module in `missing` instead",
+                        busmap.taxel_ids()[i].0
+                    ),
+                ));
+            }
+        }
+        taking(inner, "time", time_us)?;
+        inner.last_us = Some(time_us);
+        inner.cycle += 1;
+        let frame = skin_can::AssembledFrame {
+            cycle: inner.cycle,
+            time_us,
+            values: out,
+            missing: refs,
+            duplicated: Vec::new(),
+        };
+        let result = inner.session.push_can(&frame, &mut inner.events);
         take(py, inner, result.map(|_| ()), "")
     }
 

@@ -51,6 +51,7 @@ from ._skin import (
     read_map,
     read_probes,
     read_recording,
+    read_sim_config,
     synthesize,
 )
 from .dataset import SynthDataset
@@ -87,5 +88,6 @@ __all__ = [
     "read_map",
     "read_probes",
     "read_recording",
+    "read_sim_config",
     "synthesize",
 ]

@@ -129,6 +129,9 @@ class BusMap:
     def interfaces(self) -> List[str]: ...
     @property
     def ids(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def modules(self) -> List[Tuple[str, int, List[int]]]:
+        """(interface, address, its slots as indices into `ids`), in bus-map order."""
 
 class CanFrame:
     @property
@@ -208,6 +211,8 @@ class Session:
     def push(self, readings: Union[Sequence[_Array], Mapping[str, _Array], _Array], time: float) -> List[Event]:
         """One frame; times in seconds, in order."""
     def push_can(self, frame: CanFrame) -> List[Event]: ...
+    def push_bus(self, values: _Array, time: float, missing: Sequence[Tuple[str, int]] = ()) -> List[Event]:
+        """(S,) counts in bus-map slot order, and the modules lost (interface, address): a CAN frame."""
     def finish(self) -> List[Event]:
         """Releases open touches; the session then takes no more frames."""
     def run_log(self, path: _Path) -> List[Event]:
@@ -243,6 +248,9 @@ class Calibration:
     def status(self) -> List[str]: ...
     def to_tsv(self) -> str: ...
     def __len__(self) -> int: ...
+
+def read_sim_config(path: Optional[_Path] = None) -> Dict[str, Any]:
+    """A run configuration's `[sim]` table, checked, defaults filled in (all defaults without a file)."""
 
 def read_probes(path: _Path) -> Dict[str, npt.NDArray[Any]]: ...
 def calibrate(

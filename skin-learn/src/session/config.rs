@@ -32,6 +32,20 @@
 //! non_hand = "stop"
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time
+//! [sim]                           # optional: how a simulated skin answers (Python's
+//!                                 # skin.sim, MuJoCo); defaults as shown, see SimConfig
+//! frame_rate_hz = 20.0            # frames a second the skin delivers
+//! cover_mm = 2.5                  # the elastic cover the load crosses to the taxels
+//! half_scale_kpa = 150.0          # stress at a taxel that reads half of full scale
+//! full_scale = 4095.0             # counts at saturation
+//! gain_spread = 0.15              # each taxel's gain drawn in 1 +- this
+//! rest = 200.0                    # counts at rest (pressure moves away from it)...
+//! rest_spread = 20.0              # ...different per taxel by up to this
+//! noise = 1.0                     # counts (standard deviation), every frame
+//! dead = []                       # taxel ids that never answer (they read their rest)
+//! missing_modules = []            # "can0:5": modules whose data never arrives
+//! dropout = 0.0                   # chance a module's data is lost in a frame
+//! seed = 1                        # gains, rests and noise are drawn from it
 //! ```
 //!
 //! [`Session::from_config`]: super::Session::from_config
@@ -73,6 +87,8 @@ pub struct SessionConfig {
     pub gate: Option<ClassGate>,
     /// Links stitched across joints.
     pub stitch: Option<StitchConfig>,
+    /// How a simulated skin answers (Python's `skin.sim`); the session itself does not read it.
+    pub sim: Option<SimConfig>,
     /// The file this came from; paths are relative to its folder.
     #[serde(skip)]
     pub path: PathBuf,
@@ -172,6 +188,105 @@ pub struct StitchConfig {
     pub poses: PathBuf,
 }
 
+/// `[sim]`: the response model of a simulated skin, from the stress under each taxel to the
+/// counts it reads (Python's `skin.sim` applies it to MuJoCo's contacts; see the module's table
+/// for the defaults). The contact force is spread over the surface in proportion to how deep
+/// each point is pressed (a Winkler bed) and carried down to the taxels by Boussinesq's
+/// point-load stress through the cover's thickness; a taxel reads `rest + gain * full_scale * s / (s + half_scale)` of
+/// stress `s` (a capacitive cell stiffens), plus noise, rounded, within 0 and full scale
+/// (falling polarity: `rest` minus it).
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimConfig {
+    /// Frames a second the skin delivers (0.1 to 10,000).
+    pub frame_rate_hz: f64,
+    /// Thickness of the elastic cover over the taxels, millimetres (0.1 to 50).
+    pub cover_mm: f64,
+    /// Stress at a taxel that reads half of full scale, kPa (0.01 to 1e6).
+    pub half_scale_kpa: f64,
+    /// Counts at saturation (1 to 65,535).
+    pub full_scale: f64,
+    /// Each taxel's gain is drawn uniformly in 1 +- this (0 to 0.9).
+    pub gain_spread: f64,
+    /// Counts at rest (0 to full scale).
+    pub rest: f64,
+    /// Rests differ from taxel to taxel by up to this many counts (0 to full scale).
+    pub rest_spread: f64,
+    /// Noise, counts (standard deviation, 0 to full scale).
+    pub noise: f64,
+    /// Taxel ids that never answer (they read their rest).
+    pub dead: Vec<u32>,
+    /// Modules whose data never arrives, `INTERFACE:ADDRESS` as the bus map names them.
+    pub missing_modules: Vec<String>,
+    /// The chance that a module's data is lost in a frame (0 to 1).
+    pub dropout: f64,
+    /// Seed of the gains, rests, noise and dropouts.
+    pub seed: u64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            frame_rate_hz: 20.0,
+            cover_mm: 2.5,
+            half_scale_kpa: 150.0,
+            full_scale: 4095.0,
+            gain_spread: 0.15,
+            rest: 200.0,
+            rest_spread: 20.0,
+            noise: 1.0,
+            dead: Vec::new(),
+            missing_modules: Vec::new(),
+            dropout: 0.0,
+            seed: 1,
+        }
+    }
+}
+
+impl SimConfig {
+    /// Every number in its range, every module named `INTERFACE:ADDRESS`.
+    fn check(&self, path: &Path) -> Result<(), ConfigError> {
+        let value = |field: &'static str, value: String, expected: &'static str| ConfigError::Value {
+            file: path.to_owned(),
+            field,
+            value,
+            expected,
+        };
+        let fs = self.full_scale.max(1.0);
+        let counts = "counts from 0 to full_scale";
+        #[rustfmt::skip]
+        let ranges = [
+            ("[sim] frame_rate_hz", self.frame_rate_hz, 0.1, 10_000.0, "frames a second from 0.1 to 10000"),
+            ("[sim] cover_mm", self.cover_mm, 0.1, 50.0, "millimetres from 0.1 to 50"),
+            ("[sim] half_scale_kpa", self.half_scale_kpa, 0.01, 1e6, "kPa from 0.01 to 1e6"),
+            ("[sim] full_scale", self.full_scale, 1.0, 65_535.0, "counts from 1 to 65535"),
+            ("[sim] gain_spread", self.gain_spread, 0.0, 0.9, "a fraction from 0 to 0.9"),
+            ("[sim] rest", self.rest, 0.0, fs, counts),
+            ("[sim] rest_spread", self.rest_spread, 0.0, fs, counts),
+            ("[sim] noise", self.noise, 0.0, fs, counts),
+            ("[sim] dropout", self.dropout, 0.0, 1.0, "a probability from 0 to 1"),
+        ];
+        for (field, v, lo, hi, expected) in ranges {
+            if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                return Err(value(field, v.to_string(), expected));
+            }
+        }
+        for m in &self.missing_modules {
+            let ok = m
+                .rsplit_once(':')
+                .is_some_and(|(bus, address)| !bus.is_empty() && address.parse::<u32>().is_ok());
+            if !ok {
+                return Err(value(
+                    "[sim] missing_modules",
+                    m.chars().take(40).collect(),
+                    "INTERFACE:ADDRESS, e.g. \"can0:5\"",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl SessionConfig {
     /// Reads and checks a configuration file.
     pub fn read(path: &Path) -> Result<SessionConfig, ConfigError> {
@@ -263,6 +378,7 @@ impl SessionConfig {
             }
         }
         config.image_size()?;
+        config.sim.as_ref().map_or(Ok(()), |sim| sim.check(path))?;
         Ok(config)
     }
 

@@ -44,7 +44,9 @@ mod stats;
 mod stitching;
 mod summary;
 
-pub use config::{BaselineConfig, ContactRule, SessionConfig, SplitConfig, StitchConfig, TouchConfig};
+pub use config::{
+    BaselineConfig, ContactRule, SessionConfig, SimConfig, SplitConfig, StitchConfig, TouchConfig,
+};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, GreyImage, MissingModule, ProcessedFrame};
 pub use sink::{Flow, JsonLines, PngImages, Sink};
