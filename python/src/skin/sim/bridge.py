@@ -1,0 +1,357 @@
+"""The skin on a MuJoCo model: where each taxel sits, what it reads.
+
+`SkinBridge.attach` adds to a model's spec, for each link of the layout:
+
+- a sensor surface: the link's skin triangulated (the layout's triangles, else the tactile map's)
+  and cut finer (`spacing_mm`, 2 mm by default), a non-colliding mesh on the link's body, and
+  MuJoCo's `tactile` sensor on it, which reports at every vertex how deep another geom presses
+  it (computed once per skin frame: the sensor's `interval`);
+- what is touched (`contact`): "hull", the convex hull of the taxels and of the same points 5 mm
+  under them (the cover as a solid, for a bare layout or a robot model without collision geoms
+  there), or "model", the body's own geoms.
+
+Each skin frame (`SkinBridge.frame`) then turns the simulation into readings:
+
+1. the force of every contact on the link's body (`mj_contactForce`) is spread over the surface in
+   proportion to each vertex's depth times its area (a Winkler bed: the pressure follows how far
+   the cover is pressed in, the total is MuJoCo's force); a contact that presses no vertex (a mesh
+   geom the tactile sensor does not see, a touch under the sampling) puts its force on the vertex
+   nearest to it;
+2. the cover carries that load to each taxel (Boussinesq, `surface.boussinesq`);
+3. `Response` makes counts of the stress: gain, saturation, rest, noise, dead taxels, modules lost.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .. import _skin
+from .response import Response
+from .surface import Kernel, Surface, boussinesq, sample_surface
+
+_PathLike = Union[str, Path]
+
+#: How far under the taxels the "hull" contact surface reaches, metres.
+HULL_DEPTH = 0.005
+
+#: The "hull" cover's contact softness (MuJoCo's solref and solimp): softer than MuJoCo's default
+#: (0.02 s; 0.9 to 0.95 over 1 mm), as a skin's foam and silicone are.
+COVER_SOLREF = (0.03, 1.0)
+COVER_SOLIMP = (0.5, 0.95, 0.005, 0.5, 2.0)
+
+
+def _mujoco():
+    try:
+        import mujoco
+    except ImportError as e:  # pragma: no cover - said to the user
+        raise ImportError("skin.sim needs MuJoCo: pip install mujoco (Python 3.11 or later)") from e
+    return mujoco
+
+
+@dataclass
+class _Link:
+    name: str
+    body: str
+    ids: np.ndarray
+    positions: np.ndarray
+    surface: Surface
+    kernel: Kernel
+    # Set by bind():
+    body_id: int = -1
+    adr: int = -1
+    geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+
+@dataclass
+class SimFrame:
+    """One frame of the simulated skin, as the buses would deliver it."""
+
+    #: Seconds, the simulation's clock.
+    time: float
+    #: Per link (layout order), raw counts, (N_link,) float32.
+    readings: List[np.ndarray]
+    #: With a bus map: (S,) counts in bus-map slot order; else None.
+    slots: Optional[np.ndarray]
+    #: Modules whose data did not arrive in this frame, (interface, address).
+    missing: List[Tuple[str, int]]
+    #: Per link, the stress at each taxel, pascals (before the response).
+    stress: List[np.ndarray]
+
+    def push(self, session) -> list:
+        """Through a `skin.Session`: by the buses' path when the session has a bus map (missing
+        modules reported as a CAN log's are), else as one reading per taxel. Returns its events."""
+        if self.slots is not None:
+            return session.push_bus(self.slots, self.time, self.missing)
+        return session.push(self.readings, self.time)
+
+
+class SkinBridge:
+    """A skin layout simulated on a MuJoCo model (see the module's docs)."""
+
+    def __init__(
+        self,
+        layout,
+        *,
+        busmap=None,
+        response: Optional[Mapping] = None,
+        polarity: str = "rising",
+        spacing_mm: float = 3.0,
+    ) -> None:
+        """`layout`: a `skin.Layout` or a path to any layout file `skin` reads; `busmap`: a
+        `skin.BusMap` or its path (frames then follow the buses, missing modules included);
+        `response`: a `[sim]` table (`skin.read_sim_config`), defaults when None."""
+        if isinstance(layout, (str, Path)):
+            layout = _skin.read_layout(layout)
+        if isinstance(busmap, (str, Path)):
+            busmap = _skin.BusMap.read(busmap)
+        if not (0.1 <= spacing_mm <= 50.0):
+            raise ValueError(f"spacing_mm = {spacing_mm}: millimetres from 0.1 to 50")
+        if polarity not in ("rising", "falling"):
+            raise ValueError(f'polarity = {polarity!r}: "rising" or "falling"')
+        self.layout = layout
+        self.busmap = busmap
+        self.config = dict(response) if response is not None else None
+        self.spacing = spacing_mm * 1e-3
+        cfg = self.config if self.config is not None else _skin.read_sim_config()
+        self.cover = float(cfg["cover_mm"]) * 1e-3
+        self.frame_rate = float(cfg["frame_rate_hz"])
+        self._links: List[_Link] = []
+        for link in layout.links:
+            faces = link.faces
+            if faces is None:
+                tmap = _skin.flatten(link, triangulate=True)
+                order = _order_of(tmap.ids, link.ids)
+                faces = order[np.asarray(tmap.faces)]
+            surface = sample_surface(link.positions, faces, self.spacing)
+            self._links.append(
+                _Link(
+                    name=link.name,
+                    body=link.name,
+                    ids=np.asarray(link.ids),
+                    positions=np.asarray(link.positions),
+                    surface=surface,
+                    kernel=boussinesq(link.positions, surface.points, self.cover),
+                )
+            )
+        self.response = Response(
+            [l.ids for l in self._links], cfg, busmap=busmap, polarity=polarity
+        )
+        self._model = None
+        self._steps_per_frame = 0
+
+    @classmethod
+    def from_config(cls, path: _PathLike, *, spacing_mm: float = 3.0) -> "SkinBridge":
+        """The layout, bus map, polarity and `[sim]` response of a run configuration (`skin run`'s
+        run.toml; paths in it relative to it)."""
+        path = Path(path)
+        response = _skin.read_sim_config(path)  # checks the whole file, names what is wrong
+        with open(path, "rb") as f:
+            table = tomllib.load(f)
+        base = path.parent
+        busmap = table.get("busmap")
+        polarity = table.get("baseline", {}).get("polarity", "rising")
+        return cls(
+            base / table["layout"],
+            busmap=base / busmap if busmap else None,
+            response=response,
+            polarity=polarity,
+            spacing_mm=spacing_mm,
+        )
+
+    @property
+    def links(self) -> List[str]:
+        return [l.name for l in self._links]
+
+    def surface(self, link: Union[int, str]) -> Surface:
+        """The points MuJoCo samples on a link (its frame, metres)."""
+        return self._links[self._index(link)].surface
+
+    def attach(
+        self,
+        spec,
+        *,
+        bodies: Optional[Mapping[str, str]] = None,
+        contact: str = "hull",
+    ) -> None:
+        """Adds the skin to `spec` (a `mujoco.MjSpec`, before `compile`): each link on the body of
+        its name, or `bodies[link]`. A link with no such body is an error naming both."""
+        mujoco = _mujoco()
+        if contact not in ("hull", "model"):
+            raise ValueError(f'contact = {contact!r}: "hull" or "model"')
+        bodies = dict(bodies or {})
+        unknown = set(bodies) - set(self.links)
+        if unknown:
+            raise ValueError(f"bodies names no link of the layout: {sorted(unknown)} (links: {self.links})")
+        dt = spec.option.timestep
+        steps = int(round(1.0 / (self.frame_rate * dt)))
+        if steps < 1 or abs(steps * dt * self.frame_rate - 1.0) > 1e-6:
+            raise ValueError(
+                f"frame_rate_hz = {self.frame_rate}: a skin frame must last a whole number of MuJoCo "
+                f"steps (timestep {dt} s); e.g. {1.0 / (max(steps, 1) * dt):g} Hz"
+            )
+        self._steps_per_frame = steps
+        for layout_link, link in zip(self.layout.links, self._links):
+            link.body = bodies.get(link.name, link.name)
+            body = spec.body(link.body)
+            if body is None:
+                names = [b.name for b in spec.bodies if b.name][:12]
+                raise ValueError(
+                    f"link {link.name!r}: the model has no body {link.body!r} (bodies: {', '.join(names)}); "
+                    "name it in bodies={link: body}"
+                )
+            tag = f"skin_{link.name}"
+            surf = spec.add_mesh(name=f"{tag}_surface")
+            surf.uservert = link.surface.points.ravel().tolist()
+            surf.userface = link.surface.faces.ravel().tolist()
+            surf.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+            g = body.add_geom(name=f"{tag}_surface")
+            g.type = mujoco.mjtGeom.mjGEOM_MESH
+            g.meshname = f"{tag}_surface"
+            g.contype = 0
+            g.conaffinity = 0
+            g.mass = 0.0
+            g.group = 4
+            g.rgba = [0.9, 0.6, 0.3, 0.4]
+            if contact == "hull":
+                inner = link.positions - HULL_DEPTH * np.asarray(layout_link.normals)
+                hull = spec.add_mesh(name=f"{tag}_cover")
+                hull.uservert = np.vstack([link.positions, inner]).ravel().tolist()
+                c = body.add_geom(name=f"{tag}_cover")
+                c.type = mujoco.mjtGeom.mjGEOM_MESH
+                c.meshname = f"{tag}_cover"
+                c.mass = 0.0
+                c.rgba = [0.8, 0.8, 0.75, 1.0]
+                # The cover is soft: a rigid object sinks into it (COVER_SOLREF / _SOLIMP win
+                # over the other geom's unless that one has a higher priority, as a hand's
+                # flesh does).
+                c.priority = 1
+                c.solref = list(COVER_SOLREF)
+                c.solimp = list(COVER_SOLIMP)
+            s = spec.add_sensor(name=tag)
+            s.type = mujoco.mjtSensor.mjSENS_TACTILE
+            s.objtype = mujoco.mjtObj.mjOBJ_MESH
+            s.objname = f"{tag}_surface"
+            s.reftype = mujoco.mjtObj.mjOBJ_GEOM
+            s.refname = f"{tag}_surface"
+            # Computed once per skin frame, at the step that starts it (frames count steps).
+            # The phase half a step early: the clock adds up `timestep` in floating point, and a
+            # frame due at 2.25 s must not wait for a clock that reads 2.2499999 to pass it.
+            s.nsample = 1
+            s.interval = [steps * dt, -0.5 * dt]
+
+    def bind(self, model) -> None:
+        """The compiled model's ids and sensor addresses; call once after `spec.compile()`."""
+        mujoco = _mujoco()
+        for link in self._links:
+            sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"skin_{link.name}")
+            if sid < 0:
+                raise ValueError(f"link {link.name!r}: the model has no skin sensor: attach() before compile()")
+            link.adr = int(model.sensor_adr[sid])
+            if model.sensor_dim[sid] != 3 * len(link.surface.points):
+                raise ValueError(f"link {link.name!r}: its sensor has {model.sensor_dim[sid] // 3} points, not {len(link.surface.points)}")
+            link.body_id = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.body))
+            link.geoms = np.flatnonzero(model.geom_bodyid == link.body_id)
+        self._model = model
+        self._steps_per_frame = int(round(1.0 / (self.frame_rate * model.opt.timestep)))
+        self._force = np.zeros(6)
+
+    def depth(self, data, link: Union[int, str] = 0) -> np.ndarray:
+        """MuJoCo's tactile reading of a link's surface points (`surface(link).points`): how deep
+        another geom presses each one, metres (as of the last skin frame)."""
+        l = self._links[self._index(link)]
+        return data.sensordata[l.adr : l.adr + len(l.surface.points)]
+
+    def owns_all_sensors(self, model) -> bool:
+        """The model's sensors are this skin's and no others."""
+        return int(model.nsensor) == len(self._links)
+
+    @property
+    def steps_per_frame(self) -> int:
+        """MuJoCo steps in one skin frame."""
+        return self._steps_per_frame
+
+    def stress(self, data) -> List[np.ndarray]:
+        """Per link, the stress reaching each taxel (Pa), from the sensor and the contacts of the
+        last step (`mj_step` leaves both as they were at the step's start)."""
+        mujoco = _mujoco()
+        model = self._model
+        if model is None:
+            raise RuntimeError("bind(model) first")
+        body_of = model.geom_bodyid
+        forces: Dict[int, List[Tuple[float, np.ndarray]]] = {l.body_id: [] for l in self._links}
+        for i in range(data.ncon):
+            c = data.contact[i]
+            if c.efc_address < 0:
+                continue
+            b1, b2 = int(body_of[c.geom1]), int(body_of[c.geom2])
+            if b1 == b2:
+                continue
+            mujoco.mj_contactForce(model, data, i, self._force)
+            fn = float(self._force[0])
+            if fn <= 0.0:
+                continue
+            for b in (b1, b2):
+                if b in forces:
+                    forces[b].append((fn, np.array(c.pos)))
+        out = []
+        for link in self._links:
+            touching = forces[link.body_id]
+            if not touching:
+                # Nothing on the link: no stress at any of its taxels.
+                out.append(np.zeros(len(link.ids)))
+                continue
+            f = np.zeros(len(link.surface.points))
+            if touching:
+                total = sum(fn for fn, _ in touching)
+                depth = data.sensordata[link.adr : link.adr + len(link.surface.points)]
+                load = depth * link.surface.areas
+                s = load.sum()
+                if s > 0.0:
+                    f = load * (total / s)
+                else:
+                    # No vertex pressed: each contact's force on the vertex nearest to it.
+                    rot = data.xmat[link.body_id].reshape(3, 3)
+                    origin = data.xpos[link.body_id]
+                    for fn, pos in touching:
+                        local = rot.T @ (pos - origin)
+                        k = int(np.argmin(((link.surface.points - local) ** 2).sum(axis=1)))
+                        f[k] += fn
+            out.append(link.kernel.stress(f))
+        return out
+
+    def frame(self, data, time: Optional[float] = None) -> SimFrame:
+        """The skin's frame now (after the `mj_step` that starts a frame: `SkinLoop` knows when);
+        `time` in seconds, the step's start by default."""
+        stress = self.stress(data)
+        readings, slots, missing = self.response.readings(stress)
+        if time is None:
+            time = float(data.time) - float(self._model.opt.timestep)
+        return SimFrame(time=max(time, 0.0), readings=readings, slots=slots, missing=missing, stress=stress)
+
+    def _index(self, link: Union[int, str]) -> int:
+        if isinstance(link, str):
+            try:
+                return self.links.index(link)
+            except ValueError:
+                raise KeyError(f"no link {link!r} (links: {self.links})") from None
+        return int(link)
+
+
+def _order_of(ids: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """For each position in `ids`, its index in `wanted` (the same ids in another order)."""
+    where = {int(t): k for k, t in enumerate(np.asarray(wanted))}
+    return np.array([where[int(t)] for t in np.asarray(ids)], dtype=np.int64)
+
+
+def robot_from_urdf(path: _PathLike):
+    """A `mujoco.MjSpec` of a URDF (MuJoCo's own importer), with every link kept as a body (no
+    fixed links fused away), so that the skin's links find theirs by name."""
+    mujoco = _mujoco()
+    spec = mujoco.MjSpec.from_file(str(path))
+    spec.compiler.fusestatic = False
+    return spec

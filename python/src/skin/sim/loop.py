@@ -1,0 +1,102 @@
+"""`skin` in the loop: MuJoCo steps, the skin's frames through the session, the events and the
+gate's action at every control step."""
+
+from __future__ import annotations
+
+from typing import Callable, List, Optional
+
+from .bridge import SimFrame, SkinBridge, _mujoco
+
+#: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
+Control = Callable[["SkinLoop"], None]
+
+
+class SkinLoop:
+    """A MuJoCo model and a `skin.Session` stepped together: every `bridge.steps_per_frame`
+    steps the skin delivers a frame (the step that starts it computes its sensor), the session
+    takes it and its events are kept. A controller (`control`) is called before every step with
+    this loop: `loop.gate` is the gate's action now ("stop", "comply", "slow", "resume", or None
+    with no gate or no touch), `loop.new_events()` the events since it last asked."""
+
+    def __init__(self, model, data, bridge: SkinBridge, session, *, control: Optional[Control] = None) -> None:
+        self.model = model
+        self.data = data
+        self.bridge = bridge
+        self.session = session
+        self.control = control
+        #: Every event of the session so far.
+        self.events: List = []
+        #: The last frame the skin delivered.
+        self.frame: Optional[SimFrame] = None
+        self._unread = 0
+        self._step = 0
+        self._mj = _mujoco()
+        bridge.bind(model)
+        # When the skin's sensors are the model's only ones, MuJoCo computes none between skin
+        # frames (the same readings, without the sensor's per-step bookkeeping); any other
+        # sensor keeps them all on, at every step.
+        self._sensor_bit = int(self._mj.mjtDisableBit.mjDSBL_SENSOR)
+        self._toggle = bridge.owns_all_sensors(model)
+
+    @property
+    def gate(self) -> Optional[str]:
+        """The gate's action now (None without a gate)."""
+        return self.session.gate
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def new_events(self) -> List:
+        """The events since the last call."""
+        new = self.events[len(self.events) - self._unread :] if self._unread else []
+        self._unread = 0
+        return new
+
+    def step(self) -> List:
+        """One control step and one MuJoCo step; returns the events of the skin frame it made
+        (none between frames)."""
+        if self.control is not None:
+            self.control(self)
+        frame_step = self._step % self.bridge.steps_per_frame == 0
+        before = self.data.time
+        if self._toggle:
+            opt = self.model.opt
+            if frame_step:
+                opt.disableflags &= ~self._sensor_bit
+            else:
+                opt.disableflags |= self._sensor_bit
+        self._mj.mj_step(self.model, self.data)
+        self._step += 1
+        if self.data.time <= before:
+            # MuJoCo resets a diverging simulation to its start: say so instead of feeding the
+            # session frames from the past.
+            raise RuntimeError(
+                f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it "
+                "(see its warning): smaller timestep, softer gains or lighter contacts"
+            )
+        if not frame_step:
+            return []
+        self.frame = self.bridge.frame(self.data)
+        events = self.frame.push(self.session)
+        self.events.extend(events)
+        self._unread += len(events)
+        return events
+
+    def run(self, seconds: float, until: Optional[Callable[["SkinLoop"], bool]] = None) -> List:
+        """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns the
+        events of that stretch."""
+        first = len(self.events)
+        end = self.data.time + seconds - 0.5 * self.model.opt.timestep
+        while self.data.time < end:
+            self.step()
+            if until is not None and until(self):
+                break
+        return self.events[first:]
+
+    def finish(self) -> List:
+        """Ends the session (open touches released); returns those events."""
+        events = self.session.finish()
+        self.events.extend(events)
+        self._unread += len(events)
+        return events

@@ -1,0 +1,511 @@
+"""skin.sim: the skin as a MuJoCo sensor, its frames through the session (headless).
+
+MuJoCo (`pip install mujoco`, Python 3.11+) is in the test requirements; without it these tests
+skip, saying so, unless SKIN_REQUIRE_MUJOCO is set (CI sets it)."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import skin
+from conftest import FIXTURES, SHARED_DATA
+
+try:
+    import mujoco
+except ImportError:  # pragma: no cover - depends on the machine
+    if os.environ.get("SKIN_REQUIRE_MUJOCO"):
+        raise
+    pytest.skip("MuJoCo is not installed (pip install mujoco; Python 3.11 or later)", allow_module_level=True)
+
+from skin.sim import FINGERS, Kit, PathFollower, SkinBridge, SkinLoop, bare_robot, robot_from_urdf, two_joint_arm
+
+CONFIG = FIXTURES / "session" / "run.toml"
+
+
+def scene(config=CONFIG, tools=("sphere",), sphere_radius=0.02, bridge=None, spec=None, **attach):
+    """The fixture forearm (or `bridge`'s skin) on fixed bodies, the kit's tools, compiled."""
+    bridge = bridge or SkinBridge.from_config(config)
+    spec = spec or bare_robot(bridge.layout)
+    kit = Kit(spec)
+    for tool in tools:
+        {"sphere": lambda: kit.add_sphere(radius=sphere_radius), "bar": lambda: kit.add_bar(radius=0.015), "hand": kit.add_hand}[tool]()
+    bridge.attach(spec, **attach)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    kit.bind(model, data)
+    return bridge, kit, model, data
+
+
+def contact_on_surface(model, data, body):
+    """MuJoCo's contact with `body`, moved from halfway into the penetration to the skin's
+    surface, and its normal force; None without one."""
+    f = np.zeros(6)
+    for i in range(data.ncon):
+        c = data.contact[i]
+        sides = (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2])
+        if body not in sides or sides[0] == sides[1]:
+            continue
+        outward = c.frame[:3] if sides[0] == body else -c.frame[:3]
+        mujoco.mj_contactForce(model, data, i, f)
+        return c.pos + outward * abs(c.dist) / 2, f[0]
+    return None
+
+
+def on_frames(loop, fn):
+    """`until` for loop.run: fn(loop) after every step that made a skin frame."""
+
+    def until(l):
+        if (l._step - 1) % l.bridge.steps_per_frame == 0:
+            fn(l)
+        return False
+
+    return until
+
+
+# --- MuJoCo's sensor against an independent reference ---------------------------------------
+
+
+@pytest.mark.parametrize("other_sensor", [False, True])
+def test_the_sensor_reads_the_analytic_depth_of_a_sphere_at_every_frame(other_sensor):
+    # A sphere's depth at a point is R - |p - c|: MuJoCo's tactile sensor, read once per skin
+    # frame, must give exactly that for every surface point at the frame's step, over a run long
+    # enough that the clock's rounding would show a stale frame. With the skin's sensors alone
+    # MuJoCo computes sensors at frame steps only; with another sensor in the model, at every
+    # step, the skin's by their interval.
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = bare_robot(bridge.layout)
+    if other_sensor:
+        spec.add_sensor(name="ball_height", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="forearm")
+    bridge, kit, model, data = scene(sphere_radius=0.03, bridge=bridge, spec=spec)
+    path = [[0.08 * np.sin(a), 0.12 + 0.15 * k / 8, 0.08 * np.cos(a)] for k, a in enumerate(np.linspace(-0.4, 0.4, 9))]
+    normals = np.array(path) * [1, 0, 1]
+    kit.slide("sphere", path, normals, 8.0, start=1.0, duration=4.0, roll=True)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    assert bridge.owns_all_sensors(model) != other_sensor
+    surface = bridge.surface(0)
+    ball = model.body("sphere").id
+    checked = []
+
+    def check(l):
+        depth = bridge.depth(data, "forearm")
+        exact = np.maximum(0.0, 0.03 - np.linalg.norm(surface.points - data.xpos[ball], axis=1))
+        checked.append((np.abs(depth - exact).max(), exact.max()))
+
+    loop.run(5.2, until=on_frames(loop, check))
+    pressed = [err for err, deepest in checked if deepest > 0]
+    assert len(checked) == 104 and len(pressed) > 70
+    # Equal to the precision of the mesh (single-precision vertices); a stale frame is off by
+    # tenths of a millimetre.
+    assert max(err for err, _ in checked) < 1e-6
+
+
+# --- a sphere pressed at a known point, rolled along the forearm ----------------------------
+
+
+def inside_a_module(layout):
+    """The taxel of the fixture forearm nearest its top among those with the most neighbours
+    within 12.5 mm (inside a module, away from the strips between modules)."""
+    p = layout[0].positions
+    d = np.linalg.norm(p[:, None] - p[None], axis=2)
+    near = ((d > 1e-4) & (d < 0.0125)).sum(axis=1)
+    full = np.flatnonzero(near == near.max())
+    return int(full[np.argmin(np.abs(p[full, 0]) + np.abs(p[full, 1] - 0.18))])
+
+
+def test_a_sphere_pressed_at_a_known_point():
+    bridge, kit, model, data = scene()
+    link = bridge.layout[0]
+    i = inside_a_module(bridge.layout)
+    point, normal = link.positions[i], link.normals[i]
+    forces = [3.0, 6.0, 12.0, 20.0]
+    for k, f in enumerate(forces):
+        kit.press("sphere", point, normal, f, start=1.5 + 1.5 * k, duration=1.2)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    forearm = model.body("forearm").id
+    seen = []
+
+    def sample(l):
+        for k in range(len(forces)):
+            if abs(l.frame.time - (1.5 + 1.5 * k + 0.8)) < 1e-3:
+                at, fn = contact_on_surface(model, data, forearm)
+                contacts = l.session.contacts(0)
+                summed = sum(c.mean_pressure * len(c.taxels) for c in contacts)
+                seen.append((contacts, at, fn, summed))
+
+    events = loop.run(1.5 + 1.5 * len(forces), until=on_frames(loop, sample)) + loop.finish()
+    assert len(seen) == len(forces)
+    for (contacts, at, fn, _), f in zip(seen, forces):
+        assert len(contacts) == 1, f"{f} N: {len(contacts)} contacts"
+        err = np.linalg.norm(np.array(contacts[0].centroid) - at)
+        assert err < 0.003, f"{f} N: centroid {1e3 * err:.2f} mm from MuJoCo's contact point"
+        assert abs(fn - f) < 0.1 * f, f"MuJoCo's contact force {fn:.2f} N for {f} N pressed"
+    summed = [s for *_, s in seen]
+    assert all(b > a for a, b in zip(summed, summed[1:])), summed
+    touches = [e for e in events if e.kind == "released"]
+    assert len(touches) == len(forces) and all(e["class"] == "non_hand" for e in touches)
+
+
+def test_a_sphere_rolled_along_the_forearm_follows_mujocos_contact_path():
+    bridge, kit, model, data = scene(sphere_radius=0.03)
+    angles = np.linspace(-0.4, 0.5, 10)
+    path = np.array([[0.08 * np.sin(a), 0.12 + 0.1 * k / 9, 0.08 * np.cos(a)] for k, a in enumerate(angles)])
+    kit.slide("sphere", path, path * [1, 0, 1], 8.0, start=1.5, duration=3.0, roll=True)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    forearm = model.body("forearm").id
+    ours, theirs = [], []
+
+    def sample(l):
+        if 1.8 < l.time < 4.3:
+            contacts = l.session.contacts(0)
+            found = contact_on_surface(model, data, forearm)
+            if contacts and found:
+                ours.append(np.array(contacts[0].centroid))
+                theirs.append(found[0])
+
+    events = loop.run(5.0, until=on_frames(loop, sample)) + loop.finish()
+    assert [e.kind for e in events if e.kind in ("appeared", "released")] == ["appeared", "released"]
+    assert len(ours) >= 45
+    theirs = np.array(theirs)
+
+    def to_path(p):
+        a, b = theirs[:-1], theirs[1:]
+        t = np.clip(((p - a) * (b - a)).sum(1) / np.maximum(((b - a) ** 2).sum(1), 1e-18), 0, 1)
+        return np.linalg.norm(p - (a + t[:, None] * (b - a)), axis=1).min()
+
+    off = np.array([to_path(p) for p in ours])
+    # The path crosses the strips between the forearm's modules, where no taxel lies for 8 mm
+    # and more: there the taxels' centroid is drawn to the module that has them (up to 4 mm
+    # here); everywhere else it lies within 3 mm.
+    assert np.percentile(off, 90) < 0.003 and off.max() < 0.005, (np.percentile(off, 90), off.max())
+    assert np.median(off) < 0.0015
+
+
+# --- the scene kit and HandsNet ------------------------------------------------------------
+
+
+def central_taxels(config=CONFIG):
+    tmap = skin.read_map(FIXTURES / "forearm" / "layout.json")
+    lo, hi = tmap.uv.min(0), tmap.uv.max(0)
+    c, half = (lo + hi) / 2, (hi - lo) / 2
+    return (np.abs(tmap.uv[:, 0] - c[0]) <= 0.6 * half[0]) & (np.abs(tmap.uv[:, 1] - c[1]) <= 0.3 * half[1])
+
+
+@pytest.fixture(scope="module")
+def fifty_presses():
+    """50 scripted presses of the fixture forearm (hand, bar, sphere in turn; random places,
+    forces, yaws and fingers), through the session with the shipped models."""
+    bridge, kit, model, data = scene(tools=("hand", "bar", "sphere"), sphere_radius=0.03)
+    link = bridge.layout[0]
+    central = central_taxels()
+    actions = kit.random_presses(link.positions[central], link.normals[central], 50, seed=11, yaws=(-0.6, 0.6))
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    forearm = model.body("forearm").id
+    pads = [set() for _ in actions]
+
+    def sample(l):
+        for k, a in enumerate(actions):
+            if a.tool == "hand" and a.start + 0.3 < l.time < a.start + 0.8:
+                forces = kit.touching("hand", forearm, distal=True)
+                pads[k] |= {p for p, f in forces.items() if p in FINGERS and f > 0.3}
+
+    end = actions[-1].start + actions[-1].duration + 0.5
+    events = loop.run(end, until=on_frames(loop, sample)) + loop.finish()
+    return actions, pads, events
+
+
+def touches_of(actions, events):
+    touches = {}
+    for e in events:
+        if e.kind == "appeared":
+            touches[e.touch] = {"start": e.time, "class": None, "parts": []}
+        elif e.kind == "classified" and e["class"] == "hand":
+            touches[e.touch]["parts"] = e.parts
+        elif e.kind == "released":
+            touches[e.touch]["class"] = e["class"]
+    return [[t for t in touches.values() if a.start <= t["start"] <= a.start + a.duration] for a in actions]
+
+
+def test_fifty_presses_handsnet_unchanged_tells_hands_from_objects(fifty_presses):
+    actions, _, events = fifty_presses
+    per_press = touches_of(actions, events)
+    right = {"hand": [], "non_hand": []}
+    for a, touches in zip(actions, per_press):
+        want = "hand" if a.tool == "hand" else "non_hand"
+        right[want].append(len(touches) >= 1 and touches[0]["class"] == want)
+    hands, others = np.mean(right["hand"]), np.mean(right["non_hand"])
+    assert len(right["hand"]) == 17 and len(right["non_hand"]) == 33
+    assert hands >= 0.9 and others >= 0.9, (hands, others)
+
+
+def test_the_hand_presses_with_the_fingers_the_script_names(fifty_presses):
+    # A lifted finger never presses; a pressing one reaches the skin unless the skin ends under
+    # it (a thumb over the forearm's flank).
+    actions, pads, _ = fifty_presses
+    hands = [(set(a.fingers), p) for a, p in zip(actions, pads) if a.tool == "hand"]
+    assert all(p <= chosen for chosen, p in hands), hands
+    assert np.mean([p == chosen for chosen, p in hands]) >= 0.75, hands
+    assert np.mean([p == chosen - {"thumb"} for chosen, p in hands if p != chosen]) == 1.0, hands
+
+
+def test_every_hand_touch_gets_its_parts(fifty_presses):
+    # The segmenter runs on the touches HandsNet calls hands and names parts it knows. (How
+    # often its parts are the fingers that pressed is the segmenter's accuracy, not the
+    # bridge's: see python/bench/sim_presses.py.)
+    actions, _, events = fifty_presses
+    hands = [t[0] for a, t in zip(actions, touches_of(actions, events)) if a.tool == "hand" and t and t[0]["class"] == "hand"]
+    assert hands and all(t["parts"] for t in hands)
+    names = {p["part"] for t in hands for p in t["parts"]}
+    assert names <= set(FINGERS) | {"palm"} and "palm" in names
+
+
+# --- skin in the loop: the pHRI scene -------------------------------------------------------
+
+
+def test_the_gate_stops_the_arm_when_a_hand_touches_it():
+    # The fixture session's gate: hand -> comply (the arm stops following its path and yields),
+    # non_hand -> stop. A hand on the moving forearm halts the path within a decision; the
+    # path goes on when the hand leaves; a bar halts it as well; untouched it never stops.
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = two_joint_arm("forearm")
+    bridge, kit, model, data = scene(tools=("hand", "bar"), bridge=bridge, spec=spec)
+    path = lambda s: np.array([0.5 * np.sin(2 * np.pi * s / 8), 0.4 * np.sin(2 * np.pi * s / 6)])
+    arm = PathFollower(model, data, ["shoulder", "elbow"], path)
+    kit.press("hand", [0, 0.18, 0.08], [0, 0, 1], 12.0, start=2.0, duration=2.0, body="forearm")
+    kit.press("bar", [0, 0.2, 0.08], [0, 0, 1], 12.0, start=6.0, duration=2.0, body="forearm")
+
+    def control(loop):
+        kit.control(loop)
+        arm(loop)
+        trace.append((loop.time, loop.gate, arm.s, arm.q()))
+
+    trace = []
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=control)
+    events = loop.run(10.0) + loop.finish()
+    decided = [e for e in events if e.kind == "released"]
+    assert [e["class"] for e in decided] == ["hand", "non_hand"]
+    touched = [e.time for e in events if e.kind == "appeared"]
+    gate = {round(e.time, 3): e.action for e in events if e.kind == "gate"}
+    assert list(gate.values()) == ["comply", "resume", "stop", "resume"]
+    t, gates, s, q = zip(*trace)
+    t, s, q = np.array(t), np.array(s), np.array(q)
+    # Stopped on its path; complying, it yields to the hand's push, slowly; stopped, it holds
+    # (its servos give a hundredth of a radian as the bar presses).
+    for start, action, most in ((touched[0], "comply", 0.1), (touched[1], "stop", 0.05)):
+        # Stopped from the decision (3 frames after the touch appears) to the release.
+        halted = (t > start + 0.2) & (t < start + 1.6)
+        assert all(g == action for g, h in zip(gates, halted) if h)
+        assert np.ptp(s[halted]) == 0.0
+        speed = np.abs(np.diff(q[halted], axis=0)).max() / model.opt.timestep
+        assert speed < most, f"{action}: the arm still turns at {speed:.3f} rad/s"
+    moving = (t < touched[0]) | ((t > decided[0].time + 0.1) & (t < touched[1])) | (t > decided[1].time + 0.1)
+    assert np.all(np.diff(s[moving]) >= 0) and s[-1] > 5.0
+    assert np.abs(np.diff(q[t < touched[0]], axis=0)).max() / model.opt.timestep > 0.2
+
+
+# --- the response model: readings as the real skin gives them -------------------------------
+
+
+def sim_config(tmp_path, sim: str, busmap=True):
+    text = f'layout = "{FIXTURES / "forearm" / "layout.json"}"\n'
+    if busmap:
+        text += f'busmap = "{FIXTURES / "forearm" / "busmap.toml"}"\n'
+    path = tmp_path / "run.toml"
+    path.write_text(text + "[sim]\n" + sim)
+    return path
+
+
+def test_untouched_frames_are_rest_gain_and_noise_as_configured(tmp_path):
+    config = sim_config(tmp_path, "rest = 300\nrest_spread = 10\nnoise = 2\nseed = 4\n")
+    bridge, kit, model, data = scene(config)
+    frames = []
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config))
+    loop.run(2.0, until=on_frames(loop, lambda l: frames.append(l.frame.readings[0])))
+    frames = np.array(frames)
+    assert frames.shape == (40, 715) and np.all(frames == np.round(frames))
+    per_taxel = frames.mean(axis=0)
+    # Rests within 300 +- 10, each seen through 40 frames of noise (2 counts: 0.3 on a mean).
+    assert 289 <= per_taxel.min() and per_taxel.max() <= 311 and abs(per_taxel.mean() - 300) < 1
+    assert abs(frames.std(axis=0).mean() - 2.0) < 0.15
+    # The same seed, the same frames.
+    bridge2, _, model2, data2 = scene(config)
+    again = []
+    loop2 = SkinLoop(model2, data2, bridge2, skin.Session.from_config(config))
+    loop2.run(2.0, until=on_frames(loop2, lambda l: again.append(l.frame.readings[0])))
+    assert np.array_equal(frames, np.array(again))
+
+
+def test_saturation_gain_spread_and_dead_taxels(tmp_path):
+    config = sim_config(tmp_path, "full_scale = 1000\nhalf_scale_kpa = 20\nnoise = 0\nrest_spread = 0\ngain_spread = 0.2\ndead = [16, 17]\n")
+    bridge = SkinBridge.from_config(config)
+    response = bridge.response
+    stress = [np.full(715, 1e7)]  # far beyond saturation
+    counts = response.counts(stress)[0]
+    assert counts.max() == 1000 and counts[2:].min() >= 200 + 0.8 * 1000 * 1e7 / (1e7 + 2e4) - 1
+    assert list(counts[:2]) == [200, 200]  # taxels 16 and 17: dead, their rest
+    half = response.counts([np.full(715, 2e4)])[0][2:] - 200
+    gains = half / 500.0
+    assert 0.8 <= gains.min() < 0.85 and 1.15 < gains.max() <= 1.2
+
+
+def test_missing_modules_and_dropouts_reach_the_session_as_a_logs_do(tmp_path):
+    config = sim_config(tmp_path, 'missing_modules = ["can0:5"]\ndropout = 0.01\nseed = 3\n')
+    bridge, kit, model, data = scene(config)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config))
+    events = loop.run(4.0)
+    incomplete = [e for e in events if e.kind == "incomplete"]
+    assert len(incomplete) == 80  # every frame lacks module 5
+    assert all({"bus": "can0", "address": 5} in e.missing for e in incomplete)
+    others = sum(len(e.missing) - 1 for e in incomplete)
+    assert 20 <= others <= 90  # 80 frames x 64 modules x 1%: about 51
+    assert loop.session.stats["incomplete"] == 80
+
+
+def test_a_layout_with_no_bus_map_pushes_readings_per_taxel(tmp_path):
+    config = sim_config(tmp_path, "noise = 0\n", busmap=False)
+    bridge, kit, model, data = scene(config)
+    kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 8.0, start=1.5, duration=1.0)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config), control=kit.control)
+    events = loop.run(3.0)
+    assert loop.frame.slots is None
+    assert [e.kind for e in events if e.kind in ("appeared", "released")] == ["appeared", "released"]
+    with pytest.raises(ValueError, match="need a bus map"):
+        SkinBridge.from_config(sim_config(tmp_path, "dropout = 0.1\n", busmap=False))
+
+
+# --- bad input: named -----------------------------------------------------------------------
+
+
+def test_bad_input_is_named(tmp_path):
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_body(name="upper_arm")
+    with pytest.raises(ValueError, match="link 'forearm': the model has no body 'forearm' .*upper_arm"):
+        bridge.attach(spec)
+    with pytest.raises(ValueError, match="bodies names no link"):
+        bridge.attach(spec, bodies={"wrist": "upper_arm"})
+    with pytest.raises(ValueError, match="contact = 'soft'"):
+        bridge.attach(spec, bodies={"forearm": "upper_arm"}, contact="soft")
+    spec = bare_robot(bridge.layout, timestep=0.003)
+    with pytest.raises(ValueError, match="frame_rate_hz = 20.0: a skin frame must last a whole number"):
+        bridge.attach(spec)
+    with pytest.raises(ValueError, match=r"\[sim\] dead: taxel 5 is on no link"):
+        SkinBridge.from_config(sim_config(tmp_path, "dead = [5]\n"))
+    with pytest.raises(ValueError, match=r"\[sim\] missing_modules: can1:5 is no module"):
+        SkinBridge.from_config(sim_config(tmp_path, 'missing_modules = ["can1:5"]\n'))
+    with pytest.raises(skin.ConfigError, match=r"\[sim\] noise"):
+        SkinBridge.from_config(sim_config(tmp_path, "noise = -1\n"))
+    with pytest.raises(ValueError, match="spacing_mm"):
+        SkinBridge(FIXTURES / "forearm" / "layout.json", spacing_mm=0)
+    with pytest.raises(KeyError, match="no tool 'ball'"):
+        Kit(bare_robot(bridge.layout)).press("ball", [0, 0, 0], [0, 0, 1], 1.0, 0.0, 1.0)
+
+
+def test_a_diverging_simulation_is_an_error_not_frames_from_the_past(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT here
+    bridge, kit, model, data = scene()
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG))
+    loop.run(0.2)
+    data.qvel[:] = 1e30  # MuJoCo resets the data to its start
+    with pytest.raises(RuntimeError, match="diverged at t = 0.2"):
+        loop.run(0.1)
+
+
+# --- other layouts, and a URDF, checked the same way --------------------------------------
+
+
+def press_a_central_taxel(bridge, spec, body_of, session, contact="hull"):
+    """A 2 cm ball pressed with 3, 6 and 12 N on a taxel with many neighbours near each link's
+    middle: per link and force (contacts, centroid error m, summed pressure)."""
+    kit = Kit(spec)
+    kit.add_sphere(radius=0.02)
+    bridge.attach(spec, bodies=body_of, contact=contact)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    kit.bind(model, data)
+    forces = [3.0, 6.0, 12.0]
+    plan = []
+    t = 1.5
+    for k, link in enumerate(bridge.layout.links):
+        p, n = link.positions, link.normals
+        d = np.linalg.norm(p[:, None] - p[None], axis=2)
+        np.fill_diagonal(d, 1.0)
+        pitch = np.median(d.min(axis=1))
+        near = (d < 1.6 * pitch).sum(axis=1)
+        candidates = np.flatnonzero(near >= np.percentile(near, 75))
+        i = candidates[np.argmin(np.linalg.norm(p[candidates] - p.mean(axis=0), axis=1))]
+        for f in forces:
+            kit.press("sphere", p[i], n[i], f, start=t, duration=1.2, body=(body_of or {}).get(link.name, link.name))
+            plan.append((k, f, t + 0.8))
+            t += 1.5
+    loop = SkinLoop(model, data, bridge, session, control=kit.control)
+    results = []
+
+    def sample(l):
+        for k, f, at in plan:
+            if abs(l.frame.time - at) < 1e-3:
+                body = model.body((body_of or {}).get(bridge.links[k], bridge.links[k])).id
+                contacts = l.session.contacts(k)
+                found = contact_on_surface(model, data, body)
+                # The contact point in the link's frame, as the session's centroids are.
+                rot = data.xmat[body].reshape(3, 3)
+                local = rot.T @ (found[0] - data.xpos[body]) if found else None
+                err = np.linalg.norm(np.array(contacts[0].centroid) - local) if contacts and found else np.inf
+                results.append((k, f, len(contacts), err, sum(c.mean_pressure * len(c.taxels) for c in contacts)))
+
+    loop.run(t + 0.2, until=on_frames(loop, sample))
+    return results
+
+
+def check_presses(results, links):
+    assert len(results) == 3 * links
+    for k in range(links):
+        mine = [r for r in results if r[0] == k]
+        assert all(r[2] == 1 for r in mine), mine
+        assert all(r[3] < 0.003 for r in mine), mine
+        assert mine[0][4] < mine[1][4] < mine[2][4], mine
+
+
+OTHER_LAYOUTS = ["cyskin/ur10e_link1_patch1.json", "cyskin/hexagon_patch_zwick.json", "icub/left_forearm_V2.txt", "icub/torso.txt"]
+
+
+@pytest.mark.parametrize("name", OTHER_LAYOUTS)
+def test_real_layouts_are_simulated_as_the_fixture_is(name):
+    path = SHARED_DATA / name
+    if not path.exists():
+        pytest.skip(f"{path} is absent (the real third-party data beside the project)")
+    layout = skin.read_layout(path)
+    bridge = SkinBridge(layout)
+    results = press_a_central_taxel(bridge, bare_robot(layout), None, skin.Session.from_layout(layout))
+    check_presses(results, len(layout))
+
+
+URDF = """<robot name="two_pads">
+  <link name="base"/>
+  <link name="upper"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0.05 0.0375 -0.01"/><geometry><box size="0.14 0.11 0.02"/></geometry></collision></link>
+  <link name="lower"><inertial><mass value="0.5"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.01"/><geometry><box size="0.07 0.07 0.02"/></geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="50" velocity="1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="lower"/><origin xyz="0.3 0 0" rpy="1.5707963 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="50" velocity="1"/></joint>
+  <sensor name="upper_pad" update_rate="50"><parent link="upper"/><origin xyz="0 0 0" rpy="0 0 0"/>
+    <tactile><array rows="16" cols="12" size="0.006 0.006" spacing="0.007 0.007"/></tactile></sensor>
+  <sensor name="lower_pad" update_rate="50"><parent link="lower"/><origin xyz="0 0 0.02" rpy="0 0 0"/>
+    <tactile><array rows="10" cols="10" size="0.005 0.005" spacing="0.006 0.006" offset="0.027 0.027"/></tactile></sensor>
+</robot>
+"""
+
+
+@pytest.mark.parametrize("contact", ["hull", "model"])
+def test_a_urdf_with_tactile_sensors_is_robot_and_skin_at_once(tmp_path, contact):
+    # One file gives MuJoCo the robot (its importer) and skin the taxels (urdf_tactile): each
+    # link's skin lands on the body of its name, touched on the cover the bridge adds ("hull")
+    # or on the URDF's own collision boxes under the pads ("model").
+    path = tmp_path / "two_pads.urdf"
+    path.write_text(URDF)
+    layout = skin.read_layout(path)
+    assert layout.names == ["upper", "lower"]
+    bridge = SkinBridge(layout)
+    results = press_a_central_taxel(bridge, robot_from_urdf(path), None, skin.Session.from_layout(layout), contact=contact)
+    check_presses(results, 2)
