@@ -1,0 +1,119 @@
+"""Scripted presses of the fixture forearm in MuJoCo through the session with the shipped models:
+how often HandsNet is right, and how often the segmenter's parts are the fingers that pressed.
+
+    python python/bench/sim_presses.py [PRESSES] [SEEDS]      # default 50 presses, seeds 11..15
+
+Hand, bar and ball in turn at random places of the forearm's middle, random forces (hand 8-20 N,
+bar 5-20 N, ball 3-20 N), yaws within 0.6 rad of its axis (either way), a random set of fingers
+(each pressing with probability 0.7). A hand press's fingers are those whose fingertip pressed the
+skin with more than 0.3 N in mid-press (MuJoCo's contacts); the segmenter's are the finger parts
+it names at the touch's last classification as a hand. For comparison, the same finger-set rule
+on the segmenter's own kind of data: hands from `skin.synthesize` (a seed and subjects it was not
+trained on), truth from their part masks (a finger present with 4 pixels or more).
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import skin
+from skin.sim import FINGERS, Kit, SkinBridge, SkinLoop, bare_robot
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIG = ROOT / "fixtures" / "session" / "run.toml"
+
+
+def presses(count: int, seed: int):
+    import mujoco
+
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = bare_robot(bridge.layout)
+    kit = Kit(spec)
+    kit.add_hand()
+    kit.add_bar(radius=0.015)
+    kit.add_sphere(radius=0.03)
+    bridge.attach(spec)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    kit.bind(model, data)
+    tmap = skin.read_map(ROOT / "fixtures" / "forearm" / "layout.json")
+    lo, hi = tmap.uv.min(0), tmap.uv.max(0)
+    c, half = (lo + hi) / 2, (hi - lo) / 2
+    central = (np.abs(tmap.uv[:, 0] - c[0]) <= 0.6 * half[0]) & (np.abs(tmap.uv[:, 1] - c[1]) <= 0.3 * half[1])
+    link = bridge.layout[0]
+    actions = kit.random_presses(link.positions[central], link.normals[central], count, seed=seed, yaws=(-0.6, 0.6))
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    forearm = model.body("forearm").id
+    pressed = [set() for _ in actions]
+
+    def sample(l):
+        if (l._step - 1) % bridge.steps_per_frame:
+            return False
+        for k, a in enumerate(actions):
+            if a.tool == "hand" and a.start + 0.3 < l.time < a.start + 0.8:
+                forces = kit.touching("hand", forearm, distal=True)
+                pressed[k] |= {p for p, f in forces.items() if p in FINGERS and f > 0.3}
+        return False
+
+    events = loop.run(actions[-1].start + actions[-1].duration + 0.5, until=sample) + loop.finish()
+    touches = {}
+    for e in events:
+        if e.kind == "appeared":
+            touches[e.touch] = {"start": e.time, "class": None, "parts": []}
+        elif e.kind == "classified" and e["class"] == "hand":
+            touches[e.touch]["parts"] = e.parts
+        elif e.kind == "released":
+            touches[e.touch]["class"] = e["class"]
+    rows = []
+    for a, fingers in zip(actions, pressed):
+        mine = [t for t in touches.values() if a.start <= t["start"] <= a.start + a.duration]
+        cls = mine[0]["class"] if mine else None
+        parts = {p["part"] for p in mine[0]["parts"] if p["part"] in FINGERS} if mine else set()
+        rows.append((a.tool, cls, fingers, parts))
+    return rows
+
+
+def synthetic_baseline():
+    import onnxruntime as ort
+
+    tmap = skin.read_map(ROOT / "fixtures" / "forearm" / "layout.json")
+    data = skin.synthesize(tmap, 400, seed=99, subjects=10)
+    model = ort.InferenceSession(str(ROOT / "fixtures" / "models" / "handseg.onnx"))
+    name = model.get_inputs()[0].name
+    exact, agree, n = 0, 0, 0
+    for image, mask, hand in zip(data["images"], data["masks"], data["hand"]):
+        if not hand:
+            continue
+        labels = model.run(None, {name: image[None, None].astype(np.float32) / 255})[0][0].argmax(0)
+        truth = {FINGERS[k - 1] for k in range(1, 6) if (mask == k).sum() >= 4}
+        got = {FINGERS[k - 1] for k in range(1, 6) if (labels == k).sum() >= 4}
+        exact += truth == got
+        agree += sum((f in truth) == (f in got) for f in FINGERS)
+        n += 1
+    return n, exact / n, agree / (5 * n)
+
+
+def main() -> int:
+    count = int(sys.argv[1]) if len(sys.argv) > 1 else 50
+    seeds = range(11, 11 + (int(sys.argv[2]) if len(sys.argv) > 2 else 5))
+    rows = [r for seed in seeds for r in presses(count, seed)]
+    hands = [r for r in rows if r[0] == "hand"]
+    others = [r for r in rows if r[0] != "hand"]
+    print(f"{len(rows)} presses ({len(seeds)} seeds of {count}): HandsNet calls "
+          f"{np.mean([r[1] == 'hand' for r in hands]):.1%} of {len(hands)} hand presses hand and "
+          f"{np.mean([r[1] == 'non_hand' for r in others]):.1%} of {len(others)} others non_hand")
+    exact = np.mean([r[2] == r[3] for r in hands])
+    agree = np.mean([(f in r[2]) == (f in r[3]) for r in hands for f in FINGERS])
+    print(f"segmenter on the hand presses: the fingers that pressed exactly in {exact:.1%}, "
+          f"finger by finger {agree:.1%}")
+    try:
+        n, s_exact, s_agree = synthetic_baseline()
+        print(f"segmenter on {n} synthetic hands (seed 99): exactly {s_exact:.1%}, finger by finger {s_agree:.1%}")
+    except ImportError:
+        print("(onnxruntime is not installed: no synthetic baseline)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
