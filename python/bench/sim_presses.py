@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import skin
-from skin.sim import FINGERS, Kit, SkinBridge, SkinLoop, bare_robot
+from skin.sim import FINGERS, Kit, SkinBridge, SkinLoop, bare_robot, touches
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "fixtures" / "session" / "run.toml"
@@ -57,17 +57,10 @@ def presses(count: int, seed: int):
         return False
 
     events = loop.run(actions[-1].start + actions[-1].duration + 0.5, until=sample) + loop.finish()
-    touches = {}
-    for e in events:
-        if e.kind == "appeared":
-            touches[e.touch] = {"start": e.time, "class": None, "parts": []}
-        elif e.kind == "classified" and e["class"] == "hand":
-            touches[e.touch]["parts"] = e.parts
-        elif e.kind == "released":
-            touches[e.touch]["class"] = e["class"]
+    found = touches(events)
     rows = []
     for a, fingers in zip(actions, pressed):
-        mine = [t for t in touches.values() if a.start <= t["start"] <= a.start + a.duration]
+        mine = [t for t in found if a.start <= t["start"] <= a.start + a.duration]
         cls = mine[0]["class"] if mine else None
         parts = {p["part"] for p in mine[0]["parts"] if p["part"] in FINGERS} if mine else set()
         rows.append((a.tool, cls, fingers, parts))

@@ -19,7 +19,7 @@ except ImportError:  # pragma: no cover - depends on the machine
         raise
     pytest.skip("MuJoCo is not installed (pip install mujoco; Python 3.11 or later)", allow_module_level=True)
 
-from skin.sim import FINGERS, Kit, PathFollower, SkinBridge, SkinLoop, bare_robot, robot_from_urdf, two_joint_arm
+from skin.sim import FINGERS, Kit, PathFollower, SkinBridge, SkinLoop, bare_robot, robot_from_urdf, touches, two_joint_arm
 
 CONFIG = FIXTURES / "session" / "run.toml"
 
@@ -216,15 +216,9 @@ def fifty_presses():
 
 
 def touches_of(actions, events):
-    touches = {}
-    for e in events:
-        if e.kind == "appeared":
-            touches[e.touch] = {"start": e.time, "class": None, "parts": []}
-        elif e.kind == "classified" and e["class"] == "hand":
-            touches[e.touch]["parts"] = e.parts
-        elif e.kind == "released":
-            touches[e.touch]["class"] = e["class"]
-    return [[t for t in touches.values() if a.start <= t["start"] <= a.start + a.duration] for a in actions]
+    """Per action, the touches that appeared while it lasted."""
+    all_touches = touches(events)
+    return [[t for t in all_touches if a.start <= t["start"] <= a.start + a.duration] for a in actions]
 
 
 def test_fifty_presses_handsnet_unchanged_tells_hands_from_objects(fifty_presses):
@@ -247,6 +241,28 @@ def test_the_hand_presses_with_the_fingers_the_script_names(fifty_presses):
     assert all(p <= chosen for chosen, p in hands), hands
     assert np.mean([p == chosen for chosen, p in hands]) >= 0.75, hands
     assert np.mean([p == chosen - {"thumb"} for chosen, p in hands if p != chosen]) == 1.0, hands
+
+
+def test_a_hand_grasps_the_forearm_with_every_finger():
+    bridge, kit, model, data = scene(tools=("hand",))
+    kit.grasp("hand", [0, 0.18, 0.08], [0, 0, 1], 15.0, start=1.5, duration=1.5, axis=[0, 1, 0])
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    forearm = model.body("forearm").id
+    grip = {}
+
+    def sample(l):
+        if abs(l.frame.time - 2.5) < 1e-3:
+            grip.update(kit.touching("hand", forearm, distal=True))
+            grip["curl"] = min(data.qpos[model.joint(f"hand_{f}_1").qposadr[0]] for f in FINGERS[1:])
+
+    events = loop.run(3.5, until=on_frames(loop, sample)) + loop.finish()
+    # The fingers wrap around the forearm (the map's other direction): each presses with its
+    # pad, flexed by half a radian and more.
+    assert all(grip[f] > 0.5 for f in FINGERS) and grip["curl"] > 0.5, grip
+    found = touches(events)
+    assert len(found) == 1 and found[0]["class"] == "hand"
+    with pytest.raises(ValueError, match="axis lies along the normal"):
+        kit.grasp("hand", [0, 0.18, 0.08], [0, 0, 1], 15.0, start=9.0, duration=1.0, axis=[0, 0, 2])
 
 
 def test_every_hand_touch_gets_its_parts(fifty_presses):

@@ -37,7 +37,7 @@ if sys.version_info < (3, 11):  # pragma: no cover - said to the user
 
 from .arm import PathFollower, two_joint_arm
 from .bridge import SimFrame, SkinBridge, robot_from_urdf
-from .loop import SkinLoop
+from .loop import SkinLoop, touches
 from .response import Response
 from .scenes import FINGERS, Action, Kit, Tool, bare_robot
 from .surface import Kernel, Surface, boussinesq, sample_surface
@@ -58,5 +58,6 @@ __all__ = [
     "boussinesq",
     "robot_from_urdf",
     "sample_surface",
+    "touches",
     "two_joint_arm",
 ]

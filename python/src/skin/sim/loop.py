@@ -100,3 +100,22 @@ class SkinLoop:
         self.events.extend(events)
         self._unread += len(events)
         return events
+
+
+def touches(events) -> List[dict]:
+    """The touches of a run's events, in order: per touch its `touch` number, `link`, `start`
+    and `end` (seconds; None while open), the final `class` (None if undecided) and the `parts`
+    of its last decision as a hand ([] otherwise)."""
+    out: dict = {}
+    for e in events:
+        if e.kind == "appeared":
+            out[e.touch] = {"touch": e.touch, "link": e.link, "start": e.time, "end": None, "class": None, "parts": []}
+        elif e.kind in ("classified", "released") and e.touch in out:
+            t = out[e.touch]
+            if e.kind == "classified":
+                t["class"] = e["class"]
+                t["parts"] = e.parts if e["class"] == "hand" else t["parts"]
+            else:
+                t["end"] = e.time
+                t["class"] = e["class"]
+    return list(out.values())

@@ -1,5 +1,6 @@
-"""A scene kit for tests and examples: a sphere, a bar and a simple hand, pressing, sliding and
-grasping a skin, scripted like the fixture session.
+"""A scene kit for tests and examples: a sphere, a bar and a simple hand, pressing, sliding,
+rolling and grasping a skin (`Kit.press`, `slide`, `grasp`, `random_presses`), scripted like
+the fixture session.
 
 Every tool is a free body with no gravity, driven each step by a wrench (`xfrc_applied`): a
 stiff spring to the script's pose across the surface and about its axes, and along the surface's
@@ -359,6 +360,23 @@ class Kit:
     def press(self, tool: str, point, normal, force: float, start: float, duration: float, **kw) -> Action:
         """A press at `point` (world) along `normal` with `force` newtons."""
         return self.add(Action(tool, np.asarray(point, dtype=np.float64), np.asarray(normal, dtype=np.float64), force, start, duration, **kw))
+
+    def grasp(self, tool: str, point, normal, force: float, start: float, duration: float, *, axis, **kw) -> Action:
+        """A hand closed around a link: pressed at `point` with `normal`, its fingers across
+        `axis` (the link's long axis, world; the hand's fingers point along normal x axis, so
+        they wrap around the link), every finger flexed onto it."""
+        n = np.asarray(normal, dtype=np.float64)
+        n = n / np.linalg.norm(n)
+        across = np.cross(n, np.asarray(axis, dtype=np.float64))
+        if np.linalg.norm(across) < 1e-9:
+            raise ValueError("grasp: the axis lies along the normal; give the link's long axis")
+        across /= np.linalg.norm(across)
+        # The yaw that turns the hand's fingers (its y at yaw 0) onto `across`.
+        rot = np.zeros(9)
+        _mujoco().mju_quat2Mat(rot, _quat_from_z(n, 0.0))
+        y0 = rot.reshape(3, 3)[:, 1]
+        yaw = float(np.arctan2(np.cross(y0, across) @ n, y0 @ across))
+        return self.press(tool, point, n, force, start, duration, yaw=yaw, **kw)
 
     def slide(self, tool: str, path, normal, force: float, start: float, duration: float, **kw) -> Action:
         """A press moving along `path` (world points)."""
