@@ -57,7 +57,7 @@ def on_frames(loop, fn):
     """`until` for loop.run: fn(loop) after every step that made a skin frame."""
 
     def until(l):
-        if (l._step - 1) % l.bridge.steps_per_frame == 0:
+        if l.framed:
             fn(l)
         return False
 
@@ -67,13 +67,14 @@ def on_frames(loop, fn):
 # --- MuJoCo's sensor against an independent reference ---------------------------------------
 
 
-@pytest.mark.parametrize("other_sensor", [False, True])
-def test_the_sensor_reads_the_analytic_depth_of_a_sphere_at_every_frame(other_sensor):
+@pytest.mark.parametrize("other_sensor, steps_before", [(False, 0), (True, 0), (False, 7)])
+def test_the_sensor_reads_the_analytic_depth_of_a_sphere_at_every_frame(other_sensor, steps_before):
     # A sphere's depth at a point is R - |p - c|: MuJoCo's tactile sensor, read once per skin
     # frame, must give exactly that for every surface point at the frame's step, over a run long
     # enough that the clock's rounding would show a stale frame. With the skin's sensors alone
     # MuJoCo computes sensors at frame steps only; with another sensor in the model, at every
-    # step, the skin's by their interval.
+    # step, the skin's by their interval; a loop started off the frames' grid (steps made
+    # before it) keeps to the simulation's clock.
     bridge = SkinBridge.from_config(CONFIG)
     spec = bare_robot(bridge.layout)
     if other_sensor:
@@ -82,6 +83,8 @@ def test_the_sensor_reads_the_analytic_depth_of_a_sphere_at_every_frame(other_se
     path = [[0.08 * np.sin(a), 0.12 + 0.15 * k / 8, 0.08 * np.cos(a)] for k, a in enumerate(np.linspace(-0.4, 0.4, 9))]
     normals = np.array(path) * [1, 0, 1]
     kit.slide("sphere", path, normals, 8.0, start=1.0, duration=4.0, roll=True)
+    for _ in range(steps_before):
+        mujoco.mj_step(model, data)
     loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
     assert bridge.owns_all_sensors(model) != other_sensor
     surface = bridge.surface(0)
@@ -93,9 +96,9 @@ def test_the_sensor_reads_the_analytic_depth_of_a_sphere_at_every_frame(other_se
         exact = np.maximum(0.0, 0.03 - np.linalg.norm(surface.points - data.xpos[ball], axis=1))
         checked.append((np.abs(depth - exact).max(), exact.max()))
 
-    loop.run(5.2, until=on_frames(loop, check))
+    loop.run(5.2 - steps_before * model.opt.timestep, until=on_frames(loop, check))
     pressed = [err for err, deepest in checked if deepest > 0]
-    assert len(checked) == 104 and len(pressed) > 70
+    assert len(checked) == 104 - (steps_before > 0) and len(pressed) > 70
     # Equal to the precision of the mesh (single-precision vertices); a stale frame is off by
     # tenths of a millimetre.
     assert max(err for err, _ in checked) < 1e-6
@@ -306,15 +309,15 @@ def test_the_gate_stops_the_arm_when_a_hand_touches_it():
     assert list(gate.values()) == ["comply", "resume", "stop", "resume"]
     t, gates, s, q = zip(*trace)
     t, s, q = np.array(t), np.array(s), np.array(q)
-    # Stopped on its path; complying, it yields to the hand's push, slowly; stopped, it holds
-    # (its servos give a hundredth of a radian as the bar presses).
-    for start, action, most in ((touched[0], "comply", 0.1), (touched[1], "stop", 0.05)):
+    # Stopped on its path: complying, it gives way to the hand's push (a few hundredths of a
+    # radian); stopped, it holds (its servos give a hundredth of a radian as the bar presses).
+    for start, action, most in ((touched[0], "comply", 0.05), (touched[1], "stop", 0.02)):
         # Stopped from the decision (3 frames after the touch appears) to the release.
         halted = (t > start + 0.2) & (t < start + 1.6)
         assert all(g == action for g, h in zip(gates, halted) if h)
         assert np.ptp(s[halted]) == 0.0
-        speed = np.abs(np.diff(q[halted], axis=0)).max() / model.opt.timestep
-        assert speed < most, f"{action}: the arm still turns at {speed:.3f} rad/s"
+        drift = np.abs(q[halted] - q[halted][0]).max()
+        assert drift < most, f"{action}: the arm moved {drift:.3f} rad while halted"
     moving = (t < touched[0]) | ((t > decided[0].time + 0.1) & (t < touched[1])) | (t > decided[1].time + 0.1)
     assert np.all(np.diff(s[moving]) >= 0) and s[-1] > 5.0
     assert np.abs(np.diff(q[t < touched[0]], axis=0)).max() / model.opt.timestep > 0.2
@@ -366,16 +369,23 @@ def test_saturation_gain_spread_and_dead_taxels(tmp_path):
 
 
 def test_missing_modules_and_dropouts_reach_the_session_as_a_logs_do(tmp_path):
-    config = sim_config(tmp_path, 'missing_modules = ["can0:5"]\ndropout = 0.01\nseed = 3\n')
+    # Module 5 stops delivering once the baseline is learned (20 frames); every module is lost
+    # now and then. Each is reported as a CAN log's, and a press is still felt.
+    config = sim_config(tmp_path, 'missing_modules = ["can0:5"]\ndropout = 0.002\nseed = 3\n')
     bridge, kit, model, data = scene(config)
-    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config))
-    events = loop.run(4.0)
+    kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 8.0, start=2.0, duration=1.0)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config), control=kit.control)
+    events = loop.run(4.0) + loop.finish()
     incomplete = [e for e in events if e.kind == "incomplete"]
-    assert len(incomplete) == 80  # every frame lacks module 5
-    assert all({"bus": "can0", "address": 5} in e.missing for e in incomplete)
-    others = sum(len(e.missing) - 1 for e in incomplete)
-    assert 20 <= others <= 90  # 80 frames x 64 modules x 1%: about 51
-    assert loop.session.stats["incomplete"] == 80
+    with_5 = [e for e in incomplete if {"bus": "can0", "address": 5} in e.missing]
+    # From the first frame after the 20 complete ones on, every frame lacks module 5.
+    first = min(e.time for e in with_5)
+    assert first >= 1.0 and len(with_5) == 80 - round(first / 0.05) and len(with_5) >= 45
+    others = sum(len(e.missing) for e in incomplete) - len(with_5)
+    assert 1 <= others <= 25  # 80 frames x 65 modules x 0.2%: about 10
+    assert loop.session.stats["incomplete"] == len(incomplete)
+    found = touches(events)  # (this configuration names no model: tracked, not classified)
+    assert len(found) == 1 and 2.0 < found[0]["start"] < 2.3
 
 
 def test_a_layout_with_no_bus_map_pushes_readings_per_taxel(tmp_path):
@@ -416,6 +426,54 @@ def test_bad_input_is_named(tmp_path):
         SkinBridge(FIXTURES / "forearm" / "layout.json", spacing_mm=0)
     with pytest.raises(KeyError, match="no tool 'ball'"):
         Kit(bare_robot(bridge.layout)).press("ball", [0, 0, 0], [0, 0, 1], 1.0, 0.0, 1.0)
+    with pytest.raises(skin.ConfigError, match="unknown field `noize`"):
+        SkinBridge(FIXTURES / "forearm" / "layout.json", response={"noize": 1})
+    with pytest.raises(skin.ConfigError, match=r"\[sim\] cover_mm = 0"):
+        SkinBridge(FIXTURES / "forearm" / "layout.json", response={"cover_mm": 0})
+
+
+def test_a_press_is_checked_when_it_is_scripted():
+    bridge, kit, model, data = scene(tools=("sphere", "hand"))
+    top, up = [0, 0.18, 0.08], [0, 0, 1]
+    kit.press("sphere", top, up, 5.0, start=1.0, duration=1.0)
+    for kwargs, message in (
+        (dict(force=-1.0), "force = -1.0: newtons, 0 or more"),
+        (dict(force=float("nan")), "force = nan"),
+        (dict(normal=[0, 0, 0]), "each normal of non-zero length"),
+        (dict(point=[0, float("nan"), 0]), "must be finite"),
+        (dict(duration=0.0), "duration = 0.0"),
+        (dict(ramp=0.0), "ramp = 0.0"),
+        (dict(ramp=0.8), "ramp = 0.8: seconds, more than 0 and at most half the duration"),
+        (dict(start=1.5), "overlaps its action at 1-2 s"),
+        (dict(fingers=["index"]), "fingers are for a hand, this is a sphere"),
+    ):
+        args = dict(tool="sphere", point=top, normal=up, force=5.0, start=3.0, duration=1.0)
+        args.update(kwargs)
+        extra = {k: args.pop(k) for k in ("ramp", "fingers") if k in args}
+        with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+            kit.press(args["tool"], args["point"], args["normal"], args["force"], args["start"], args["duration"], **extra)
+    with pytest.raises(ValueError, match="fingers = 'index'"):
+        kit.press("hand", top, up, 5.0, 3.0, 1.0, fingers="index")
+    with pytest.raises(ValueError, match="fingers = \\['indx'\\]"):
+        kit.press("hand", top, up, 5.0, 3.0, 1.0, fingers=["indx"])
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    loop.run(0.5)
+    with pytest.raises(ValueError, match="starts at 0.2 s, the simulation is at 0.5"):
+        kit.press("hand", top, up, 5.0, 0.2, 1.0)
+    with pytest.raises(ValueError, match="seconds = -1"):
+        loop.run(-1)
+
+
+def test_the_loop_refuses_what_does_not_fit():
+    bridge, kit, model, data = scene()
+    other = skin.Session.from_layout(skin.read_layout(FIXTURES / "hex_patch" / "layout.json"))
+    with pytest.raises(ValueError, match="is not the bridge's"):
+        SkinLoop(model, data, bridge, other)
+    model.opt.timestep = 0.003
+    with pytest.raises(ValueError, match="the model's timestep is 0.003 s but the skin was attached for 0.05 s frames"):
+        SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG))
+    with pytest.raises(RuntimeError, match=r"Kit.bind\(model, data\) first"):
+        Kit(bare_robot(bridge.layout)).control()
 
 
 def test_a_diverging_simulation_is_an_error_not_frames_from_the_past(tmp_path, monkeypatch):
@@ -525,3 +583,90 @@ def test_a_urdf_with_tactile_sensors_is_robot_and_skin_at_once(tmp_path, contact
     bridge = SkinBridge(layout)
     results = press_a_central_taxel(bridge, robot_from_urdf(path), None, skin.Session.from_layout(layout), contact=contact)
     check_presses(results, 2)
+
+
+def test_the_stress_at_the_taxels_adds_up_to_the_force():
+    # Stress times the area each taxel stands for, summed over the skin: the press's force (the
+    # cover's kernel loses a few percent at its cut and to its sampling).
+    bridge, kit, model, data = scene()
+    link = bridge.layout[0]
+    i = inside_a_module(bridge.layout)
+    surface = bridge.surface(0)
+    nearest = np.argmin(((surface.points[:, None] - link.positions[None]) ** 2).sum(axis=2), axis=1)
+    area = np.bincount(nearest, weights=surface.areas, minlength=len(link))
+    forces = [4.0, 10.0]
+    for k, f in enumerate(forces):
+        kit.press("sphere", link.positions[i], link.normals[i], f, start=1.5 + 1.5 * k, duration=1.2)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    total = []
+
+    def sample(l):
+        for k in range(len(forces)):
+            if abs(l.frame.time - (1.5 + 1.5 * k + 0.8)) < 1e-3:
+                total.append((l.frame.stress[0] * area).sum())
+
+    loop.run(4.5, until=on_frames(loop, sample))
+    for t, f in zip(total, forces):
+        assert 0.85 * f < t < 1.15 * f, (t, f)
+
+
+def test_a_press_with_no_force_reads_nothing():
+    bridge, kit, model, data = scene()
+    kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 0.0, start=1.5, duration=1.0)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    stress = []
+    loop.run(3.0, until=on_frames(loop, lambda l: stress.append(l.frame.stress[0].max())))
+    assert max(stress) < 1.0 and touches(loop.events) == []
+
+
+def test_a_contact_away_from_the_skin_is_not_felt(tmp_path):
+    # The URDF's upper link: its pad on top of a box; a ball pressed on the box's underside,
+    # 2 cm from the pad, is a contact on the link's body but not on its skin.
+    path = tmp_path / "two_pads.urdf"
+    path.write_text(URDF)
+    layout = skin.read_layout(path)
+    bridge = SkinBridge(layout)
+    bridge, kit, model, data = scene(bridge=bridge, spec=robot_from_urdf(path), contact="model")
+    kit.press("sphere", [0.05, 0.04, -0.02], [0, 0, -1], 8.0, start=1.5, duration=1.0, body="upper")
+    kit.press("sphere", [0.05, 0.04, 0.0], [0, 0, 1], 8.0, start=3.0, duration=1.0, body="upper")
+    loop = SkinLoop(model, data, bridge, skin.Session.from_layout(layout), control=kit.control)
+    upper = model.body("upper").id
+    under = []
+    loop.run(2.2, until=on_frames(loop, lambda l: under.append(contact_on_surface(model, data, upper))))
+    assert under[-1] is not None  # the ball is on the box
+    events = loop.run(2.5) + loop.finish()
+    found = touches(loop.events)
+    assert len(found) == 1 and found[0]["start"] > 3.0, found
+
+
+def test_links_of_a_bare_robot_lie_apart():
+    # The fixture arm: forearm and wrist, each in its own frame; side by side, a press on the
+    # wrist is felt by the wrist only, through the arm's bus map.
+    config = FIXTURES / "arm" / "run.toml"
+    bridge, kit, model, data = scene(config)
+    wrist = bridge.layout["wrist"]
+    i = int(np.argmin(np.abs(wrist.positions[:, 0]) + np.abs(wrist.positions[:, 1] - 0.08)))
+    kit.press("sphere", wrist.positions[i], wrist.normals[i], 8.0, start=1.5, duration=1.0, body="wrist")
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(config), control=kit.control)
+    loop.run(3.0)
+    found = touches(loop.events + loop.finish())
+    assert [t["link"] for t in found] == ["wrist"], found
+
+
+def test_falling_polarity_needs_a_rest_near_full_scale():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    with pytest.raises(ValueError, match="rest = 200 with falling polarity"):
+        SkinBridge(layout, polarity="falling")
+    bridge = SkinBridge(layout, polarity="falling", response={"rest": 255, "full_scale": 255, "rest_spread": 0, "noise": 0})
+    counts = [bridge.response.counts([np.full(715, s)])[0] for s in (0.0, 1e4, 1e5, 1e7)]
+    assert np.all(counts[0] == 255) and np.all(counts[1] < 255)
+    assert np.all(counts[2] < counts[1]) and counts[3].min() >= 0
+
+
+def test_mesh_objects_get_a_distance_field_for_the_sensor():
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = bare_robot(bridge.layout)
+    cube = spec.add_mesh(name="cube")
+    cube.uservert = [x for p in np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).T.reshape(-1, 3) * 0.01 for x in p]
+    bridge.attach(spec)
+    assert cube.needsdf and not spec.mesh("skin_forearm_surface").needsdf

@@ -216,20 +216,40 @@ struct Inner {
 }
 
 /// A run configuration's `[sim]` table, checked, with the defaults filled in (all of them when
-/// the file has none, or with no file): how a simulated skin answers (`skin.sim`). Units in the
-/// keys' names.
+/// the file has none, or with no file), and `overrides` (a dict of `[sim]` keys) on top, checked
+/// the same way: how a simulated skin answers (`skin.sim`). Units in the keys' names.
 #[pyfunction]
-#[pyo3(signature = (path = None))]
-pub(crate) fn read_sim_config(py: Python<'_>, path: Option<PathBuf>) -> PyResult<Py<PyAny>> {
-    let sim = match path {
-        Some(path) => SessionConfig::read(&path)
+#[pyo3(signature = (path = None, overrides = None))]
+pub(crate) fn read_sim_config(
+    py: Python<'_>,
+    path: Option<PathBuf>,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Py<PyAny>> {
+    let origin = path.clone().unwrap_or_else(|| PathBuf::from("[sim]"));
+    let mut sim = match &path {
+        Some(path) => SessionConfig::read(path)
             .map_err(errors::config)?
             .sim
             .unwrap_or_default(),
         None => skin_learn::session::SimConfig::default(),
     };
-    let text = serde_json::to_string(&sim).map_err(|e| errors::error(Kind::Config, e.to_string()))?;
-    Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+    let json = py.import("json")?;
+    if let Some(overrides) = overrides {
+        let mut table = serde_json::to_value(&sim).map_err(|e| errors::error(Kind::Config, e))?;
+        let given: String = json.call_method1("dumps", (overrides,))?.extract()?;
+        let given: serde_json::Value =
+            serde_json::from_str(&given).map_err(|e| errors::error(Kind::Config, e))?;
+        if let (Some(t), Some(g)) = (table.as_object_mut(), given.as_object()) {
+            for (k, v) in g {
+                t.insert(k.clone(), v.clone());
+            }
+        }
+        sim = serde_json::from_value(table)
+            .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", origin.display())))?;
+    }
+    sim.check(&origin).map_err(errors::config)?;
+    let text = serde_json::to_string(&sim).map_err(|e| errors::error(Kind::Config, e))?;
+    Ok(json.call_method1("loads", (text,))?.unbind())
 }
 
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings

@@ -249,8 +249,8 @@ class Calibration:
     def to_tsv(self) -> str: ...
     def __len__(self) -> int: ...
 
-def read_sim_config(path: Optional[_Path] = None) -> Dict[str, Any]:
-    """A run configuration's `[sim]` table, checked, defaults filled in (all defaults without a file)."""
+def read_sim_config(path: Optional[_Path] = None, overrides: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
+    """A run configuration's `[sim]` table (all defaults without a file), `overrides` on top, checked."""
 
 def read_probes(path: _Path) -> Dict[str, npt.NDArray[Any]]: ...
 def calibrate(

@@ -36,14 +36,14 @@
 //!                                 # skin.sim, MuJoCo); defaults as shown, see SimConfig
 //! frame_rate_hz = 20.0            # frames a second the skin delivers
 //! cover_mm = 2.5                  # the elastic cover the load crosses to the taxels
-//! half_scale_kpa = 150.0          # stress at a taxel that reads half of full scale
-//! full_scale = 4095.0             # counts at saturation
+//! half_scale_kpa = 150.0          # stress at which a taxel of gain 1 reads rest + half of
+//! full_scale = 4095.0             # full scale, the counts it nears under a load it cannot take
 //! gain_spread = 0.15              # each taxel's gain drawn in 1 +- this
 //! rest = 200.0                    # counts at rest (pressure moves away from it)...
 //! rest_spread = 20.0              # ...different per taxel by up to this
 //! noise = 1.0                     # counts (standard deviation), every frame
 //! dead = []                       # taxel ids that never answer (they read their rest)
-//! missing_modules = []            # "can0:5": modules whose data never arrives
+//! missing_modules = []            # "can0:5": modules that stop delivering after the baseline
 //! dropout = 0.0                   # chance a module's data is lost in a frame
 //! seed = 1                        # gains, rests and noise are drawn from it
 //! ```
@@ -202,9 +202,11 @@ pub struct SimConfig {
     pub frame_rate_hz: f64,
     /// Thickness of the elastic cover over the taxels, millimetres (0.1 to 50).
     pub cover_mm: f64,
-    /// Stress at a taxel that reads half of full scale, kPa (0.01 to 1e6).
+    /// Stress at which a taxel of gain 1 reads its rest plus half of full scale, kPa (0.01 to
+    /// 1e6).
     pub half_scale_kpa: f64,
-    /// Counts at saturation (1 to 65,535).
+    /// The counts a taxel of gain 1 nears under a load it cannot take; readings stay within 0
+    /// and this (1 to 65,535).
     pub full_scale: f64,
     /// Each taxel's gain is drawn uniformly in 1 +- this (0 to 0.9).
     pub gain_spread: f64,
@@ -216,7 +218,8 @@ pub struct SimConfig {
     pub noise: f64,
     /// Taxel ids that never answer (they read their rest).
     pub dead: Vec<u32>,
-    /// Modules whose data never arrives, `INTERFACE:ADDRESS` as the bus map names them.
+    /// Modules that stop delivering once the session has its baseline, `INTERFACE:ADDRESS` as
+    /// the bus map names them.
     pub missing_modules: Vec<String>,
     /// The chance that a module's data is lost in a frame (0 to 1).
     pub dropout: f64,
@@ -244,8 +247,9 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
-    /// Every number in its range, every module named `INTERFACE:ADDRESS`.
-    fn check(&self, path: &Path) -> Result<(), ConfigError> {
+    /// Every number in its range, every module named `INTERFACE:ADDRESS`; `path` (or whatever
+    /// gave the table) names it in errors.
+    pub fn check(&self, path: &Path) -> Result<(), ConfigError> {
         let value = |field: &'static str, value: String, expected: &'static str| ConfigError::Value {
             file: path.to_owned(),
             field,

@@ -18,7 +18,7 @@
 How a taxel is simulated. MuJoCo's `tactile` sensor reports, at every vertex of a mesh placed on a
 body, how deep another geom presses into it; it places its taxels at given points (the mesh's
 vertices), on any body, and is computed once per skin frame (its `interval`). So each link's skin
-becomes a sensor mesh: the layout's triangles cut to 2 mm, finer than the taxels, because a real
+becomes a sensor mesh: the layout's triangles cut to 3 mm, finer than the taxels, because a real
 taxel also feels a touch between its neighbours through the cover. MuJoCo's contact forces
 (`mj_contactForce`) are spread over that surface in proportion to how deep each point is pressed,
 and the cover (Boussinesq's kernel through its thickness, as in the calibration tests' elastic

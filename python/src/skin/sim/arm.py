@@ -25,7 +25,6 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from .bridge import _mujoco
-from .scenes import prepare
 
 #: The position servos' stiffness (N m / rad) and damping (N m s / rad).
 ARM_KP = 200.0
@@ -38,11 +37,11 @@ PACE = {None: 1.0, "resume": 1.0, "slow": 0.5, "stop": 0.0, "comply": 0.0}
 def two_joint_arm(link: str, *, upper: float = 0.3, timestep: float = 0.002):
     """A `mujoco.MjSpec`: a shoulder at the origin and an elbow `upper` metres along x, both
     turning about z, and the skin's link `link` on the forearm body of that name (its frame at
-    the elbow, the fixture forearm's axis along y, its top up). No gravity."""
+    the elbow, the fixture forearm's axis along y, its top up). Both joints turn about the
+    vertical, so gravity does not load them."""
     mujoco = _mujoco()
     spec = mujoco.MjSpec()
     spec.option.timestep = timestep
-    prepare(spec)
     shoulder = spec.worldbody.add_body(name="upper_arm")
     shoulder.add_joint(name="shoulder", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
     g = shoulder.add_geom(name="upper_arm", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, upper, 0, 0], size=[0.04, 0, 0])
@@ -69,8 +68,18 @@ class PathFollower:
         self.model, self.data = model, data
         self.path = path
         self.ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in actuators]
-        if min(self.ids) < 0:
-            raise KeyError(f"no actuator among {list(actuators)} in the model")
+        missing = [a for a, i in zip(actuators, self.ids) if i < 0]
+        if missing:
+            raise KeyError(f"no actuator {missing[0]!r} in the model")
+        for a, i in zip(actuators, self.ids):
+            # A position servo: force = kp (ctrl - q) - kv qdot, on one joint.
+            servo = (
+                model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT
+                and model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE
+                and abs(model.actuator_biasprm[i, 1] + model.actuator_gainprm[i, 0]) < 1e-12
+            )
+            if not servo:
+                raise ValueError(f"actuator {a!r} is not a position servo on a joint (set_to_position)")
         self.joints = [int(model.actuator_trnid[a, 0]) for a in self.ids]
         self.kp = np.array([model.actuator_gainprm[a, 0] for a in self.ids])
         self.kv = np.array([-model.actuator_biasprm[a, 2] for a in self.ids])
@@ -81,6 +90,13 @@ class PathFollower:
 
     def q(self) -> np.ndarray:
         return np.array([self.data.qpos[self.model.jnt_qposadr[j]] for j in self.joints])
+
+    def restore(self) -> None:
+        """The servos' own gains back (complying lowers them while a hand is on the arm)."""
+        for a, kp, kv in zip(self.ids, self.kp, self.kv):
+            self.model.actuator_gainprm[a, 0] = kp
+            self.model.actuator_biasprm[a, 1] = -kp
+            self.model.actuator_biasprm[a, 2] = -kv
 
     def __call__(self, loop) -> None:
         self.gate = loop.gate
@@ -96,7 +112,8 @@ class PathFollower:
             target = self.held
         else:
             if self.held is not None:
-                # Back on the path from where the touch left the arm: the path waits for it.
+                # The path goes on from where it stopped; the servos pull the arm back onto it
+                # from wherever the touch left it.
                 self.held = None
             self.s += pace * self.model.opt.timestep
             target = self.path(self.s)

@@ -3,20 +3,24 @@
 `SkinBridge.attach` adds to a model's spec, for each link of the layout:
 
 - a sensor surface: the link's skin triangulated (the layout's triangles, else the tactile map's)
-  and cut finer (`spacing_mm`, 2 mm by default), a non-colliding mesh on the link's body, and
+  and cut finer (`spacing_mm`, 3 mm by default), a non-colliding mesh on the link's body, and
   MuJoCo's `tactile` sensor on it, which reports at every vertex how deep another geom presses
-  it (computed once per skin frame: the sensor's `interval`);
+  it (computed once per skin frame: the sensor's `interval`, on the simulation's clock);
 - what is touched (`contact`): "hull", the convex hull of the taxels and of the same points 5 mm
   under them (the cover as a solid, for a bare layout or a robot model without collision geoms
-  there), or "model", the body's own geoms.
+  there; a hull spans a concave link's hollows), or "model", the body's own geoms.
+
+MuJoCo's tactile sensor sees primitive geoms and meshes with a signed distance field: `attach`
+asks MuJoCo for one on every mesh of the model that can touch (`needsdf`).
 
 Each skin frame (`SkinBridge.frame`) then turns the simulation into readings:
 
-1. the force of every contact on the link's body (`mj_contactForce`) is spread over the surface in
-   proportion to each vertex's depth times its area (a Winkler bed: the pressure follows how far
-   the cover is pressed in, the total is MuJoCo's force); a contact that presses no vertex (a mesh
-   geom the tactile sensor does not see, a touch under the sampling) puts its force on the vertex
-   nearest to it;
+1. the force of every contact on the link's body (the cover and the body's own geoms;
+   `mj_contactForce`) is spread over the surface in proportion to each vertex's depth
+   times its area (a Winkler bed: the pressure follows how far the cover is pressed in, the total
+   is MuJoCo's force); a contact that presses no vertex (a touch between the samples) puts its
+   force on the vertex nearest to it if that lies within the kernel's reach, and a contact
+   farther from the skin (the underside of a link, where there is none) is not felt;
 2. the cover carries that load to each taxel (Boussinesq, `surface.boussinesq`);
 3. `Response` makes counts of the stress: gain, saturation, rest, noise, dead taxels, modules lost.
 """
@@ -32,7 +36,7 @@ import numpy as np
 
 from .. import _skin
 from .response import Response
-from .surface import Kernel, Surface, boussinesq, sample_surface
+from .surface import KERNEL_REACH, Kernel, Surface, boussinesq, sample_surface
 
 _PathLike = Union[str, Path]
 
@@ -61,10 +65,12 @@ class _Link:
     positions: np.ndarray
     surface: Surface
     kernel: Kernel
+    # How far from the nearest taxel a contact still loads the skin, metres.
+    reach: float
     # Set by bind():
     body_id: int = -1
     adr: int = -1
-    geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    touched: set = field(default_factory=set)
 
 
 @dataclass
@@ -101,23 +107,26 @@ class SkinBridge:
         response: Optional[Mapping] = None,
         polarity: str = "rising",
         spacing_mm: float = 3.0,
+        baseline_frames: int = 20,
     ) -> None:
         """`layout`: a `skin.Layout` or a path to any layout file `skin` reads; `busmap`: a
         `skin.BusMap` or its path (frames then follow the buses, missing modules included);
-        `response`: a `[sim]` table (`skin.read_sim_config`), defaults when None."""
+        `response`: `[sim]` keys (checked as a configuration's, over the defaults);
+        `baseline_frames`: the session's `[baseline] frames` (missing modules wait for them)."""
         if isinstance(layout, (str, Path)):
             layout = _skin.read_layout(layout)
         if isinstance(busmap, (str, Path)):
             busmap = _skin.BusMap.read(busmap)
-        if not (0.1 <= spacing_mm <= 50.0):
-            raise ValueError(f"spacing_mm = {spacing_mm}: millimetres from 0.1 to 50")
+        if not (1.0 <= spacing_mm <= 50.0):
+            raise ValueError(f"spacing_mm = {spacing_mm}: millimetres from 1 to 50")
         if polarity not in ("rising", "falling"):
             raise ValueError(f'polarity = {polarity!r}: "rising" or "falling"')
         self.layout = layout
         self.busmap = busmap
-        self.config = dict(response) if response is not None else None
+        # A table from Python is checked as a configuration file's is, over the defaults.
+        cfg = _skin.read_sim_config(None, dict(response) if response is not None else None)
+        self.config = cfg
         self.spacing = spacing_mm * 1e-3
-        cfg = self.config if self.config is not None else _skin.read_sim_config()
         self.cover = float(cfg["cover_mm"]) * 1e-3
         self.frame_rate = float(cfg["frame_rate_hz"])
         self._links: List[_Link] = []
@@ -135,14 +144,17 @@ class SkinBridge:
                     ids=np.asarray(link.ids),
                     positions=np.asarray(link.positions),
                     surface=surface,
-                    kernel=boussinesq(link.positions, surface.points, self.cover),
+                    kernel=boussinesq(link.positions, surface.points, self.cover, surface.areas),
+                    reach=KERNEL_REACH * self.cover + _farthest_from_taxels(surface.points, link.positions),
                 )
             )
         self.response = Response(
-            [l.ids for l in self._links], cfg, busmap=busmap, polarity=polarity
+            [l.ids for l in self._links], cfg, busmap=busmap, polarity=polarity, baseline_frames=baseline_frames
         )
         self._model = None
         self._steps_per_frame = 0
+        self._period = 0.0
+        self._contact = "hull"
 
     @classmethod
     def from_config(cls, path: _PathLike, *, spacing_mm: float = 3.0) -> "SkinBridge":
@@ -155,12 +167,14 @@ class SkinBridge:
         base = path.parent
         busmap = table.get("busmap")
         polarity = table.get("baseline", {}).get("polarity", "rising")
+        frames = table.get("baseline", {}).get("frames", 20)
         return cls(
             base / table["layout"],
             busmap=base / busmap if busmap else None,
             response=response,
             polarity=polarity,
             spacing_mm=spacing_mm,
+            baseline_frames=frames,
         )
 
     @property
@@ -194,16 +208,32 @@ class SkinBridge:
                 f"frame_rate_hz = {self.frame_rate}: a skin frame must last a whole number of MuJoCo "
                 f"steps (timestep {dt} s); e.g. {1.0 / (max(steps, 1) * dt):g} Hz"
             )
+        # Everything checked before the spec changes: a refused call leaves it as it was.
+        placed = {}
+        for link in self._links:
+            name = bodies.get(link.name, link.name)
+            if spec.body(name) is None:
+                names = [b.name for b in spec.bodies if b.name][:12]
+                raise ValueError(
+                    f"link {link.name!r}: the model has no body {name!r} (bodies: {', '.join(names)}); "
+                    "name it in bodies={link: body}"
+                )
+            if name in placed:
+                raise ValueError(f"links {placed[name]!r} and {link.name!r} on one body {name!r}: give each link its own body")
+            placed[name] = link.name
+            if spec.mesh(f"skin_{link.name}_surface") is not None:
+                raise ValueError(f"link {link.name!r}: this spec has its skin already (attach once)")
+        # The tactile sensor sees a mesh that touches it only through the mesh's signed distance
+        # field; primitives need none.
+        for mesh in spec.meshes:
+            if not mesh.name.startswith("skin_"):
+                mesh.needsdf = 1
         self._steps_per_frame = steps
+        self._period = steps * dt
+        self._contact = contact
         for layout_link, link in zip(self.layout.links, self._links):
             link.body = bodies.get(link.name, link.name)
             body = spec.body(link.body)
-            if body is None:
-                names = [b.name for b in spec.bodies if b.name][:12]
-                raise ValueError(
-                    f"link {link.name!r}: the model has no body {link.body!r} (bodies: {', '.join(names)}); "
-                    "name it in bodies={link: body}"
-                )
             tag = f"skin_{link.name}"
             surf = spec.add_mesh(name=f"{tag}_surface")
             surf.uservert = link.surface.points.ravel().tolist()
@@ -245,8 +275,17 @@ class SkinBridge:
             s.interval = [steps * dt, -0.5 * dt]
 
     def bind(self, model) -> None:
-        """The compiled model's ids and sensor addresses; call once after `spec.compile()`."""
+        """The compiled model's ids and sensor addresses; call once after `spec.compile()`
+        (`SkinLoop` does)."""
         mujoco = _mujoco()
+        dt = float(model.opt.timestep)
+        steps = int(round(self._period / dt)) if self._period else 0
+        if steps < 1 or abs(steps * dt - self._period) > 1e-9:
+            raise ValueError(
+                f"the model's timestep is {dt} s but the skin was attached for {self._period} s frames "
+                f"({self.frame_rate:g} Hz): a skin frame must last a whole number of MuJoCo steps; "
+                "attach the skin with the timestep the model runs at"
+            )
         for link in self._links:
             sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"skin_{link.name}")
             if sid < 0:
@@ -255,16 +294,19 @@ class SkinBridge:
             if model.sensor_dim[sid] != 3 * len(link.surface.points):
                 raise ValueError(f"link {link.name!r}: its sensor has {model.sensor_dim[sid] // 3} points, not {len(link.surface.points)}")
             link.body_id = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.body))
-            link.geoms = np.flatnonzero(model.geom_bodyid == link.body_id)
+            # The cover and the robot's own geoms on the body: where the robot's geoms lie right
+            # under the skin they take part of a press; a contact away from the skin (the
+            # link's underside) is dropped by its distance (`stress`).
+            link.touched = {int(g) for g in np.flatnonzero(model.geom_bodyid == link.body_id)}
         self._model = model
-        self._steps_per_frame = int(round(1.0 / (self.frame_rate * model.opt.timestep)))
+        self._steps_per_frame = steps
         self._force = np.zeros(6)
 
     def depth(self, data, link: Union[int, str] = 0) -> np.ndarray:
         """MuJoCo's tactile reading of a link's surface points (`surface(link).points`): how deep
-        another geom presses each one, metres (as of the last skin frame)."""
+        another geom presses each one, metres (as of the last skin frame; a copy)."""
         l = self._links[self._index(link)]
-        return data.sensordata[l.adr : l.adr + len(l.surface.points)]
+        return data.sensordata[l.adr : l.adr + len(l.surface.points)].copy()
 
     def owns_all_sensors(self, model) -> bool:
         """The model's sensors are this skin's and no others."""
@@ -283,44 +325,41 @@ class SkinBridge:
         if model is None:
             raise RuntimeError("bind(model) first")
         body_of = model.geom_bodyid
-        forces: Dict[int, List[Tuple[float, np.ndarray]]] = {l.body_id: [] for l in self._links}
+        forces: List[List[Tuple[float, np.ndarray]]] = [[] for _ in self._links]
         for i in range(data.ncon):
             c = data.contact[i]
-            if c.efc_address < 0:
+            if c.efc_address < 0 or body_of[c.geom1] == body_of[c.geom2]:
                 continue
-            b1, b2 = int(body_of[c.geom1]), int(body_of[c.geom2])
-            if b1 == b2:
-                continue
-            mujoco.mj_contactForce(model, data, i, self._force)
-            fn = float(self._force[0])
-            if fn <= 0.0:
-                continue
-            for b in (b1, b2):
-                if b in forces:
-                    forces[b].append((fn, np.array(c.pos)))
+            for k, link in enumerate(self._links):
+                if c.geom1 in link.touched or c.geom2 in link.touched:
+                    mujoco.mj_contactForce(model, data, i, self._force)
+                    if self._force[0] > 0.0:
+                        forces[k].append((float(self._force[0]), np.array(c.pos)))
         out = []
-        for link in self._links:
-            touching = forces[link.body_id]
+        for link, touching in zip(self._links, forces):
             if not touching:
                 # Nothing on the link: no stress at any of its taxels.
                 out.append(np.zeros(len(link.ids)))
                 continue
+            # Each contact in the link's frame; one farther from every taxel than the kernel
+            # reaches past the samples around a taxel is not on the skin.
+            rot = data.xmat[link.body_id].reshape(3, 3)
+            origin = data.xpos[link.body_id]
+            fn = np.array([f for f, _ in touching])
+            local = (np.array([p for _, p in touching]) - origin) @ rot
+            d2 = ((local[:, None, :] - link.positions[None]) ** 2).sum(axis=2).min(axis=1)
+            on_skin = d2 <= link.reach**2
             f = np.zeros(len(link.surface.points))
-            if touching:
-                total = sum(fn for fn, _ in touching)
-                depth = data.sensordata[link.adr : link.adr + len(link.surface.points)]
-                load = depth * link.surface.areas
-                s = load.sum()
-                if s > 0.0:
-                    f = load * (total / s)
-                else:
-                    # No vertex pressed: each contact's force on the vertex nearest to it.
-                    rot = data.xmat[link.body_id].reshape(3, 3)
-                    origin = data.xpos[link.body_id]
-                    for fn, pos in touching:
-                        local = rot.T @ (pos - origin)
-                        k = int(np.argmin(((link.surface.points - local) ** 2).sum(axis=1)))
-                        f[k] += fn
+            depth = data.sensordata[link.adr : link.adr + len(link.surface.points)]
+            load = depth * link.surface.areas
+            s = load.sum()
+            total = float(fn[on_skin].sum())
+            if s > 0.0:
+                f = load * (total / s)
+            else:
+                # No point pressed (a touch between the samples): each force where it acts.
+                for force, p in zip(fn[on_skin], local[on_skin]):
+                    f[int(np.argmin(((link.surface.points - p) ** 2).sum(axis=1)))] += force
             out.append(link.kernel.stress(f))
         return out
 
@@ -340,6 +379,15 @@ class SkinBridge:
             except ValueError:
                 raise KeyError(f"no link {link!r} (links: {self.links})") from None
         return int(link)
+
+
+def _farthest_from_taxels(points: np.ndarray, taxels: np.ndarray) -> float:
+    """The largest distance from a surface point to its nearest taxel."""
+    far = 0.0
+    for start in range(0, len(points), 4096):
+        d2 = ((points[start : start + 4096, None, :] - taxels[None]) ** 2).sum(axis=2)
+        far = max(far, float(np.sqrt(d2.min(axis=1).max())))
+    return far
 
 
 def _order_of(ids: np.ndarray, wanted: np.ndarray) -> np.ndarray:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Callable, List, Optional
 
+import numpy as np
+
 from .bridge import SimFrame, SkinBridge, _mujoco
 
 #: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
@@ -28,10 +30,12 @@ class SkinLoop:
         self.events: List = []
         #: The last frame the skin delivered.
         self.frame: Optional[SimFrame] = None
+        #: The last step made a skin frame.
+        self.framed = False
         self._unread = 0
-        self._step = 0
         self._mj = _mujoco()
         bridge.bind(model)
+        _check_session(bridge, session)
         # When the skin's sensors are the model's only ones, MuJoCo computes none between skin
         # frames (the same readings, without the sensor's per-step bookkeeping); any other
         # sensor keeps them all on, at every step.
@@ -58,16 +62,24 @@ class SkinLoop:
         (none between frames)."""
         if self.control is not None:
             self.control(self)
-        frame_step = self._step % self.bridge.steps_per_frame == 0
+        # Frames on the simulation's clock, as the sensor's interval counts them: whatever time
+        # the loop starts at (a reset, a keyframe, steps made before), a frame's step is one
+        # whose start is a whole number of frame periods.
         before = self.data.time
+        frame_step = round(before / self.model.opt.timestep) % self.bridge.steps_per_frame == 0
         if self._toggle:
             opt = self.model.opt
             if frame_step:
                 opt.disableflags &= ~self._sensor_bit
             else:
                 opt.disableflags |= self._sensor_bit
-        self._mj.mj_step(self.model, self.data)
-        self._step += 1
+        try:
+            self._mj.mj_step(self.model, self.data)
+        finally:
+            # The model as the caller had it: sensors on.
+            if self._toggle:
+                self.model.opt.disableflags &= ~self._sensor_bit
+        self.framed = frame_step
         if self.data.time <= before:
             # MuJoCo resets a diverging simulation to its start: say so instead of feeding the
             # session frames from the past.
@@ -86,6 +98,8 @@ class SkinLoop:
     def run(self, seconds: float, until: Optional[Callable[["SkinLoop"], bool]] = None) -> List:
         """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns the
         events of that stretch."""
+        if not (np.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"seconds = {seconds}: simulated seconds, 0 or more")
         first = len(self.events)
         end = self.data.time + seconds - 0.5 * self.model.opt.timestep
         while self.data.time < end:
@@ -100,6 +114,14 @@ class SkinLoop:
         self.events.extend(events)
         self._unread += len(events)
         return events
+
+
+def _check_session(bridge: SkinBridge, session) -> None:
+    """The session is for this skin: the same links, taxels and input."""
+    mine = [(l.name, len(l)) for l in bridge.layout.links]
+    theirs = list(zip(session.links, session.taxels))
+    if mine != theirs:
+        raise ValueError(f"the session's skin {theirs} is not the bridge's {mine}: build both from one configuration")
 
 
 def touches(events) -> List[dict]:

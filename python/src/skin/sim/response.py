@@ -2,13 +2,19 @@
 
     counts = rest_i +- gain_i * full_scale * s / (s + half_scale) + noise      (+ rising, - falling)
 
-rounded, within 0 and full scale; `s` the stress in kPa. Each taxel's gain is drawn once
-uniformly in 1 +- gain_spread and its rest in rest +- rest_spread (a capacitive cell's own
+rounded, within 0 and full scale; `s` the stress and `half_scale` (`half_scale_kpa`) in the same
+unit, so a taxel of gain 1 reads rest + full_scale / 2 at half_scale, and approaches rest +
+gain * full_scale under a load it cannot take (a capacitive cell stiffens). Each taxel's gain is
+drawn once uniformly in 1 +- gain_spread and its rest in rest +- rest_spread (a cell's own
 sensitivity and offset); noise is Gaussian, drawn every frame. A dead taxel reads its rest, no
-noise (a broken cell reads a constant). With a bus map, a module named in `missing_modules` never
-delivers, every other one is lost in a frame with probability `dropout`, and taxels the buses do
-not carry are not in the frame: the session reports all of these as a CAN log's. Everything is
-drawn from `seed`: the same configuration gives the same frames.
+noise (a broken cell reads a constant). Falling polarity (iCub: 255 at rest) needs a rest near
+full scale. With a bus map, a module named in `missing_modules` stops delivering once the
+session has had the complete frames its baseline needs (`[baseline] frames`; a module
+missing from the start keeps a session from ever learning one), every module is lost in a frame
+with probability `dropout` (with M modules a frame is complete with probability
+(1 - dropout)^M), and taxels the buses do not carry are not in the frame: the session reports
+all of these as a CAN log's. Everything is drawn from `seed`: the same configuration gives the
+same frames.
 """
 
 from __future__ import annotations
@@ -28,9 +34,18 @@ class Response:
         *,
         busmap=None,
         polarity: str = "rising",
+        baseline_frames: int = 20,
     ) -> None:
         self.config = dict(config)
         c = self.config
+        if polarity == "falling" and float(c["rest"]) < float(c["full_scale"]) / 2:
+            raise ValueError(
+                f"[sim] rest = {c['rest']:g} with falling polarity: pressure takes counts away from the rest, "
+                f"so it must lie near full_scale ({c['full_scale']:g}); e.g. rest = 255 and full_scale = 255 for iCub"
+            )
+        self.baseline_frames = int(baseline_frames)
+        # Complete frames delivered so far: missing modules wait for the baseline's.
+        self.complete = 0
         self.full_scale = float(c["full_scale"])
         self.half_scale = float(c["half_scale_kpa"]) * 1e3
         self.noise = float(c["noise"])
@@ -102,8 +117,9 @@ class Response:
             mine = self.slot_link == k
             slots[mine] = values[self.slot_taxel[mine]]
         slots[~on] = np.float32(np.clip(np.rint(self.config["rest"]), 0, self.full_scale))
-        lost = set(self.always_missing)
+        lost = set(self.always_missing) if self.complete >= self.baseline_frames else set()
         if self.dropout > 0.0:
             lost.update(np.flatnonzero(self.rng.random(len(self.modules)) < self.dropout).tolist())
+        self.complete += not lost
         missing = [(self.modules[m][0], self.modules[m][1]) for m in sorted(lost)]
         return per_link, slots, missing

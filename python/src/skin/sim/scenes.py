@@ -51,22 +51,26 @@ FLESH_SOLIMP = (0.2, 0.95, 0.02, 0.5, 2.0)
 TOOL_CONTYPE, TOOL_CONAFFINITY = 2, 1
 
 
+#: Links of a bare robot lie side by side along x, this far apart (metres).
+LINK_GAP = 0.1
+
+
 def bare_robot(layout, *, timestep: float = 0.002):
-    """A `mujoco.MjSpec` with one fixed body per link of `layout` at the world's origin, named after
-    it (taxel positions are in that frame): a skin with no robot model. No gravity."""
+    """A `mujoco.MjSpec` with one fixed body per link of `layout`, named after it (its taxels'
+    positions are in that body's frame): a skin with no robot model. A layout says where taxels
+    sit on each link, not where links are, so the first link's frame is the world's and each
+    next one lies beside the last along x, `LINK_GAP` apart (press a link with `body=`)."""
     mujoco = _mujoco()
     spec = mujoco.MjSpec()
     spec.option.timestep = timestep
-    prepare(spec)
-    for link in layout.links:
-        spec.worldbody.add_body(name=link.name)
+    x = 0.0
+    for k, link in enumerate(layout.links):
+        p = np.asarray(link.positions)
+        if k > 0:
+            x -= p[:, 0].min()
+        spec.worldbody.add_body(name=link.name, pos=[x, 0.0, 0.0])
+        x += p[:, 0].max() + LINK_GAP
     return spec
-
-
-def prepare(spec) -> None:
-    """Scene settings the kit's tools need: no gravity (a tool is held; MuJoCo 4 already gives
-    several contact points per pair of convex geoms, so a palm rests on a link by more than one)."""
-    spec.option.gravity = [0.0, 0.0, 0.0]
 
 
 @dataclass
@@ -90,6 +94,12 @@ class Tool:
     inertia: np.ndarray = field(default_factory=lambda: np.ones(3))
     ctrl: Dict[str, Tuple[int, int]] = field(default_factory=dict)
     geom_ids: Dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def _positive(**values: float) -> None:
+    for name, v in values.items():
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} = {v}: more than 0 (metres, kilograms)")
 
 
 def _descends(model, body: int, root: int) -> bool:
@@ -172,19 +182,25 @@ class Kit:
         self.spec = spec
         self.tools: Dict[str, Tool] = {}
         self.actions: List[Action] = []
-        prepare(spec)
+        self.model = None
+        self.data = None
 
     # --- building -------------------------------------------------------------------------
 
     def _body(self, name: str, reach: float, kind: str):
+        if name in self.tools or self.spec.body(name) is not None:
+            raise ValueError(f"the model has a body {name!r} already: give the tool another name")
         park = np.array([0.5 * len(self.tools), 0.0, PARK_HEIGHT])
         body = self.spec.worldbody.add_body(name=name, pos=park.tolist())
+        # A tool is held: gravity does not pull it (the robot's bodies keep theirs).
+        body.gravcomp = 1.0
         body.add_freejoint(name=f"{name}_free")
         self.tools[name] = Tool(name=name, kind=kind, reach=reach, park=park)
         return body
 
     def add_sphere(self, name: str = "sphere", *, radius: float = 0.02, mass: float = 0.2) -> Tool:
         """A ball of `radius` metres."""
+        _positive(radius=radius, mass=mass)
         mujoco = _mujoco()
         b = self._body(name, radius, "sphere")
         g = b.add_geom(name=f"{name}_ball", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], mass=mass)
@@ -195,6 +211,7 @@ class Kit:
 
     def add_bar(self, name: str = "bar", *, length: float = 0.25, radius: float = 0.012, mass: float = 0.3) -> Tool:
         """A round bar `length` metres long along the tool's y axis (as a hand's fingers)."""
+        _positive(length=length, radius=radius, mass=mass)
         mujoco = _mujoco()
         b = self._body(name, radius, "bar")
         g = b.add_geom(
@@ -211,6 +228,7 @@ class Kit:
 
     def add_hand(self, name: str = "hand", *, length: float = 0.18, left: bool = False, mass: float = 0.4) -> Tool:
         """A hand `length` metres from wrist to middle fingertip (see the module's docs)."""
+        _positive(length=length, mass=mass)
         mujoco = _mujoco()
         s = length / 0.18
         side = -1.0 if left else 1.0
@@ -236,6 +254,7 @@ class Kit:
             # A palm pad on a spring along the hand's z: pressed onto a curved link, each pad
             # gives way as far as the surface under it needs (a bed of springs, as flesh is).
             pad = b.add_body(name=body_name)
+            pad.gravcomp = 1.0
             j = pad.add_joint(name=body_name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
             j.stiffness = [PALM_STIFFNESS, 0.0, 0.0]
             j.springref = -PALM_TRAVEL
@@ -267,6 +286,7 @@ class Kit:
         prox_len, dist_len = 0.55 * length, 0.45 * length - radius
         prox = parent.add_body(name=f"{name}_{finger}_1", pos=base, quat=[np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)])
         dist = prox.add_body(name=f"{name}_{finger}_2", pos=[0, prox_len, 0])
+        prox.gravcomp = dist.gravcomp = 1.0
         geoms = []
         for k, (body, seg) in enumerate(((prox, prox_len), (dist, dist_len))):
             j = body.add_joint(name=f"{name}_{finger}_{k + 1}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[-1, 0, 0])
@@ -344,18 +364,47 @@ class Kit:
         return int(b)
 
     def add(self, action: Action) -> Action:
-        """Adds an action to the script (tool names checked)."""
-        if action.tool not in self.tools:
-            raise KeyError(f"no tool {action.tool!r} (tools: {sorted(self.tools)})")
-        action.path = np.atleast_2d(np.asarray(action.path, dtype=np.float64))
-        normal = np.atleast_2d(np.asarray(action.normal, dtype=np.float64))
-        if action.path.shape[1] != 3 or normal.shape[1] != 3 or len(normal) not in (1, len(action.path)):
+        """Adds an action to the script, checked: a known tool, finite numbers, a force of 0 N
+        or more, a ramp up and down within the duration, a hand's fingers by name, no other
+        action of the same tool at the same time, nothing in the simulation's past."""
+        a = action
+        if a.tool not in self.tools:
+            raise KeyError(f"no tool {a.tool!r} (tools: {sorted(self.tools)})")
+        a.path = np.atleast_2d(np.asarray(a.path, dtype=np.float64))
+        normal = np.atleast_2d(np.asarray(a.normal, dtype=np.float64))
+        if a.path.ndim != 2 or a.path.shape[1] != 3 or normal.shape[1] != 3 or len(normal) not in (1, len(a.path)):
             raise ValueError("path: (P, 3) world points; normal: (3,) or (P, 3)")
-        action.normal = normal / np.linalg.norm(normal, axis=1, keepdims=True)
-        if action.body is not None and getattr(self, "model", None) is not None:
-            self._bodies[action.body] = self._body_id(action.body)
-        self.actions.append(action)
-        return action
+        lengths = np.linalg.norm(normal, axis=1)
+        if not (np.all(np.isfinite(a.path)) and np.all(np.isfinite(normal)) and np.all(lengths > 1e-9)):
+            raise ValueError(f"{a.tool}: the path and normals must be finite, each normal of non-zero length")
+        a.normal = normal / lengths[:, None]
+        for name, value, ok, expected in (
+            ("force", a.force, a.force >= 0.0, "newtons, 0 or more"),
+            ("start", a.start, a.start >= 0.0, "seconds, 0 or more"),
+            ("duration", a.duration, a.duration > 0.0, "seconds, more than 0"),
+            ("ramp", a.ramp, 0.0 < a.ramp <= a.duration / 2, "seconds, more than 0 and at most half the duration"),
+            ("yaw", a.yaw, True, "radians"),
+        ):
+            if not (np.isfinite(value) and ok):
+                raise ValueError(f"{a.tool}: {name} = {value}: {expected}")
+        if a.fingers is not None:
+            if self.tools[a.tool].kind != "hand":
+                raise ValueError(f"{a.tool}: fingers are for a hand, this is a {self.tools[a.tool].kind}")
+            if isinstance(a.fingers, str) or not all(f in FINGERS for f in a.fingers):
+                raise ValueError(f"{a.tool}: fingers = {a.fingers!r}: a list of {', '.join(FINGERS)}")
+            a.fingers = list(a.fingers)
+        for b in self.actions:
+            if b.tool == a.tool and a.start < b.start + b.duration and b.start < a.start + a.duration:
+                raise ValueError(
+                    f"{a.tool}: {a.start:g}-{a.start + a.duration:g} s overlaps its action at "
+                    f"{b.start:g}-{b.start + b.duration:g} s (one action at a time per tool)"
+                )
+        if self.data is not None and a.start < self.data.time:
+            raise ValueError(f"{a.tool}: starts at {a.start:g} s, the simulation is at {self.data.time:g} s already")
+        if a.body is not None and self.model is not None:
+            self._bodies[a.body] = self._body_id(a.body)
+        self.actions.append(a)
+        return a
 
     def press(self, tool: str, point, normal, force: float, start: float, duration: float, **kw) -> Action:
         """A press at `point` (world) along `normal` with `force` newtons."""
@@ -440,32 +489,44 @@ class Kit:
 
     def control(self, loop=None) -> None:
         """Sets every tool's wrench and servos for the step about to run (a `SkinLoop` control)."""
+        if self.data is None:
+            raise RuntimeError("Kit.bind(model, data) first")
+        mujoco = _mujoco()
         d = self.data
         t = float(d.time)
         for tool in self.tools.values():
             a = self.active(tool.name, t)
             if a is None:
                 if tool.name in self._placed:
-                    # Back to its place, still: with no gravity and nothing near it, a parked
-                    # tool stays there with no wrench at all.
+                    # Back to its place, still: held against gravity and with nothing near it,
+                    # a parked tool stays there with no wrench at all.
                     del self._placed[tool.name]
                     self._place(tool, tool.park, np.array([1.0, 0, 0, 0]))
                     d.xfrc_applied[tool.body] = 0.0
+                    mujoco.mj_forward(self.model, d)
                 continue
             normal = a.normal_at(t)
             point = a.target(t)
+            carrier = None
             if a.body is not None:
+                # On a moving link: the path, the normal and the yaw are the link's, and the
+                # tool is damped relative to the link's point under it.
                 b = self._bodies[a.body]
                 rot = d.xmat[b].reshape(3, 3)
                 normal, point = rot @ normal, d.xpos[b] + rot @ point
-                quat = _quat_from_z(normal, a.yaw)
+                local = np.zeros(4)
+                mujoco.mju_mulQuat(local, d.xquat[b], self._quat(a, a.normal_at(t)))
+                quat = local
+                carrier = (b, point)
             else:
                 quat = self._quat(a, normal)
             hover = point + normal * (tool.reach + 0.004)
             if self._placed.get(tool.name) is not a:
-                # A new action starts above its first point, still, fingers set.
+                # A new action starts above its first point, still, fingers set; the pose is
+                # computed again so the first step's spring pulls from there.
                 self._placed[tool.name] = a
                 self._place(tool, hover, quat)
+                mujoco.mj_forward(self.model, d)
             force = a.force_at(t)
             for finger, (c1, c2) in tool.ctrl.items():
                 if a.fingers is None or finger in a.fingers:
@@ -474,7 +535,7 @@ class Kit:
                     d.ctrl[c1], d.ctrl[c2] = (f * tool.lever[finger][0], f * tool.lever[finger][1])
                 else:
                     d.ctrl[c1], d.ctrl[c2] = LIFT_TORQUE
-            self._drive(tool, hover, quat, normal if force > 0 else None, force, hold_turn=not a.roll)
+            self._drive(tool, hover, quat, normal if force > 0 else None, force, hold_turn=not a.roll, carrier=carrier)
 
     def _quat(self, a: Action, normal: np.ndarray) -> np.ndarray:
         # One orientation per action unless its normal follows the path.
@@ -484,13 +545,20 @@ class Kit:
             return a._quat
         return _quat_from_z(normal, a.yaw)
 
-    def _drive(self, tool: Tool, pos, quat, normal, force, *, hold_turn: bool) -> None:
+    def _drive(self, tool: Tool, pos, quat, normal, force, *, hold_turn: bool, carrier=None) -> None:
         mujoco = _mujoco()
         d = self.data
         w = 2 * np.pi * 8.0  # the spring's natural frequency, rad/s
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, tool.body, vel, 0)
         omega, v = vel[:3], vel[3:]
+        if carrier is not None:
+            # Velocities relative to the link the tool presses (its point under the tool).
+            b, point = carrier
+            link = np.zeros(6)
+            mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, b, link, 0)
+            omega = omega - link[:3]
+            v = v - (link[3:] + np.cross(link[:3], point - d.xpos[b]))
         x = d.xpos[tool.body]
         f = tool.mass * (w * w * (pos - x) - 2 * w * v)
         if normal is not None:
