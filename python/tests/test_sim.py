@@ -347,12 +347,14 @@ def test_untouched_frames_are_rest_gain_and_noise_as_configured(tmp_path):
     # Rests within 300 +- 10, each seen through 40 frames of noise (2 counts: 0.3 on a mean).
     assert 289 <= per_taxel.min() and per_taxel.max() <= 311 and abs(per_taxel.mean() - 300) < 1
     assert abs(frames.std(axis=0).mean() - 2.0) < 0.15
-    # The same seed, the same frames.
+    # The same seed, the same frames; another seed, others.
     bridge2, _, model2, data2 = scene(config)
     again = []
     loop2 = SkinLoop(model2, data2, bridge2, skin.Session.from_config(config))
     loop2.run(2.0, until=on_frames(loop2, lambda l: again.append(l.frame.readings[0])))
     assert np.array_equal(frames, np.array(again))
+    other = SkinBridge.from_config(sim_config(tmp_path, "rest = 300\nrest_spread = 10\nnoise = 2\nseed = 5\n"))
+    assert not np.array_equal(other.response.counts([np.zeros(715)])[0], frames[0])
 
 
 def test_saturation_gain_spread_and_dead_taxels(tmp_path):
@@ -430,6 +432,15 @@ def test_bad_input_is_named(tmp_path):
         SkinBridge(FIXTURES / "forearm" / "layout.json", response={"noize": 1})
     with pytest.raises(skin.ConfigError, match=r"\[sim\] cover_mm = 0"):
         SkinBridge(FIXTURES / "forearm" / "layout.json", response={"cover_mm": 0})
+    patch = json.loads((FIXTURES / "hex_patch" / "layout.json").read_text())
+    for taxel in patch["links"][0]["taxels"]:
+        taxel["id"] += 1_000_000
+    (tmp_path / "patch.json").write_text(json.dumps(patch))
+    with pytest.raises(ValueError, match="the bus map carries none of link 0's 61 taxels"):
+        SkinBridge(tmp_path / "patch.json", busmap=FIXTURES / "forearm" / "busmap.toml")
+    spec = bare_robot(bridge.layout)
+    with pytest.raises(ValueError, match='body .forearm. has no geom that collides'):
+        bridge.attach(spec, contact="model")
 
 
 def test_a_press_is_checked_when_it_is_scripted():

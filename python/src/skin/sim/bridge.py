@@ -54,6 +54,8 @@ def _mujoco():
         import mujoco
     except ImportError as e:  # pragma: no cover - said to the user
         raise ImportError("skin.sim needs MuJoCo: pip install mujoco (Python 3.11 or later)") from e
+    if int(mujoco.__version__.split(".")[0]) < 4:  # pragma: no cover - said to the user
+        raise ImportError(f"skin.sim needs MuJoCo 4 (its tactile sensor); this is {mujoco.__version__}: pip install -U mujoco")
     return mujoco
 
 
@@ -223,6 +225,11 @@ class SkinBridge:
             placed[name] = link.name
             if spec.mesh(f"skin_{link.name}_surface") is not None:
                 raise ValueError(f"link {link.name!r}: this spec has its skin already (attach once)")
+            if contact == "model" and not any(g.contype or g.conaffinity for g in spec.body(name).geoms):
+                raise ValueError(
+                    f"link {link.name!r}: body {name!r} has no geom that collides, so nothing can touch its "
+                    'skin with contact="model"; give it collision geoms or use contact="hull"'
+                )
         # The tactile sensor sees a mesh that touches it only through the mesh's signed distance
         # field; primitives need none.
         for mesh in spec.meshes:

@@ -88,6 +88,9 @@ class Response:
         for s, t in enumerate(slot_ids):
             if int(t) in where:
                 self.slot_link[s], self.slot_taxel[s] = where[int(t)]
+        for k, link_ids in enumerate(self.ids):
+            if len(link_ids) and not np.any(self.slot_link == k):
+                raise ValueError(f"the bus map carries none of link {k}'s {len(link_ids)} taxels: is it this skin's bus map?")
         self.modules = [(iface, int(addr), np.asarray(slots, dtype=np.int64)) for iface, addr, slots in busmap.modules]
         names = {f"{iface}:{addr}": m for m, (iface, addr, _) in enumerate(self.modules)}
         for name in self.config["missing_modules"]:
