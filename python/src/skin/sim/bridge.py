@@ -136,8 +136,11 @@ class SkinBridge:
             faces = link.faces
             if faces is None:
                 tmap = _skin.flatten(link, triangulate=True)
-                order = _order_of(tmap.ids, link.ids)
-                faces = order[np.asarray(tmap.faces)]
+                faces = np.asarray(tmap.faces)
+                if not np.array_equal(tmap.ids, link.ids):
+                    if len(set(np.asarray(link.ids).tolist())) != len(link):
+                        raise ValueError(f"link {link.name!r}: its tactile map orders taxels otherwise and ids repeat; give the layout its triangles")
+                    faces = _order_of(tmap.ids, link.ids)[faces]
             surface = sample_surface(link.positions, faces, self.spacing)
             self._links.append(
                 _Link(
