@@ -15,6 +15,11 @@ use std::path::PathBuf;
 /// force with its 95% t interval, the smallest and the largest; the success rate has Wilson's
 /// 95% interval. --no-skin runs the same trials with the contact tasks disabled (the baseline).
 ///
+/// --seeds N runs N seeds from --seed on, each with starting postures of its own: the table pools
+/// them, and a second table gives each seed's success rate, all of them pooled (Wilson's 95%
+/// interval) and the mean over seeds (Student's t 95% interval: the seeds are the independent
+/// samples). --baseline also runs every trial without the skin and prints it beside.
+///
 /// The simulation is kinematic and deterministic: the same scene and seed give the same table,
 /// byte for byte. Without --scene the built-in scene modelled on Fig. 8.4 is used (5 goals, each
 /// behind a padded bar that blocks the straight path; see skin-control/scenes/fig8_4.json for
@@ -35,8 +40,14 @@ pub struct Args {
     #[arg(long)]
     seed: Option<u64>,
     /// Baseline: the same trials with the skin's contact tasks disabled.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "baseline")]
     no_skin: bool,
+    /// Seeds to run, from --seed on (each its own random starts).
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::numbers::count::<1, 10_000>)]
+    seeds: usize,
+    /// Also run every trial without the skin and print both.
+    #[arg(long)]
+    baseline: bool,
     /// Also write every trial as CSV (goal, start, outcome, forces, time, distance).
     #[arg(long, value_name = "TRIALS.csv")]
     csv: Option<PathBuf>,
@@ -55,40 +66,106 @@ pub fn run(args: Args) -> Result<()> {
     crate::output::replaceable(
         &inputs,
         args.csv.as_deref(),
-        crate::output::Kind::Table("goal,start,outcome"),
+        crate::output::Kind::Table("seed,skin,goal,start,outcome"),
     )?;
     let mut scene = load_scene(&args.scene)?;
-    if let Some(seed) = args.seed {
-        scene.seed = seed;
+    let first = args.seed.unwrap_or(scene.seed);
+    let last = first.checked_add(args.seeds as u64 - 1).ok_or_else(|| {
+        anyhow::anyhow!(
+            "--seed {first} and --seeds {}: the last seed overflows",
+            args.seeds
+        )
+    })?;
+    let (runs, starts) = run_seeds(&mut scene, first..=last, &args)?;
+    let seeds = if first == last {
+        format!("seed {first}")
+    } else {
+        format!("seeds {first}-{last}")
+    };
+    crate::say!(
+        "{} ({} goals x {starts} starts, {seeds})",
+        scene.name(),
+        scene.goals.len(),
+    );
+    let trials: Vec<Trial> = runs.iter().flat_map(|r| r.skin.iter().cloned()).collect();
+    crate::say!(
+        "{}",
+        stats::table(&trials, scene.goals.len(), args.threshold, args.no_skin).trim_end()
+    );
+    if let Some(base) = args.baseline.then(|| {
+        runs.iter()
+            .flat_map(|r| r.baseline.iter().flatten().cloned())
+            .collect::<Vec<_>>()
+    }) {
+        crate::say!(
+            "{}",
+            stats::table(&base, scene.goals.len(), args.threshold, true).trim_end()
+        );
     }
-    let experiment = ReachExperiment::new(&scene, args.trials)?;
+    if args.seeds > 1 || args.baseline {
+        crate::say!("{}", stats::seeds_table(&runs, args.threshold).trim_end());
+    }
+    if let Some(path) = &args.csv {
+        crate::output::write_file(path, trials_csv(&runs, args.no_skin).as_bytes(), &inputs)?;
+    }
+    Ok(())
+}
+
+/// Every trial of each seed (with the skin, and without it with --baseline), and the starts per
+/// goal.
+fn run_seeds(
+    scene: &mut Scene,
+    seeds: std::ops::RangeInclusive<u64>,
+    args: &Args,
+) -> Result<(Vec<stats::SeedRun>, usize)> {
     let options = ReachOptions {
         threshold: args.threshold,
         no_skin: args.no_skin,
         ..ReachOptions::default()
     };
-    // Trials are independent and deterministic: run them in parallel, report in order.
-    let trials: Vec<Trial> = experiment
-        .trials()
-        .par_iter()
-        .map(|&(g, s)| experiment.run(g, s, &options))
-        .collect::<Result<_, _>>()?;
-    crate::say!(
-        "{} ({} goals x {} starts, seed {})",
-        scene.name(),
-        scene.goals.len(),
-        experiment.starts(0).len(),
-        scene.seed
-    );
-    crate::say!(
-        "{}",
-        stats::table(&trials, scene.goals.len(), args.threshold, args.no_skin).trim_end()
-    );
-    if let Some(path) = &args.csv {
-        let mut text = String::from("goal,start,outcome,max_force_n,max_skin_force_n,time_s,distance_m\n");
-        for t in &trials {
+    let baseline = ReachOptions {
+        no_skin: true,
+        ..options
+    };
+    let mut runs = Vec::new();
+    let mut starts = 0;
+    for seed in seeds {
+        scene.seed = seed;
+        let experiment = ReachExperiment::new(scene, args.trials)?;
+        starts = experiment.starts(0).len();
+        // Trials are independent and deterministic: run them in parallel, report in order.
+        let run = |options: &ReachOptions| -> Result<Vec<Trial>> {
+            Ok(experiment
+                .trials()
+                .par_iter()
+                .map(|&(g, s)| experiment.run(g, s, options))
+                .collect::<Result<_, _>>()?)
+        };
+        runs.push(stats::SeedRun {
+            seed,
+            skin: run(&options)?,
+            baseline: if args.baseline {
+                Some(run(&baseline)?)
+            } else {
+                None
+            },
+        });
+    }
+    Ok((runs, starts))
+}
+
+/// The trials as CSV: seed, skin (1 with, 0 without), goal, start, outcome, forces, time, distance.
+fn trials_csv(runs: &[stats::SeedRun], no_skin: bool) -> String {
+    let mut text =
+        String::from("seed,skin,goal,start,outcome,max_force_n,max_skin_force_n,time_s,distance_m\n");
+    for r in runs {
+        let with = std::iter::repeat(!no_skin).zip(&r.skin);
+        let without = std::iter::repeat(false).zip(r.baseline.iter().flatten());
+        for (skin, t) in with.chain(without) {
             text.push_str(&format!(
-                "{},{},{},{:.4},{:.4},{:.3},{:.5}\n",
+                "{},{},{},{},{},{:.4},{:.4},{:.3},{:.5}\n",
+                r.seed,
+                u8::from(skin),
                 stats::goal_name(t.goal),
                 t.start,
                 t.outcome.name(),
@@ -98,7 +175,6 @@ pub fn run(args: Args) -> Result<()> {
                 t.distance
             ));
         }
-        crate::output::write_file(path, text.as_bytes(), &inputs)?;
     }
-    Ok(())
+    text
 }

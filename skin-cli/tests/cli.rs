@@ -938,7 +938,13 @@ fn reach_prints_the_same_table_for_the_same_seed_and_the_baseline_fails_on_force
     let (out, _) = text(&a);
     assert!(out.contains("F_thresh = 15 N"), "{out}");
     assert!(out.lines().any(|l| l.starts_with("A ")) && out.lines().any(|l| l.starts_with("all ")));
-    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 1 + 4);
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 4);
+    assert!(
+        rows.starts_with("seed,skin,goal,start,outcome,")
+            && rows.lines().nth(1).unwrap().starts_with("1,1,A,0,"),
+        "{rows}"
+    );
     let base = skin(&["reach", "--scene", scene, "--no-skin"]);
     let (out, _) = text(&base);
     assert!(out.contains("WITHOUT skin"), "{out}");
@@ -947,6 +953,68 @@ fn reach_prints_the_same_table_for_the_same_seed_and_the_baseline_fails_on_force
     assert!(all.contains("0/4"), "{all}");
     let other = skin(&["reach", "--scene", scene, "--seed", "5"]);
     assert_ne!(other.stdout, a.stdout, "another seed, other starts");
+}
+
+#[test]
+fn reach_over_seeds_gives_each_seed_pooled_and_mean_rates_with_the_baseline() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_reach_scene(dir.path());
+    let scene = scene.to_str().unwrap();
+    let csv = dir.path().join("trials.csv");
+    let o = skin(&[
+        "reach",
+        "--scene",
+        scene,
+        "--seed",
+        "3",
+        "--seeds",
+        "2",
+        "--baseline",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("seeds 3-4") && out.contains("WITHOUT skin"), "{out}");
+    let seed_rows: Vec<&str> = out
+        .lines()
+        .filter(|l| l.starts_with("3 ") || l.starts_with("4 "))
+        .collect();
+    assert_eq!(seed_rows.len(), 2, "{out}");
+    // Each seed: 4 trials with the skin and the same 4 without; the baseline pushes through the
+    // bars every time.
+    assert!(
+        seed_rows
+            .iter()
+            .all(|l| l.matches("/4 ").count() == 2 && l.contains("0/4 ")),
+        "{out}"
+    );
+    let all = out.lines().rfind(|l| l.starts_with("all ")).unwrap();
+    assert!(all.contains("/8 ") && all.contains("0/8 "), "{all}");
+    assert!(
+        out.contains("mean over 2 seeds (95% t interval): with skin"),
+        "{out}"
+    );
+    // Seed 3 alone gives its own row of the same numbers.
+    let one = skin(&["reach", "--scene", scene, "--seed", "3", "--baseline"]);
+    let (one, _) = text(&one);
+    let row3 = |t: &str| t.lines().find(|l| l.starts_with("3 ")).map(str::to_owned);
+    assert_eq!(row3(&one), row3(&out));
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 2 * 4 * 2);
+    assert_eq!(rows.lines().filter(|l| l.starts_with("4,0,")).count(), 4);
+    let o = skin(&["reach", "--scene", scene, "--seeds", "0"]);
+    assert!(
+        !o.status.success() && text(&o).1.contains("--seeds"),
+        "{:?}",
+        text(&o)
+    );
+    let o = skin(&["reach", "--scene", scene, "--no-skin", "--baseline"]);
+    assert!(
+        !o.status.success() && text(&o).1.contains("--baseline"),
+        "{:?}",
+        text(&o)
+    );
 }
 
 #[test]

@@ -140,6 +140,99 @@ pub fn table(trials: &[Trial], goals: usize, threshold: f64, no_skin: bool) -> S
     out
 }
 
+/// The trials of one seed (its own random starts): with the skin, and without it when the
+/// baseline was run.
+#[derive(Debug, Clone)]
+pub struct SeedRun {
+    /// The seed of the starting postures.
+    pub seed: u64,
+    /// Every trial with the skin.
+    pub skin: Vec<Trial>,
+    /// The same trials without it (the baseline), when run.
+    pub baseline: Option<Vec<Trial>>,
+}
+
+fn rate(trials: &[Trial]) -> String {
+    let c = counts(trials);
+    let (lo, hi) = wilson(c.success, c.trials);
+    format!(
+        "{:>4}/{:<4} {:>5.1}% [{:>5.1}, {:>5.1}]",
+        c.success,
+        c.trials,
+        100.0 * c.success as f64 / c.trials.max(1) as f64,
+        100.0 * lo,
+        100.0 * hi
+    )
+}
+
+fn seed_means(rates: &[f64]) -> String {
+    match mean_ci(rates) {
+        Some((m, h)) if h.is_finite() => format!("{:.1}% +- {:.1}", 100.0 * m, 100.0 * h),
+        Some((m, _)) => format!("{:.1}%", 100.0 * m),
+        None => "-".into(),
+    }
+}
+
+/// The success rate of each seed with its 95% Wilson interval, with and without the skin, then
+/// all seeds pooled, then the mean of the seeds' rates with its 95% t interval (the seeds are
+/// the independent samples: a scene's starts from one seed are not).
+pub fn seeds_table(runs: &[SeedRun], threshold: f64) -> String {
+    let mut out = String::new();
+    let baseline = runs.iter().all(|r| r.baseline.is_some());
+    let _ = writeln!(
+        out,
+        "success per seed, F_thresh = {threshold} N (95% Wilson interval){}",
+        if baseline {
+            "; without skin: the baseline, same starts"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        out,
+        "{:<6} {:<30}{}",
+        "seed",
+        "with skin",
+        if baseline { "  without skin" } else { "" }
+    );
+    let rate_of = |t: &[Trial]| counts(t).success as f64 / counts(t).trials.max(1) as f64;
+    for r in runs {
+        let base = r
+            .baseline
+            .as_deref()
+            .map_or(String::new(), |b| format!("  {}", rate(b)));
+        let _ = writeln!(out, "{:<6} {:<30}{base}", r.seed, rate(&r.skin));
+    }
+    let skin: Vec<Trial> = runs.iter().flat_map(|r| r.skin.iter().cloned()).collect();
+    let pooled_base: Vec<Trial> = runs
+        .iter()
+        .flat_map(|r| r.baseline.iter().flatten().cloned())
+        .collect();
+    let base = if baseline {
+        format!("  {}", rate(&pooled_base))
+    } else {
+        String::new()
+    };
+    let _ = writeln!(out, "{:<6} {:<30}{base}", "all", rate(&skin));
+    let skin_rates: Vec<f64> = runs.iter().map(|r| rate_of(&r.skin)).collect();
+    let base_rates: Vec<f64> = runs
+        .iter()
+        .filter_map(|r| r.baseline.as_deref().map(rate_of))
+        .collect();
+    let _ = writeln!(
+        out,
+        "mean over {} seeds (95% t interval): with skin {}{}",
+        runs.len(),
+        seed_means(&skin_rates),
+        if baseline {
+            format!(", without skin {}", seed_means(&base_rates))
+        } else {
+            String::new()
+        }
+    );
+    out
+}
+
 /// A, B, ..., Z, then G27, G28, ...
 pub fn goal_name(g: usize) -> String {
     if g < 26 {
