@@ -185,6 +185,30 @@ impl BusMap {
         Ok(())
     }
 
+    /// Each module in bus-map order: its bus's index, the module, and its slots in the assembled
+    /// frame (indices into [`BusMap::taxel_ids`]; unused slots take none).
+    pub fn module_slots(&self) -> impl Iterator<Item = (usize, &ModuleMap, std::ops::Range<usize>)> {
+        let mut slot = 0;
+        self.buses
+            .iter()
+            .enumerate()
+            .flat_map(|(b, bus)| bus.modules.iter().map(move |m| (b, m)))
+            .map(move |(b, m)| {
+                let used = m.taxels.iter().filter(|&&t| t >= 0).count();
+                slot += used;
+                (b, m, slot - used..slot)
+            })
+    }
+
+    /// The slots of an assembled frame: the taxels the buses carry, without listing them.
+    pub fn slot_count(&self) -> usize {
+        self.buses
+            .iter()
+            .flat_map(|b| &b.modules)
+            .map(|m| m.taxels.iter().filter(|&&t| t >= 0).count())
+            .sum()
+    }
+
     /// Taxel ids in bus-map order (bus, module, slot; unused slots skipped): the column order of
     /// assembled frames.
     pub fn taxel_ids(&self) -> Vec<TaxelId> {

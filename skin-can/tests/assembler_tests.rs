@@ -338,3 +338,20 @@ fn timestamps_that_go_back_are_counted_and_the_frames_kept() {
     );
     assert_eq!(out[0].values, expected_values(0));
 }
+
+#[test]
+fn module_slots_cover_the_frame_in_order() {
+    // Each module's slots follow the last one's, as the assembled frame's columns do; a module
+    // with unused slots takes only the used ones.
+    let map = map();
+    let ids = map.taxel_ids();
+    let mut next = 0;
+    for (b, m, slots) in map.module_slots() {
+        assert_eq!(slots.start, next, "{}:{}", map.buses[b].interface, m.address);
+        let used: Vec<u32> = m.taxels.iter().filter(|&&t| t >= 0).map(|&t| t as u32).collect();
+        assert_eq!(ids[slots.clone()].iter().map(|t| t.0).collect::<Vec<_>>(), used);
+        next = slots.end;
+    }
+    assert_eq!(next, ids.len());
+    assert_eq!(map.slot_count(), ids.len());
+}

@@ -162,16 +162,10 @@ impl BusMap {
     /// `ids` (its unused slots left out).
     #[getter]
     fn modules(&self) -> Vec<(String, u32, Vec<usize>)> {
-        let mut slot = 0;
-        let mut modules = Vec::new();
-        for bus in &self.inner.buses {
-            for m in &bus.modules {
-                let used = m.taxels.iter().filter(|&&t| t >= 0).count();
-                modules.push((bus.interface.clone(), m.address, (slot..slot + used).collect()));
-                slot += used;
-            }
-        }
-        modules
+        self.inner
+            .module_slots()
+            .map(|(b, m, slots)| (self.inner.buses[b].interface.clone(), m.address, slots.collect()))
+            .collect()
     }
 
     fn __repr__(&self) -> String {

@@ -562,7 +562,7 @@ impl Session {
         let Some(busmap) = inner.session.busmap() else {
             return Err(no_busmap());
         };
-        let slots = busmap.taxel_ids().len();
+        let slots = busmap.slot_count();
         if frame.frame.values.len() != slots {
             return Err(arg(
                 "frame",
@@ -599,7 +599,7 @@ impl Session {
         };
         let values = array::<f32>("values", values, "float32", 1)?;
         let values = slice("values", &values)?;
-        let slots = busmap.taxel_ids().len();
+        let slots = busmap.slot_count();
         if values.len() != slots {
             return Err(arg(
                 "values",
@@ -612,17 +612,10 @@ impl Session {
         let mut refs = Vec::with_capacity(missing.len());
         let mut skip = vec![false; slots];
         for (interface, address) in &missing {
-            let mut slot = 0;
-            let mut found = None;
-            for (b, bus) in busmap.buses.iter().enumerate() {
-                for m in &bus.modules {
-                    let used = m.taxels.iter().filter(|&&t| t >= 0).count();
-                    if bus.interface == *interface && m.address == *address {
-                        found = Some((b, slot..slot + used));
-                    }
-                    slot += used;
-                }
-            }
+            let found = busmap
+                .module_slots()
+                .find(|(b, m, _)| busmap.buses[*b].interface == *interface && m.address == *address)
+                .map(|(b, _, range)| (b, range));
             let Some((bus, range)) = found else {
                 return Err(arg(
                     "missing",
