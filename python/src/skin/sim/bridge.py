@@ -27,6 +27,7 @@ Each skin frame (`SkinBridge.frame`) then turns the simulation into readings:
 
 from __future__ import annotations
 
+import functools
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,7 +50,9 @@ COVER_SOLREF = (0.03, 1.0)
 COVER_SOLIMP = (0.5, 0.95, 0.005, 0.5, 2.0)
 
 
+@functools.cache
 def _mujoco():
+    """MuJoCo's module, checked once (the loop and the tools ask for it at every step)."""
     try:
         import mujoco
     except ImportError as e:  # pragma: no cover - said to the user

@@ -88,6 +88,12 @@ class Response:
         for s, t in enumerate(slot_ids):
             if int(t) in where:
                 self.slot_link[s], self.slot_taxel[s] = where[int(t)]
+        # Per link, the slots it fills and from which of its taxels, made once.
+        self.link_slots = [
+            (np.flatnonzero(self.slot_link == k), self.slot_taxel[self.slot_link == k]) for k in range(len(self.ids))
+        ]
+        self.unused = np.flatnonzero(self.slot_link < 0)
+        self.unused_reading = np.float32(np.clip(np.rint(self.config["rest"]), 0, self.full_scale))
         for k, link_ids in enumerate(self.ids):
             if len(link_ids) and not np.any(self.slot_link == k):
                 raise ValueError(f"the bus map carries none of link {k}'s {len(link_ids)} taxels: is it this skin's bus map?")
@@ -115,11 +121,9 @@ class Response:
         if self.busmap is None:
             return per_link, None, []
         slots = np.empty(len(self.slot_link), dtype=np.float32)
-        on = self.slot_link >= 0
-        for k, values in enumerate(per_link):
-            mine = self.slot_link == k
-            slots[mine] = values[self.slot_taxel[mine]]
-        slots[~on] = np.float32(np.clip(np.rint(self.config["rest"]), 0, self.full_scale))
+        slots[self.unused] = self.unused_reading
+        for (where, taxels), values in zip(self.link_slots, per_link):
+            slots[where] = values[taxels]
         lost = set(self.always_missing) if self.complete >= self.baseline_frames else set()
         if self.dropout > 0.0:
             lost.update(np.flatnonzero(self.rng.random(len(self.modules)) < self.dropout).tolist())

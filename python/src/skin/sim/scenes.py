@@ -182,6 +182,9 @@ class Kit:
         self.spec = spec
         self.tools: Dict[str, Tool] = {}
         self.actions: List[Action] = []
+        # Each tool's actions by start, and the first of them not yet over.
+        self._by_tool: Dict[str, List[Action]] = {}
+        self._next: Dict[str, int] = {}
         self.model = None
         self.data = None
 
@@ -404,6 +407,10 @@ class Kit:
         if a.body is not None and self.model is not None:
             self._bodies[a.body] = self._body_id(a.body)
         self.actions.append(a)
+        mine = self._by_tool.setdefault(a.tool, [])
+        mine.append(a)
+        mine.sort(key=lambda b: b.start)
+        self._next[a.tool] = 0
         return a
 
     def press(self, tool: str, point, normal, force: float, start: float, duration: float, **kw) -> Action:
@@ -473,9 +480,18 @@ class Kit:
         return out
 
     def active(self, tool: str, t: float) -> Optional[Action]:
-        for a in self.actions:
-            if a.tool == tool and a.start <= t < a.start + a.duration:
-                return a
+        """The tool's action under way at time t, if any."""
+        # The tool's actions never overlap (`add` checks): the first not yet over is the only
+        # candidate, and one over stays over as the clock runs on.
+        actions = self._by_tool.get(tool, [])
+        k = self._next.get(tool, 0)
+        if k > 0 and t < actions[k - 1].start + actions[k - 1].duration:
+            k = 0  # the clock went back (a reset): search from the start
+        while k < len(actions) and t >= actions[k].start + actions[k].duration:
+            k += 1
+        self._next[tool] = k
+        if k < len(actions) and actions[k].start <= t:
+            return actions[k]
         return None
 
     def _place(self, tool: Tool, pos, quat) -> None:
