@@ -678,6 +678,14 @@ def test_mesh_objects_get_a_distance_field_for_the_sensor():
     bridge = SkinBridge.from_config(CONFIG)
     spec = bare_robot(bridge.layout)
     cube = spec.add_mesh(name="cube")
-    cube.uservert = [x for p in np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).T.reshape(-1, 3) * 0.01 for x in p]
+    corners = [x for p in np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).T.reshape(-1, 3) * 0.01 for x in p]
+    cube.uservert = corners
+    box = spec.worldbody.add_body(name="box", pos=[0.5, 0, 0])
+    box.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="cube")
+    # A mesh only shown (no geom of it collides) needs no field: it cannot touch the skin.
+    shown = spec.add_mesh(name="shown")
+    shown.uservert = corners
+    g = box.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="shown")
+    g.contype = g.conaffinity = 0
     bridge.attach(spec)
-    assert cube.needsdf and not spec.mesh("skin_forearm_surface").needsdf
+    assert cube.needsdf and not shown.needsdf and not spec.mesh("skin_forearm_surface").needsdf

@@ -238,8 +238,13 @@ class SkinBridge:
                 )
         # The tactile sensor sees a mesh that touches it only through the mesh's signed distance
         # field; primitives need none.
+        touching = {
+            g.meshname
+            for g in spec.geoms
+            if g.type == mujoco.mjtGeom.mjGEOM_MESH and (g.contype or g.conaffinity)
+        }
         for mesh in spec.meshes:
-            if not mesh.name.startswith("skin_"):
+            if mesh.name in touching and not mesh.name.startswith("skin_"):
                 mesh.needsdf = 1
         self._steps_per_frame = steps
         self._period = steps * dt
