@@ -20,6 +20,14 @@ use std::path::PathBuf;
 /// interval) and the mean over seeds (Student's t 95% interval: the seeds are the independent
 /// samples). --baseline also runs every trial without the skin and prints it beside.
 ///
+/// Beyond the thesis' controller, two things are on by default (--thesis turns both off): a
+/// force guard that slows the reach from 0.6 F_thresh and stops it at 0.85 F_thresh, leaving
+/// the contact tasks to take the force back down (the thesis' activation, (F/F_thresh)^4, comes
+/// in too late at a low threshold), and an escape from local minima: after 1 s without 2 mm of
+/// progress the hand heads for a via point 10 cm across the obstacle holding it, for up to
+/// 1.5 s, at most 6 times a trial, each a quarter turn further about the contact normal. A
+/// detour is not a stall: the stall clock restarts when an escape ends.
+///
 /// The simulation is kinematic and deterministic: the same scene and seed give the same table,
 /// byte for byte. Without --scene the built-in scene modelled on Fig. 8.4 is used (5 goals, each
 /// behind a padded bar that blocks the straight path; see skin-control/scenes/fig8_4.json for
@@ -48,6 +56,9 @@ pub struct Args {
     /// Also run every trial without the skin and print both.
     #[arg(long)]
     baseline: bool,
+    /// The thesis' controller as published: no force guard, no escape from local minima.
+    #[arg(long)]
+    thesis: bool,
     /// Also write every trial as CSV (goal, start, outcome, forces, time, distance).
     #[arg(long, value_name = "TRIALS.csv")]
     csv: Option<PathBuf>,
@@ -121,7 +132,11 @@ fn run_seeds(
     let options = ReachOptions {
         threshold: args.threshold,
         no_skin: args.no_skin,
-        ..ReachOptions::default()
+        ..if args.thesis {
+            ReachOptions::thesis()
+        } else {
+            ReachOptions::default()
+        }
     };
     let baseline = ReachOptions {
         no_skin: true,

@@ -42,6 +42,43 @@ pub struct SkinController {
     gains: Gains,
     threshold: f64,
     limit_margin: f64,
+    guard: Option<ForceGuard>,
+}
+
+/// Slows the reach as a contact force nears F_thresh, which the thesis' controller does not: its
+/// contact tasks come in with (F / F_thresh)^4, a third of their strength at 0.75 F_thresh, so a
+/// reach that drives a link into an obstacle can overrun the threshold before they act (the
+/// "force" failures of Tables 8.1/8.2, most of them at a low F_thresh). With the guard, the hand's
+/// top speed falls linearly from full at `slow_from` x F_thresh to zero at `stop_at` x F_thresh
+/// (the largest force on any link): its gains and top speed are scaled; the contact tasks are
+/// unchanged and take the force back down.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceGuard {
+    /// Fraction of F_thresh where the reach starts to slow.
+    pub slow_from: f64,
+    /// Fraction of F_thresh where the reach stops.
+    pub stop_at: f64,
+}
+
+impl Default for ForceGuard {
+    fn default() -> Self {
+        ForceGuard {
+            slow_from: 0.6,
+            stop_at: 0.85,
+        }
+    }
+}
+
+impl ForceGuard {
+    /// The factor on the hand's top speed with `force` the largest contact force.
+    pub fn factor(&self, force: f64, threshold: f64) -> f64 {
+        if !(force.is_finite() && threshold.is_finite() && threshold > 0.0) {
+            return 1.0;
+        }
+        let x = force / threshold;
+        let span = (self.stop_at - self.slow_from).max(1e-9);
+        ((self.stop_at - x) / span).clamp(0.0, 1.0)
+    }
 }
 
 /// Margin of the joint-limit tasks, radians (or metres for a prismatic joint).
@@ -71,7 +108,14 @@ impl SkinController {
             gains,
             threshold,
             limit_margin: JOINT_LIMIT_MARGIN,
+            guard: None,
         })
+    }
+
+    /// Slows the reach near F_thresh (see [`ForceGuard`]); `None` is the thesis' controller.
+    pub fn with_force_guard(mut self, guard: Option<ForceGuard>) -> SkinController {
+        self.guard = guard;
+        self
     }
 
     /// Sets the margin of the joint-limit tasks (0 turns them off).
@@ -111,6 +155,26 @@ impl SkinController {
             });
         }
         out
+    }
+
+    /// The reach's gains this cycle: the guard, if any, scales its pull towards the goal (gains
+    /// and top speed) by the largest contact force on any link.
+    fn reach_gains(&self, contacts: &[LinkContacts]) -> Gains {
+        let largest = contacts
+            .iter()
+            .flat_map(|lc| &lc.contacts)
+            .map(|c| c.force)
+            .filter(|f| f.is_finite())
+            .fold(0.0, f64::max);
+        match self.guard.map(|g| g.factor(largest, self.threshold)) {
+            Some(k) if k < 1.0 => Gains {
+                position: self.gains.position * k,
+                orientation: self.gains.orientation * k,
+                max_speed: self.gains.max_speed * k,
+                ..self.gains
+            },
+            _ => self.gains,
+        }
     }
 
     /// The chain.
@@ -175,6 +239,7 @@ impl SkinController {
             .map(|c| c.force)
             .filter(|f| f.is_finite())
             .fold(0.0, f64::max);
+        let reach_gains = self.reach_gains(contacts);
         let tip_rho = match goal {
             Some(g) => reach_twist(
                 &tip_origin,
@@ -182,7 +247,7 @@ impl SkinController {
                 &Unit::new_normalize(tip_pose.rotation * g.tool_axis.into_inner()),
                 &g.goal,
                 &tip_contacts,
-                &self.gains,
+                &reach_gains,
             ),
             None => contact_twist(&tip_origin, &tip_contacts, &self.gains),
         };
@@ -203,5 +268,24 @@ impl SkinController {
             .stack
             .solve(&tasks)
             .unwrap_or_else(|_| DVector::from_element(n, 0.0)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_guard_slows_the_reach_linearly_between_its_two_fractions_of_the_threshold() {
+        let g = ForceGuard::default();
+        let th = 7.5;
+        assert_eq!(g.factor(0.0, th), 1.0);
+        assert_eq!(g.factor(g.slow_from * th, th), 1.0);
+        assert!((g.factor(0.5 * (g.slow_from + g.stop_at) * th, th) - 0.5).abs() < 1e-12);
+        assert_eq!(g.factor(g.stop_at * th, th), 0.0);
+        assert_eq!(g.factor(2.0 * th, th), 0.0);
+        // Nothing known: no slowing (the controller's own checks handle bad input).
+        assert_eq!(g.factor(f64::NAN, th), 1.0);
+        assert_eq!(g.factor(1.0, 0.0), 1.0);
     }
 }

@@ -57,7 +57,10 @@
 //!   (Eq. 8.13-8.17) with its activation, and reaching in the null space of the end-effector's
 //!   contact task (Eq. 8.18-8.26).
 //! - `controller`: one control cycle, [`SkinController`]: contact tasks of every touched link and
-//!   the reaching task, sorted by contact force, solved into joint velocities.
+//!   the reaching task, sorted by contact force, solved into joint velocities; optionally a
+//!   [`ForceGuard`] that slows the reach as a contact force nears F_thresh (not in the thesis).
+//! - [`escape`]: a way out of the local minima between obstacles (not in the thesis): when the
+//!   hand stops getting closer, a via point across the obstacle that holds it.
 //! - [`hri`]: the physical human-robot interaction tasks of Ch. 9.2 (move along a push, turn a
 //!   held link, bend a joint), triggered by skin contacts through a [`hri::ContactGate`].
 //! - `kinematics`: a serial [`Chain`] from URDF, forward kinematics and geometric Jacobians.
@@ -71,6 +74,7 @@
 pub mod approach_press;
 pub mod contact_tasks;
 mod controller;
+pub mod escape;
 pub mod hri;
 mod kinematics;
 pub mod path_following;
@@ -78,6 +82,6 @@ pub mod path_following;
 pub mod sim;
 mod task_stack;
 
-pub use controller::{JOINT_LIMIT_MARGIN, LinkContacts, ReachGoal, SkinController};
+pub use controller::{ForceGuard, JOINT_LIMIT_MARGIN, LinkContacts, ReachGoal, SkinController};
 pub use kinematics::{Chain, ChainJoint, JointKind, KinematicsError, Posture};
 pub use task_stack::{Regularisation, StackError, Task, TaskStack, pseudo_inverse};

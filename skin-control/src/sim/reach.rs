@@ -12,7 +12,8 @@
 use super::scene::{Scene, SceneError};
 use super::world::World;
 use crate::contact_tasks::Gains;
-use crate::controller::{ReachGoal, SkinController};
+use crate::controller::{ForceGuard, ReachGoal, SkinController};
+use crate::escape::Escape;
 use crate::task_stack::Regularisation;
 use nalgebra::{DVector, Point3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -73,6 +74,21 @@ pub struct ReachOptions {
     pub gains: Gains,
     /// Regularisation of the task stack.
     pub regularisation: Regularisation,
+    /// Slow the reach near F_thresh ([`ForceGuard`]); `None` is the thesis' controller.
+    pub guard: Option<ForceGuard>,
+    /// Step out of local minima ([`Escape`]); `None` is the thesis' controller.
+    pub escape: Option<Escape>,
+}
+
+impl ReachOptions {
+    /// The thesis' controller as published (Ch. 8): no force guard, no escape.
+    pub fn thesis() -> ReachOptions {
+        ReachOptions {
+            guard: None,
+            escape: None,
+            ..ReachOptions::default()
+        }
+    }
 }
 
 impl Default for ReachOptions {
@@ -85,6 +101,8 @@ impl Default for ReachOptions {
                 ..Gains::default()
             },
             regularisation: Regularisation::default(),
+            guard: Some(ForceGuard::default()),
+            escape: Some(Escape::default()),
         }
     }
 }
@@ -177,6 +195,22 @@ impl ReachExperiment {
             .collect()
     }
 
+    /// The controller of a trial: the thesis' task stack with the options' gains, guard and the
+    /// scene's hand speed.
+    fn controller(&self, options: &ReachOptions) -> Result<SkinController, crate::KinematicsError> {
+        Ok(SkinController::new(
+            self.world.chain().clone(),
+            self.world.tip(),
+            options.regularisation,
+            Gains {
+                max_speed: self.scene.hand_speed,
+                ..options.gains
+            },
+            options.threshold,
+        )?
+        .with_force_guard(options.guard))
+    }
+
     /// Runs one trial.
     pub fn run(&self, goal: usize, start: usize, options: &ReachOptions) -> Result<Trial, SceneError> {
         let bad = |why: String| SceneError::Field {
@@ -190,18 +224,9 @@ impl ReachExperiment {
             .and_then(|s| s.get(start))
             .ok_or_else(|| bad(format!("no trial {start} of goal {goal}")))?;
         let target = Point3::from(self.scene.goals[goal]);
-        let mut controller = SkinController::new(
-            self.world.chain().clone(),
-            self.world.tip(),
-            options.regularisation,
-            Gains {
-                max_speed: self.scene.hand_speed,
-                ..options.gains
-            },
-            options.threshold,
-        )
-        .map_err(|e| bad(e.to_string()))?;
-        let reach = ReachGoal {
+        let mut controller = self.controller(options).map_err(|e| bad(e.to_string()))?;
+        let mut escaping = options.escape.map(|e| e.start(0.0));
+        let mut reach = ReachGoal {
             goal: target,
             hand: Point3::origin(),
             tool_axis: Vector3::z_axis(),
@@ -236,7 +261,9 @@ impl ReachExperiment {
             if distance <= self.scene.tolerance {
                 return Ok(finish(Outcome::Success, t, max_force, max_skin, distance));
             }
-            if distance < best - 0.002 {
+            // An escape is a detour, not a stall: the clock runs from its end.
+            let escaping_now = escaping.as_ref().is_some_and(|e| e.escaping());
+            if distance < best - 0.002 || escaping_now {
                 best = distance;
                 best_at = t;
             } else if t - best_at > self.scene.stall_time {
@@ -250,6 +277,9 @@ impl ReachExperiment {
             } else {
                 &sensing.contacts[..]
             };
+            if let Some(e) = &mut escaping {
+                reach.goal = e.target(t, &self.world.hand(&at), &target, contacts);
+            }
             let qdot = controller
                 .step(&q, contacts, Some(&reach))
                 .map_err(|e| bad(e.to_string()))?;
