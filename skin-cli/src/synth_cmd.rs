@@ -4,7 +4,7 @@ use anyhow::{Context as _, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use skin_learn::dataset::DatasetWriter;
-use skin_learn::synth::{SynthOptions, Synthesizer};
+use skin_learn::synth::{Removal, SynthOptions, Synthesizer};
 use std::collections::BTreeMap;
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
@@ -25,6 +25,11 @@ use std::path::PathBuf;
 /// sample), DIR/taxel_parts.txt and DIR/map.json. Samples are numbered subject by subject; the
 /// same --seed gives the same dataset, whatever the number of threads. Split train and test by
 /// subject, as the thesis does.
+///
+/// --remove-up-to F images --thinned-share of the samples (half by default) through maps with
+/// taxels removed as Test B removes them (Ch. 5), 16 maps with fractions spread evenly up to F:
+/// training data for models that must hold up on a skin with dead or missing taxels. Readings in
+/// frames.txt keep every taxel; the same --seed without it gives the same contacts, imaged whole.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -56,6 +61,37 @@ pub struct Args {
     /// are replaced, everything else stays.
     #[arg(long)]
     force: bool,
+    /// Image some samples through maps with up to this fraction of the taxels removed (0 to
+    /// 0.95; Table 5.3 goes to 0.7).
+    #[arg(long, value_name = "F", value_parser = crate::numbers::within(0.01, 0.95))]
+    remove_up_to: Option<f64>,
+    /// With --remove-up-to: the share of samples imaged through a thinned map, 0 to 1.
+    #[arg(long, value_name = "S", default_value_t = 0.5, requires = "remove_up_to", value_parser = crate::numbers::within(0.0, 1.0))]
+    thinned_share: f64,
+}
+
+/// Thinned maps --remove-up-to draws from.
+const THINNED_MAPS: usize = 16;
+
+/// The generator the arguments ask for, on `map`.
+fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> {
+    let options = SynthOptions {
+        image_size: args.size,
+        hand_fraction: args.hand_fraction,
+        ..SynthOptions::default()
+    };
+    let synth = Synthesizer::new(map, options).with_context(|| format!("{}", args.layout.display()))?;
+    let Some(up_to) = args.remove_up_to else {
+        return Ok(synth);
+    };
+    let removal = Removal {
+        share: args.thinned_share,
+        up_to,
+        maps: THINNED_MAPS,
+    };
+    synth
+        .with_removal(map, removal, args.seed)
+        .with_context(|| format!("{}: --remove-up-to {up_to}", args.layout.display()))
 }
 
 /// The most memory the samples may take before they are written, bytes.
@@ -81,12 +117,7 @@ pub fn run(args: Args) -> Result<()> {
         .unwrap_or(args.count.div_ceil(40))
         .clamp(1, args.count);
     let map = crate::shared::load_map(&args.layout)?;
-    let options = SynthOptions {
-        image_size: args.size,
-        hand_fraction: args.hand_fraction,
-        ..SynthOptions::default()
-    };
-    let synth = Synthesizer::new(&map, options).with_context(|| format!("{}", args.layout.display()))?;
+    let synth = synthesizer(&args, &map)?;
     // Sample i belongs to subject i * subjects / count: consecutive, nearly equal shares.
     let jobs: Vec<(usize, u32, u32)> = (0..args.count)
         .map(|i| {
@@ -118,7 +149,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut writer = DatasetWriter::create(out.path(), &map.ids, &map.to_json(), args.size)
         .map_err(|e| crate::output::user_error(&out, e.into()))?;
     let mut kinds: BTreeMap<(bool, &str), usize> = BTreeMap::new();
-    let (mut partial, mut tips, mut hands) = (0, 0, 0);
+    let (mut partial, mut tips, mut hands, mut thinned) = (0, 0, 0, 0);
     for (i, s) in &samples {
         writer
             .add(*i, s)
@@ -127,6 +158,7 @@ pub fn run(args: Args) -> Result<()> {
         hands += usize::from(s.kind.is_hand());
         partial += usize::from(s.partial);
         tips += usize::from(s.fingertips_only);
+        thinned += usize::from(s.removed > 0.0);
     }
     writer
         .finish()
@@ -142,5 +174,11 @@ pub fn run(args: Args) -> Result<()> {
     );
     let list: Vec<String> = kinds.iter().map(|((_, k), n)| format!("{k} {n}")).collect();
     crate::say!("  {}", list.join(", "));
+    if let Some(up_to) = args.remove_up_to {
+        crate::say!(
+            "  {thinned} imaged through maps with up to {:.0}% of the taxels removed",
+            100.0 * up_to
+        );
+    }
     Ok(())
 }

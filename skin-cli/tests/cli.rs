@@ -1185,6 +1185,59 @@ fn synth_writes_a_repeatable_labelled_dataset() {
     );
 }
 
+#[test]
+fn synth_with_taxels_removed_keeps_the_readings_and_thins_the_images() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (whole, thin) = (tmp.path().join("whole"), tmp.path().join("thin"));
+    synth(&whole, "5");
+    let layout = root().join("fixtures/forearm/layout.json");
+    let args = |extra: &[&str]| {
+        let mut a = vec![
+            "synth",
+            "--layout",
+            layout.to_str().unwrap(),
+            "--count",
+            "60",
+            "--subjects",
+            "4",
+            "--seed",
+            "5",
+            "-o",
+            thin.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        skin(&a)
+    };
+    let o = args(&["--remove-up-to", "0.7", "--thinned-share", "1"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(
+        out.contains("60 imaged through maps with up to 70% of the taxels removed"),
+        "{out}"
+    );
+    // The same contacts, read by every taxel, with the same labels.
+    for f in ["labels.csv", "frames.txt", "taxel_parts.txt", "map.json"] {
+        assert_eq!(
+            std::fs::read(whole.join(f)).unwrap(),
+            std::fs::read(thin.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let data = skin_learn::dataset::Dataset::read(&thin).unwrap();
+    let changed = data
+        .entries
+        .iter()
+        .filter(|e| grey(&thin.join("images").join(&e.file)) != grey(&whole.join("images").join(&e.file)))
+        .count();
+    assert!(changed >= 50, "{changed} of 60 images changed");
+    // Refused: a share without a fraction, a fraction out of range.
+    let o = args(&["--thinned-share", "0.5"]);
+    assert!(!o.status.success());
+    let o = args(&["--remove-up-to", "1"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--remove-up-to"), "{err}");
+}
+
 #[cfg(feature = "onnx")]
 #[test]
 fn eval_scores_the_matlab_handsnet_and_runs_test_a() {

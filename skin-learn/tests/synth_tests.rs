@@ -176,3 +176,79 @@ proptest! {
         prop_assert!(s.mask.iter().all(|&l| l <= 6));
     }
 }
+
+#[test]
+fn thinned_samples_keep_their_contacts_and_are_imaged_through_maps_with_taxels_removed() {
+    use skin_learn::synth::Removal;
+    let map = forearm();
+    let n = map.ids.len();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let removal = |share| Removal {
+        share,
+        up_to: 0.7,
+        maps: 8,
+    };
+    let mut plain = whole.clone();
+    let mut all = whole.clone().with_removal(&map, removal(1.0), 3).unwrap();
+    let mut none = whole.clone().with_removal(&map, removal(0.0), 3).unwrap();
+    let mut again = whole.clone().with_removal(&map, removal(1.0), 3).unwrap();
+    let mut fractions = std::collections::BTreeSet::new();
+    let mut changed = 0;
+    for k in 0..40 {
+        let (a, b) = (plain.sample(3, k / 8, k % 8), all.sample(3, k / 8, k % 8));
+        // The same contact, read by every taxel; only its image and mask differ.
+        assert_eq!(
+            (&a.kind, &a.pressures, &a.taxel_parts),
+            (&b.kind, &b.pressures, &b.taxel_parts)
+        );
+        assert_eq!(a.removed, 0.0);
+        // Fractions up_to * k / maps, k = 1..=8, rounded to whole taxels.
+        let k_of = b.removed * 8.0 / 0.7;
+        assert!(
+            (k_of - k_of.round()).abs() * 0.7 / 8.0 < 1.0 / n as f64 && (1.0..=8.0).contains(&k_of.round()),
+            "removed {}",
+            b.removed
+        );
+        fractions.insert((b.removed * 1e6) as u64);
+        changed += usize::from(a.image != b.image);
+        assert_eq!(b.image.len(), a.image.len());
+        assert!(b.mask.iter().zip(&b.image).all(|(&l, &g)| l == 0 || g > 0));
+        if !b.kind.is_hand() {
+            assert!(b.mask.iter().all(|&l| l == 0));
+        }
+        assert_eq!(b, again.sample(3, k / 8, k % 8), "sample {k} is not repeatable");
+        // Share 0: the whole map's sample, byte for byte.
+        assert_eq!(none.sample(3, k / 8, k % 8), a);
+    }
+    assert!(fractions.len() >= 5, "{fractions:?}");
+    assert!(changed >= 35, "{changed} of 40 images changed");
+    // Out of range: refused with the setting's name.
+    for bad in [
+        Removal {
+            share: 1.5,
+            ..removal(0.5)
+        },
+        Removal {
+            up_to: 1.0,
+            ..removal(0.5)
+        },
+        Removal {
+            up_to: 0.0,
+            ..removal(0.5)
+        },
+        Removal {
+            maps: 0,
+            ..removal(0.5)
+        },
+        Removal {
+            share: f64::NAN,
+            ..removal(0.5)
+        },
+    ] {
+        let e = whole.clone().with_removal(&map, bad, 3).unwrap_err().to_string();
+        assert!(
+            e.contains("share") || e.contains("removed") || e.contains("maps"),
+            "{e}"
+        );
+    }
+}
