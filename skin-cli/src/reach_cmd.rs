@@ -24,9 +24,10 @@ use std::path::PathBuf;
 /// force guard that slows the reach from 0.6 F_thresh and stops it at 0.85 F_thresh, leaving
 /// the contact tasks to take the force back down (the thesis' activation, (F/F_thresh)^4, comes
 /// in too late at a low threshold), and an escape from local minima: after 1 s without 2 mm of
-/// progress the hand heads for a via point 10 cm across the obstacle holding it, for up to
-/// 1.5 s, at most 6 times a trial, each a quarter turn further about the contact normal. A
-/// detour is not a stall: the stall clock restarts when an escape ends.
+/// progress the hand heads for a via point 10 cm across the obstacle holding it (on the goal's
+/// side, or upwards when the goal lies straight behind it), for up to 1.5 s, at most 6 times a
+/// trial, each a quarter turn further about the contact normal. A detour is not a stall: the
+/// stall clock restarts when an escape ends.
 ///
 /// The simulation is kinematic and deterministic: the same scene and seed give the same table,
 /// byte for byte. Without --scene the built-in scene modelled on Fig. 8.4 is used (5 goals, each

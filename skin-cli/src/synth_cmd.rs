@@ -61,7 +61,7 @@ pub struct Args {
     /// are replaced, everything else stays.
     #[arg(long)]
     force: bool,
-    /// Image some samples through maps with up to this fraction of the taxels removed (0 to
+    /// Image some samples through maps with up to this fraction of the taxels removed (0.01 to
     /// 0.95; Table 5.3 goes to 0.7).
     #[arg(long, value_name = "F", value_parser = crate::numbers::within(0.01, 0.95))]
     remove_up_to: Option<f64>,

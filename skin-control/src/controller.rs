@@ -51,7 +51,8 @@ pub struct SkinController {
 /// "force" failures of Tables 8.1/8.2, most of them at a low F_thresh). With the guard, the hand's
 /// top speed falls linearly from full at `slow_from` x F_thresh to zero at `stop_at` x F_thresh
 /// (the largest force on any link): its gains and top speed are scaled; the contact tasks are
-/// unchanged and take the force back down.
+/// unchanged and take the force back down. With `stop_at` at or below `slow_from`, the reach
+/// runs at full speed up to `stop_at` and stops there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ForceGuard {
     /// Fraction of F_thresh where the reach starts to slow.
@@ -170,7 +171,8 @@ impl SkinController {
             Some(k) if k < 1.0 => Gains {
                 position: self.gains.position * k,
                 orientation: self.gains.orientation * k,
-                max_speed: self.gains.max_speed * k,
+                // 0 x an unlimited speed is no speed, not NaN.
+                max_speed: if k > 0.0 { self.gains.max_speed * k } else { 0.0 },
                 ..self.gains
             },
             _ => self.gains,

@@ -8,8 +8,12 @@
 //! point [`Escape::distance`] from the hand, across the obstacle: perpendicular to the contacts'
 //! force-weighted normal, on the goal's side, and a little back from the obstacle. The reach
 //! returns to the goal once the hand is within 1 cm of the via point or [`Escape::time`] has
-//! passed. Each further escape of one reach turns a quarter turn about the normal (around the
-//! obstacle one way, over it, the other way, under it), at most [`Escape::tries`] times.
+//! passed. The first escape heads across on the goal's side (upwards where the goal lies straight
+//! behind the obstacle); each further one of the same reach turns a quarter turn further about
+//! the normal, so four escapes try four sides of the obstacle; at most [`Escape::tries`].
+//!
+//! The caller's own stall rule should give an escape time to act: judge progress from the end of
+//! an escape, and allow more than [`Escape::after`] without it (the reach simulation allows 4 s).
 //!
 //! Only the goal moves: the task stack, its priorities and the contact tasks are the thesis'.
 
@@ -82,7 +86,8 @@ impl Escaping {
     ) -> Point3<f64> {
         let e = self.escape;
         if let Some((until, via)) = self.via {
-            if t < until && (hand - via).norm() >= 0.01 {
+            // Time running backwards (a restarted clock) ends the escape too.
+            if t < until && t >= until - e.time && (hand - via).norm() >= 0.01 {
                 return via;
             }
             // Back to the goal, with the progress clock restarted from here.
@@ -126,18 +131,28 @@ fn via_point(
     contacts: &[LinkContacts],
     k: usize,
 ) -> Option<Point3<f64>> {
-    // The contacts' force-weighted outward normal: the obstacle lies that way.
+    // The contacts' force-weighted outward normal: the obstacle lies that way. Contacts pushing
+    // from opposite sides (a link between two bars) leave no clear side to escape to.
     let mut n = Vector3::zeros();
+    let mut total = 0.0;
     for c in contacts.iter().flat_map(|l| &l.contacts) {
         if c.force.is_finite() && c.force > 0.0 && c.normal.iter().all(|v| v.is_finite()) {
             n += c.normal.into_inner() * c.force;
+            total += c.force;
         }
     }
-    let n = n.try_normalize(1e-12)?;
+    if !(total > 0.0) || n.norm() < 0.2 * total {
+        return None;
+    }
+    let n = n.normalize();
     let up = Vector3::z();
     let g = (goal - hand).try_normalize(1e-12).unwrap_or(up);
-    // Across the obstacle on the goal's side, else upwards, else anything across.
-    let across = |v: Vector3<f64>| (v - n * n.dot(&v)).try_normalize(1e-6);
+    // Across the obstacle on the goal's side, else (the goal straight behind it, where the
+    // goal's side is noise) upwards, else anything across.
+    let across = |v: Vector3<f64>| {
+        let a = v - n * n.dot(&v);
+        (a.norm() >= 0.2).then(|| a.normalize())
+    };
     let mut dir = across(g)
         .or_else(|| across(up))
         .or_else(|| across(Vector3::x()))?;
@@ -271,6 +286,51 @@ mod tests {
         let via = held(&mut run, 1.1, Point3::origin(), goal, &c).last().unwrap().1;
         assert_ne!(via, goal);
         assert_eq!(run.target(1.2, &via, &goal, &c), goal);
+        assert!(!run.escaping());
+    }
+
+    #[test]
+    fn a_goal_straight_behind_the_obstacle_escapes_upwards_and_opposed_contacts_not_at_all() {
+        let hand = Point3::origin();
+        // The goal dead ahead, behind the obstacle, but for a hair to the side.
+        let goal = Point3::new(0.3, 1e-5, 0.0);
+        let c = pressed(Vector3::x(), 5.0);
+        let e = Escape::default();
+        let mut run = e.start(0.0);
+        let (_, via) = *held(&mut run, 1.1, hand, goal, &c).last().unwrap();
+        let want = hand + (Vector3::z() - Vector3::x() * e.back) * e.distance;
+        assert!((via - want).norm() < 1e-12, "{via} vs {want}");
+        // Pushed equally from both sides: no side to escape to.
+        let mut both = pressed(Vector3::x(), 5.0);
+        both.extend(pressed(-Vector3::x(), 5.0));
+        let mut run = e.start(0.0);
+        assert!(
+            held(&mut run, 5.0, hand, goal, &both)
+                .iter()
+                .all(|(_, p)| *p == goal)
+        );
+    }
+
+    #[test]
+    fn the_fifth_escape_repeats_the_first_and_a_clock_run_backwards_ends_an_escape() {
+        let hand = Point3::origin();
+        let goal = Point3::new(0.3, 0.0, 0.1);
+        let c = pressed(Vector3::x(), 5.0);
+        let e = Escape::default();
+        let mut run = e.start(0.0);
+        let mut vias = Vec::new();
+        for (_, p) in held(&mut run, 40.0, hand, goal, &c) {
+            if p != goal && vias.last() != Some(&p) {
+                vias.push(p);
+            }
+        }
+        assert_eq!(vias.len(), e.tries);
+        assert_eq!(vias[4], vias[0]);
+        assert_eq!(vias[5], vias[1]);
+        let mut run = e.start(0.0);
+        let (t, via) = *held(&mut run, 1.1, hand, goal, &c).last().unwrap();
+        assert_ne!(via, goal);
+        assert_eq!(run.target(t - 10.0, &hand, &goal, &c), goal);
         assert!(!run.escaping());
     }
 }

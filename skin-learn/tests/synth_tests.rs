@@ -212,9 +212,9 @@ fn thinned_samples_keep_their_contacts_and_are_imaged_through_maps_with_taxels_r
         fractions.insert((b.removed * 1e6) as u64);
         changed += usize::from(a.image != b.image);
         assert_eq!(b.image.len(), a.image.len());
-        assert!(b.mask.iter().zip(&b.image).all(|(&l, &g)| l == 0 || g > 0));
-        if !b.kind.is_hand() {
-            assert!(b.mask.iter().all(|&l| l == 0));
+        // The truth Test B scores against: the whole map's mask where the thinned image is lit.
+        for ((&l, &g), &whole) in b.mask.iter().zip(&b.image).zip(&a.mask) {
+            assert_eq!(l, if g > 0 { whole } else { 0 });
         }
         assert_eq!(b, again.sample(3, k / 8, k % 8), "sample {k} is not repeatable");
         // Share 0: the whole map's sample, byte for byte.
@@ -222,6 +222,18 @@ fn thinned_samples_keep_their_contacts_and_are_imaged_through_maps_with_taxels_r
     }
     assert!(fractions.len() >= 5, "{fractions:?}");
     assert!(changed >= 35, "{changed} of 40 images changed");
+}
+
+#[test]
+fn thinning_refuses_settings_out_of_range_and_another_map_than_the_generators() {
+    use skin_learn::synth::Removal;
+    let map = forearm();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let removal = |share| Removal {
+        share,
+        up_to: 0.7,
+        maps: 8,
+    };
     // Out of range: refused with the setting's name.
     for bad in [
         Removal {
@@ -251,4 +263,25 @@ fn thinned_samples_keep_their_contacts_and_are_imaged_through_maps_with_taxels_r
             "{e}"
         );
     }
+    // Another map than the generator's: refused, not indexed out of range.
+    let other = TactileMap::flatten(
+        &LinkSkin::new(
+            "patch",
+            (0..100u32)
+                .map(|i| Taxel {
+                    id: TaxelId(i),
+                    position: Point3::new((i % 10) as f64 * 0.01, (i / 10) as f64 * 0.01, 0.0),
+                    normal: Unit::new_normalize(Vector3::z()),
+                })
+                .collect(),
+        ),
+        &FlattenOptions::default(),
+    )
+    .unwrap();
+    let e = whole
+        .clone()
+        .with_removal(&other, removal(0.5), 3)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("map to thin"), "{e}");
 }

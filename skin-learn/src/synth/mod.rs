@@ -127,8 +127,10 @@ impl Default for SynthOptions {
 ///
 /// The contact is pressed on the whole map as always (its readings, in `frames.txt`, keep every
 /// taxel); a share of the samples is then imaged, image and mask, through one of `maps` thinned
-/// maps whose removed fractions are spread evenly up to `up_to`. Their removal orders come from
-/// the dataset's seed, never from the small seeds `skin eval --test-b` draws its maps with.
+/// maps whose removed fractions are spread evenly up to `up_to`. Its mask is the whole map's,
+/// cut to the pixels the thinned image still lights: the truth Test B scores a segmenter against
+/// (Ch. 5.3). The removal orders come from the dataset's seed, never from the small seeds
+/// `skin eval --test-b` draws its maps with.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Removal {
     /// Share of the samples imaged through a thinned map, 0 to 1.
@@ -234,8 +236,9 @@ impl Synthesizer {
     }
 
     /// The same generator, with a share of the samples imaged through maps with taxels removed
-    /// (see [`Removal`]); `seed` draws the removal orders (use the dataset's seed). An error if a
-    /// setting is out of range or a thinned map keeps fewer than three taxels.
+    /// (see [`Removal`]); `map` is the generator's own map, `seed` draws the removal orders (use
+    /// the dataset's seed). An error if `map` is another map, a setting is out of range or a
+    /// thinned map keeps fewer than three taxels.
     pub fn with_removal(
         mut self,
         map: &TactileMap,
@@ -247,6 +250,13 @@ impl Synthesizer {
             value,
             expected,
         };
+        if map.points != self.points {
+            return Err(bad(
+                "taxels of the map to thin",
+                map.points.len() as f64,
+                "the generator's own map",
+            ));
+        }
         if !(removal.share.is_finite() && (0.0..=1.0).contains(&removal.share)) {
             return Err(bad("share of samples thinned", removal.share, "0 to 1"));
         }
@@ -264,8 +274,8 @@ impl Synthesizer {
         for k in 1..=removal.maps {
             let decimation = Decimation {
                 fraction: removal.up_to * k as f64 / removal.maps as f64,
-                // Salted so that no training map is one of the test's (seeds 0, 1, 2, ...).
-                seed: mix(seed ^ 0x7E57_B000_0000_0000, u32::MAX, k as u32),
+                // Top bit set: never one of the test's maps (seeds 0, 1, 2, ...).
+                seed: mix(seed ^ 0x7E57_B000_0000_0000, u32::MAX, k as u32) | 1 << 63,
             };
             let keep = decimation.survivors(map.points.len())?;
             let smaller = decimation.apply(map)?;
@@ -308,7 +318,15 @@ impl Synthesizer {
                 let t = &mut thinned[k];
                 let pressures: Vec<f32> = t.keep.iter().map(|&i| sample.pressures[i]).collect();
                 let parts: Vec<u8> = t.keep.iter().map(|&i| sample.taxel_parts[i]).collect();
-                (sample.image, sample.mask) = t.synth.image_and_mask(&pressures, &parts);
+                let (image, _) = t.synth.image_and_mask(&pressures, &parts);
+                // The truth Test B scores against (Ch. 5.3): the whole map's parts, where the
+                // thinned image still shows something.
+                for (m, &g) in sample.mask.iter_mut().zip(&image) {
+                    if g == 0 {
+                        *m = 0;
+                    }
+                }
+                sample.image = image;
                 sample.removed = t.removed;
             }
         }
