@@ -1114,9 +1114,10 @@ fn skin_geom_png(rows: u32, cols: u32) -> Vec<u8> {
 
 // skin synth, skin eval, skin segment: touch understanding (Ch. 4, 5).
 
-fn synth(dir: &Path, seed: &str) -> String {
+/// `skin synth` of 60 samples of 4 subjects on the fixture forearm, with `extra` arguments.
+fn synth_run(dir: &Path, seed: &str, extra: &[&str]) -> std::process::Output {
     let layout = root().join("fixtures/forearm/layout.json");
-    let o = skin(&[
+    let mut args = vec![
         "synth",
         "--layout",
         layout.to_str().unwrap(),
@@ -1128,7 +1129,13 @@ fn synth(dir: &Path, seed: &str) -> String {
         seed,
         "-o",
         dir.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    skin(&args)
+}
+
+fn synth(dir: &Path, seed: &str) -> String {
+    let o = synth_run(dir, seed, &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     out
@@ -1190,24 +1197,7 @@ fn synth_with_taxels_removed_keeps_the_readings_and_thins_the_images() {
     let tmp = tempfile::tempdir().unwrap();
     let (whole, thin) = (tmp.path().join("whole"), tmp.path().join("thin"));
     synth(&whole, "5");
-    let layout = root().join("fixtures/forearm/layout.json");
-    let args = |extra: &[&str]| {
-        let mut a = vec![
-            "synth",
-            "--layout",
-            layout.to_str().unwrap(),
-            "--count",
-            "60",
-            "--subjects",
-            "4",
-            "--seed",
-            "5",
-            "-o",
-            thin.to_str().unwrap(),
-        ];
-        a.extend_from_slice(extra);
-        skin(&a)
-    };
+    let args = |extra: &[&str]| synth_run(&thin, "5", extra);
     let o = args(&["--remove-up-to", "0.7", "--thinned-share", "1"]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
