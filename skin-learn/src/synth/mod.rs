@@ -141,12 +141,31 @@ pub struct Removal {
     pub maps: usize,
 }
 
-/// A thinned map: the indices of the taxels it keeps, and a generator on it for the images.
+/// A thinned map: the indices of the taxels it keeps, and the image pipeline on it.
 #[derive(Debug, Clone)]
 struct Thinned {
     keep: Vec<usize>,
     removed: f64,
-    synth: Box<Synthesizer>,
+    imager: TactileImager,
+}
+
+/// The real image pipeline on `map` at the generator's grid step and output size.
+fn pipeline(map: &TactileMap, options: &SynthOptions) -> skin_geom::Result<TactileImager> {
+    let raster = Rasterizer::new(map, Grid::StepMm(options.step_mm))?;
+    let size = skin_core::image::ImageSize {
+        rows: options.image_size.0,
+        cols: options.image_size.1,
+    };
+    TactileImager::new(raster, Normalisation::ContactMax, true, Some(size))
+}
+
+/// `imager`'s image of `pressures`; black if it cannot make one (the buffers are sized from the
+/// map, so it always can).
+fn image_of(imager: &mut TactileImager, pressures: &[f32], size: (usize, usize)) -> Vec<u8> {
+    match imager.process(pressures) {
+        Ok(img) => img.to_vec(),
+        Err(_) => vec![0; size.0 * size.1],
+    }
 }
 
 /// One labelled contact.
@@ -282,7 +301,7 @@ impl Synthesizer {
             thinned.push(Thinned {
                 removed: 1.0 - keep.len() as f64 / map.points.len().max(1) as f64,
                 keep,
-                synth: Box::new(Synthesizer::new(&smaller, self.options)?),
+                imager: pipeline(&smaller, &self.options)?,
             });
         }
         self.removal = Some((removal, thinned));
@@ -317,8 +336,7 @@ impl Synthesizer {
                 let k = rng.random_range(0..thinned.len());
                 let t = &mut thinned[k];
                 let pressures: Vec<f32> = t.keep.iter().map(|&i| sample.pressures[i]).collect();
-                let parts: Vec<u8> = t.keep.iter().map(|&i| sample.taxel_parts[i]).collect();
-                let (image, _) = t.synth.image_and_mask(&pressures, &parts);
+                let image = image_of(&mut t.imager, &pressures, self.options.image_size);
                 // The truth Test B scores against (Ch. 5.3): the whole map's parts, where the
                 // thinned image still shows something.
                 for (m, &g) in sample.mask.iter_mut().zip(&image) {
@@ -474,11 +492,7 @@ impl Synthesizer {
     /// and the mask read at the taxels (as `parts::part_contacts` reads a segmentation) gave
     /// 8.4% of the pressed taxels another part than the one pressing them.
     fn image_and_mask(&mut self, pressures: &[f32], parts: &[u8]) -> (Vec<u8>, Vec<u8>) {
-        let image = match self.imager.process(pressures) {
-            Ok(img) => img.to_vec(),
-            // The buffers are sized from the map, so this cannot fail; an empty image says so.
-            Err(_) => vec![0; self.options.image_size.0 * self.options.image_size.1],
-        };
+        let image = image_of(&mut self.imager, pressures, self.options.image_size);
         let k_bar = pressures.iter().copied().fold(0.0f32, f32::max);
         let gain = if k_bar > 0.0 { 255.0 / k_bar } else { 0.0 };
         for ((g, &k), (l, s)) in self
