@@ -61,12 +61,12 @@ pub struct Escaping {
 }
 
 impl Escape {
-    /// The escapes of a new reach, starting at time `t` (seconds).
-    pub fn start(&self, t: f64) -> Escaping {
+    /// The escapes of a new reach; its clock starts at the first [`Escaping::target`].
+    pub fn start(&self) -> Escaping {
         Escaping {
             escape: *self,
             best: f64::INFINITY,
-            best_at: t,
+            best_at: 0.0,
             via: None,
             tries: 0,
         }
@@ -205,7 +205,7 @@ mod tests {
         let goal = Point3::new(0.3, 0.0, 0.1);
         let c = pressed(Vector3::x(), 5.0);
         let e = Escape::default();
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let targets = held(&mut run, 1.2, hand, goal, &c);
         for (t, p) in &targets {
             if *t <= e.after {
@@ -230,7 +230,7 @@ mod tests {
             tries: 3,
             ..Escape::default()
         };
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let mut vias = Vec::new();
         for (_, p) in held(&mut run, 20.0, hand, goal, &c) {
             if p != goal && vias.last() != Some(&p) {
@@ -258,7 +258,7 @@ mod tests {
         let c = pressed(Vector3::x(), 5.0);
         let e = Escape::default();
         // The hand moving 1 cm a second towards the goal: never an escape.
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         for i in 0..2000 {
             let t = i as f64 * 0.005;
             let s: f64 = (t * 0.01 / goal.coords.norm()).min(1.0);
@@ -266,7 +266,7 @@ mod tests {
             assert_eq!(run.target(t, &hand, &goal, &c), goal, "t = {t}");
         }
         // Stuck with nothing touching (a joint limit, say): nothing to escape from.
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         assert!(
             held(&mut run, 5.0, Point3::origin(), goal, &[])
                 .iter()
@@ -275,14 +275,14 @@ mod tests {
         assert_eq!(run.tries(), 0);
         // Non-finite contacts are ignored the same way.
         let bad = pressed(Vector3::x(), f64::NAN);
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         assert!(
             held(&mut run, 5.0, Point3::origin(), goal, &bad)
                 .iter()
                 .all(|(_, p)| *p == goal)
         );
         // Reaching the via point ends the escape at once.
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let via = held(&mut run, 1.1, Point3::origin(), goal, &c).last().unwrap().1;
         assert_ne!(via, goal);
         assert_eq!(run.target(1.2, &via, &goal, &c), goal);
@@ -296,14 +296,14 @@ mod tests {
         let goal = Point3::new(0.3, 1e-5, 0.0);
         let c = pressed(Vector3::x(), 5.0);
         let e = Escape::default();
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let (_, via) = *held(&mut run, 1.1, hand, goal, &c).last().unwrap();
         let want = hand + (Vector3::z() - Vector3::x() * e.back) * e.distance;
         assert!((via - want).norm() < 1e-12, "{via} vs {want}");
         // Pushed equally from both sides: no side to escape to.
         let mut both = pressed(Vector3::x(), 5.0);
         both.extend(pressed(-Vector3::x(), 5.0));
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         assert!(
             held(&mut run, 5.0, hand, goal, &both)
                 .iter()
@@ -317,7 +317,7 @@ mod tests {
         let goal = Point3::new(0.3, 0.0, 0.1);
         let c = pressed(Vector3::x(), 5.0);
         let e = Escape::default();
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let mut vias = Vec::new();
         for (_, p) in held(&mut run, 40.0, hand, goal, &c) {
             if p != goal && vias.last() != Some(&p) {
@@ -327,7 +327,7 @@ mod tests {
         assert_eq!(vias.len(), e.tries);
         assert_eq!(vias[4], vias[0]);
         assert_eq!(vias[5], vias[1]);
-        let mut run = e.start(0.0);
+        let mut run = e.start();
         let (t, via) = *held(&mut run, 1.1, hand, goal, &c).last().unwrap();
         assert_ne!(via, goal);
         assert_eq!(run.target(t - 10.0, &hand, &goal, &c), goal);

@@ -225,7 +225,7 @@ impl ReachExperiment {
             .ok_or_else(|| bad(format!("no trial {start} of goal {goal}")))?;
         let target = Point3::from(self.scene.goals[goal]);
         let mut controller = self.controller(options).map_err(|e| bad(e.to_string()))?;
-        let mut escaping = options.escape.map(|e| e.start(0.0));
+        let mut escaping = options.escape.map(|e| e.start());
         let mut reach = ReachGoal {
             goal: target,
             hand: Point3::origin(),
