@@ -176,15 +176,18 @@ fn a_classifier_is_not_a_segmenter_and_vice_versa() {
     assert!(matches!(err, ModelError::Shape { .. }), "{err}");
 }
 
-/// skin-learn swaps tract's 2 x 2 max-pools for its own vectorised one: the shipped models must
-/// give exactly what tract's own plan gives (a max is exact, the rest of the plan is the same).
+/// skin-learn swaps tract's 2 x 2 max-pools for its own vectorised one, which takes in the ReLU
+/// before it: the shipped models must give exactly what tract's own plan gives (a max is exact,
+/// the rest of the plan is the same).
 #[test]
 fn the_swapped_max_pools_change_no_output() {
     use tract_onnx::prelude::*;
     let map = forearm();
     let mut synth = Synthesizer::new(&map, SynthOptions::default()).unwrap();
     let images: Vec<Vec<u8>> = (0..6).map(|k| synth.sample(79, k, k).image).collect();
-    for (name, pools) in [("handsnet.onnx", 4), ("handseg.onnx", 2)] {
+    // HandsNet's ReLUs feed their pools alone; the segmenter's first two also feed its skip
+    // connections, so they stay.
+    for (name, pools, relus_taken_in) in [("handsnet.onnx", 4, 4), ("handseg.onnx", 2, 0)] {
         let optimised = tract_onnx::onnx()
             .model_for_path(model(name))
             .and_then(|m| m.with_input_fact(0, f32::fact([1, 1, 68, 100]).into()))
@@ -196,6 +199,21 @@ fn the_swapped_max_pools_change_no_output() {
             pools,
             "{name}"
         );
+        let taken_in = swapped
+            .nodes
+            .iter()
+            .filter(|n| n.op.name() == "ReluMaxPool2x2")
+            .count();
+        assert_eq!(taken_in, relus_taken_in, "{name}");
+        // What feeds each of those pools is the convolution, no longer a ReLU.
+        for pool in swapped.nodes.iter().filter(|n| n.op.name() == "ReluMaxPool2x2") {
+            let before = swapped.nodes[pool.inputs[0].node].op.name();
+            assert_ne!(
+                before, "OptMaxByScalar",
+                "{name}: {} still follows a ReLU",
+                pool.name
+            );
+        }
         let plain = optimised.into_runnable().unwrap();
         let swapped = swapped.into_runnable().unwrap();
         for image in &images {
