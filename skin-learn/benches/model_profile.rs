@@ -4,9 +4,11 @@
 //!
 //! ```text
 //! cargo bench -p skin-learn --features onnx --bench model_profile [-- MODEL.onnx ...]
+//! (relative paths from the workspace root)
 //! ```
 //!
-//! `BATCH=32` profiles a batch; `PLAIN_TRACT=1` leaves tract's own max-pools in the plan;
+//! A model whose input shape is fixed runs at that shape (the single layers of
+//! `bench/conv_layers.py`). `BATCH=32` profiles a batch; `PLAIN_TRACT=1` leaves tract's own max-pools in the plan;
 //! `FULL=1` prints each node's whole description (the matrix kernel it picked).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)] // a profiling tool
@@ -15,6 +17,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tract_onnx::prelude::*;
+use tract_onnx::tract_hir::infer::Factoid;
 
 const WARM_UP: usize = 20;
 const RUNS: usize = 100;
@@ -24,7 +27,8 @@ fn main() {
     let args: Vec<PathBuf> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with("--"))
-        .map(PathBuf::from)
+        // cargo runs a bench in its crate's folder: a relative path is the workspace root's.
+        .map(|a| root.join(a))
         .collect();
     let models = if args.is_empty() {
         vec![
@@ -44,9 +48,23 @@ fn profile(path: &Path) {
         .ok()
         .and_then(|b| b.parse().ok())
         .unwrap_or(1);
-    let plan = tract_onnx::onnx()
-        .model_for_path(path)
-        .and_then(|m| m.with_input_fact(0, f32::fact([batch, 1, 68, 100]).into()))
+    let model = tract_onnx::onnx().model_for_path(path).unwrap();
+    // A model whose input shape is fixed (a single layer of bench/conv_layers.py) runs at it;
+    // a tactile image model at [batch, 1, 68, 100].
+    let fixed: Option<Vec<usize>> = model.input_fact(0).ok().and_then(|f| {
+        f.shape
+            .dims()
+            .map(|d| {
+                d.concretize()
+                    .and_then(|t| t.to_i64().ok())
+                    .and_then(|v| usize::try_from(v).ok())
+            })
+            .collect::<Option<Vec<usize>>>()
+            .filter(|_| !f.shape.is_open())
+    });
+    let shape = fixed.unwrap_or_else(|| vec![batch, 1, 68, 100]);
+    let plan = model
+        .with_input_fact(0, f32::fact(&shape).into())
         .and_then(|m| m.into_optimized())
         .and_then(|mut m| {
             // As skin-learn plans it, unless PLAIN_TRACT is set.
@@ -58,14 +76,23 @@ fn profile(path: &Path) {
         .and_then(|m| m.into_runnable())
         .unwrap();
     let mut state = TypedSimpleState::new(&plan).unwrap();
-    let input: Tensor = tract_ndarray::Array4::from_shape_fn((batch, 1, 68, 100), |(_, _, r, c)| {
-        if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
-            0.8f32
-        } else {
-            0.0
-        }
-    })
-    .into();
+    let input: Tensor = if shape[..] == [batch, 1, 68, 100] {
+        tract_ndarray::Array4::from_shape_fn((batch, 1, 68, 100), |(_, _, r, c)| {
+            if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
+                0.8f32
+            } else {
+                0.0
+            }
+        })
+        .into()
+    } else {
+        let n: usize = shape.iter().product();
+        Tensor::from_shape(
+            &shape,
+            &(0..n).map(|i| (i % 101) as f32 / 101.0).collect::<Vec<_>>(),
+        )
+        .unwrap()
+    };
     for _ in 0..WARM_UP {
         state.run(tvec!(input.clone().into())).unwrap();
     }
