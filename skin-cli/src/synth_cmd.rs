@@ -4,7 +4,7 @@ use anyhow::{Context as _, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use skin_learn::dataset::DatasetWriter;
-use skin_learn::synth::{Removal, SynthOptions, Synthesizer};
+use skin_learn::synth::{MaskLabels, Removal, SynthOptions, Synthesizer};
 use std::collections::BTreeMap;
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
@@ -25,6 +25,11 @@ use std::path::PathBuf;
 /// sample), DIR/taxel_parts.txt and DIR/map.json. Samples are numbered subject by subject; the
 /// same --seed gives the same dataset, whatever the number of threads. Split train and test by
 /// subject, as the thesis does.
+///
+/// Masks label each lit pixel with the part that pressed the taxels behind it (--mask-labels
+/// pressing, the truth per taxel), or with each part's region as it shows on the image, where a
+/// brighter finger's blob spreads over a dimmer neighbour (--mask-labels as-imaged, as the thesis'
+/// annotators drew them for Table 4.8). The images are the same either way.
 ///
 /// --remove-up-to F images --thinned-share of the samples (half by default) through maps with
 /// taxels removed as Test B removes them (Ch. 5), 16 maps with fractions spread evenly up to F:
@@ -68,6 +73,17 @@ pub struct Args {
     /// With --remove-up-to: the share of samples imaged through a thinned map, 0 to 1.
     #[arg(long, value_name = "S", default_value_t = 0.5, requires = "remove_up_to", value_parser = crate::numbers::within(0.0, 1.0))]
     thinned_share: f64,
+    /// Hand-part masks: `pressing` (the part that pressed each pixel's taxels) or `as-imaged`
+    /// (each part's region as it shows on the image, as the thesis labelled by hand).
+    #[arg(long, value_enum, default_value_t = Labels::Pressing)]
+    mask_labels: Labels,
+}
+
+/// `--mask-labels`: see [`MaskLabels`].
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum Labels {
+    Pressing,
+    AsImaged,
 }
 
 /// Thinned maps --remove-up-to draws from.
@@ -78,6 +94,10 @@ fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> 
     let options = SynthOptions {
         image_size: args.size,
         hand_fraction: args.hand_fraction,
+        labels: match args.mask_labels {
+            Labels::Pressing => MaskLabels::Pressing,
+            Labels::AsImaged => MaskLabels::AsImaged,
+        },
         ..SynthOptions::default()
     };
     let synth = Synthesizer::new(map, options).with_context(|| format!("{}", args.layout.display()))?;
@@ -178,6 +198,11 @@ pub fn run(args: Args) -> Result<()> {
         crate::say!(
             "  {thinned} imaged through maps with up to {:.0}% of the taxels removed",
             100.0 * up_to
+        );
+    }
+    if let Labels::AsImaged = args.mask_labels {
+        crate::say!(
+            "  hand-part masks: each part's region as it shows on the image (--mask-labels as-imaged)"
         );
     }
     Ok(())

@@ -1228,6 +1228,43 @@ fn synth_with_taxels_removed_keeps_the_readings_and_thins_the_images() {
     assert!(!o.status.success() && err.contains("--remove-up-to"), "{err}");
 }
 
+#[test]
+fn synth_labels_as_imaged_keep_the_images_and_redraw_some_masks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (pressing, as_imaged) = (tmp.path().join("pressing"), tmp.path().join("as_imaged"));
+    synth(&pressing, "5");
+    let o = synth_run(&as_imaged, "5", &["--mask-labels", "as-imaged"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("as it shows on the image"), "{out}");
+    for f in ["labels.csv", "frames.txt", "taxel_parts.txt"] {
+        assert_eq!(
+            std::fs::read(pressing.join(f)).unwrap(),
+            std::fs::read(as_imaged.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let data = skin_learn::dataset::Dataset::read(&as_imaged).unwrap();
+    let (mut same_images, mut masks_differ) = (0, 0);
+    for e in &data.entries {
+        same_images += usize::from(
+            grey(&pressing.join("images").join(&e.file)) == grey(&as_imaged.join("images").join(&e.file)),
+        );
+        // Masks are written for hands only.
+        if e.hand {
+            masks_differ += usize::from(
+                grey(&pressing.join("masks").join(&e.file)) != grey(&as_imaged.join("masks").join(&e.file)),
+            );
+        }
+    }
+    assert_eq!(same_images, 60);
+    let hands = data.entries.iter().filter(|e| e.hand).count();
+    assert!(masks_differ >= 5, "{masks_differ} of {hands} hand masks differ");
+    let o = synth_run(&as_imaged, "5", &["--mask-labels", "drawn"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("as-imaged"), "{err}");
+}
+
 #[cfg(feature = "onnx")]
 #[test]
 fn eval_scores_the_matlab_handsnet_and_runs_test_a() {

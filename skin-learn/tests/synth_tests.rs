@@ -9,7 +9,7 @@ use skin_core::{LinkSkin, Taxel, TaxelId};
 use skin_geom::{FlattenOptions, Grid, Rasterizer, TactileMap};
 use skin_learn::parts::Part;
 use skin_learn::parts::taxel_labels;
-use skin_learn::synth::{Kind, SynthOptions, Synthesizer};
+use skin_learn::synth::{Kind, MaskLabels, SynthOptions, Synthesizer};
 
 /// A half cylinder like a forearm cover (radius 80 mm, 300 mm long), taxels ~10 mm apart.
 fn forearm() -> TactileMap {
@@ -107,6 +107,50 @@ fn the_mask_gives_each_pressed_taxel_its_own_part() {
     assert!(
         same * 100 >= all * 98,
         "{same} of {all} taxels read their own part"
+    );
+}
+
+#[test]
+fn labels_as_imaged_spread_a_brighter_part_over_its_neighbours() {
+    // The thesis' annotators drew each part's region as it shows on the image: the same image,
+    // the same lit pixels mostly, but some of the pressed taxels fall in a brighter neighbour's
+    // region, where the pressing-part mask gives nearly all of them their own part.
+    let map = forearm();
+    let pressing = SynthOptions {
+        hand_fraction: 1.0,
+        ..SynthOptions::default()
+    };
+    let as_imaged = SynthOptions {
+        labels: MaskLabels::AsImaged,
+        ..pressing
+    };
+    let raster = Rasterizer::new(&map, Grid::StepMm(pressing.step_mm)).unwrap();
+    let mut a = Synthesizer::new(&map, pressing).unwrap();
+    let mut b = Synthesizer::new(&map, as_imaged).unwrap();
+    let (mut differ, mut lit, mut own_a, mut own_b, mut pressed) = (0usize, 0usize, 0usize, 0usize, 0usize);
+    for k in 0..60 {
+        let (sa, sb) = (a.sample(5, k / 6, k % 6), b.sample(5, k / 6, k % 6));
+        assert_eq!(sa.image, sb.image);
+        lit += sa.mask.iter().filter(|&&l| l > 0).count();
+        differ += sa.mask.iter().zip(&sb.mask).filter(|(x, y)| x != y).count();
+        let read = |mask: &[u8]| {
+            taxel_labels(&map, &raster, pressing.image_size, mask, &sa.pressures)
+                .into_iter()
+                .filter(|&(i, l)| sa.taxel_parts[i] > 0 && l == sa.taxel_parts[i])
+                .count()
+        };
+        own_a += read(&sa.mask);
+        own_b += read(&sb.mask);
+        pressed += sa.taxel_parts.iter().filter(|&&p| p > 0).count();
+    }
+    assert!(
+        differ * 100 >= lit && differ * 4 <= lit,
+        "{differ} of {lit} hand pixels differ"
+    );
+    assert!(own_a * 100 >= pressed * 98, "pressing: {own_a} of {pressed}");
+    assert!(
+        own_b * 100 <= pressed * 97,
+        "as imaged: {own_b} of {pressed} taxels read their own part"
     );
 }
 

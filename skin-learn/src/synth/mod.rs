@@ -105,6 +105,24 @@ pub struct SynthOptions {
     pub noise: f32,
     /// Readings below this are zero, as after baseline removal with a dead band.
     pub dead_band: f32,
+    /// How a hand sample's mask labels its pixels.
+    pub labels: MaskLabels,
+}
+
+/// How a hand sample's part mask labels its pixels. Both label the pixels the image lights, and
+/// only those; they differ where a brighter part's blob spreads over a dimmer neighbour's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MaskLabels {
+    /// Each lit pixel carries the part that pressed the taxels behind it (the pixel's own
+    /// taxels; a pixel only the dilation lights takes the part whose value it copied). Read at
+    /// the taxels, this mask is the truth of which part pressed which taxel.
+    #[default]
+    Pressing,
+    /// The regions as they appear on the tactile image, as the thesis' annotators drew them
+    /// (Table 4.8): each lit pixel takes the part of the pixel whose value the image's dilation
+    /// copied, so a brighter finger's region spreads up to the dilation's 4 grid pixels (4 mm at
+    /// the default `step_mm`) over a dimmer neighbour, as its blob does on the image.
+    AsImaged,
 }
 
 impl Default for SynthOptions {
@@ -116,6 +134,7 @@ impl Default for SynthOptions {
             peak: (30.0, 250.0),
             noise: 1.5,
             dead_band: 4.0,
+            labels: MaskLabels::Pressing,
         }
     }
 }
@@ -487,8 +506,8 @@ impl Synthesizer {
     /// the dilation copied); resizing takes the majority part of each output pixel's block; black
     /// output pixels are background.
     ///
-    /// A lit pixel keeps its own taxel's part even where the dilation paints it with a brighter
-    /// neighbour's value: otherwise a bright finger's part spreads 4 mm over the palm's taxels,
+    /// With [`MaskLabels::Pressing`], a lit pixel keeps its own taxel's part even where the
+    /// dilation paints it with a brighter neighbour's value: otherwise a bright finger's part spreads 4 mm over the palm's taxels,
     /// and the mask read at the taxels (as `parts::part_contacts` reads a segmentation) gave
     /// 8.4% of the pressed taxels another part than the one pressing them.
     fn image_and_mask(&mut self, pressures: &[f32], parts: &[u8]) -> (Vec<u8>, Vec<u8>) {
@@ -515,7 +534,15 @@ impl Synthesizer {
         }
         let (rows, cols) = (self.rows, self.cols);
         let eroded = skin_geom::erode_disk(&self.grey, rows, cols, TactileImager::EROSION_RADIUS);
-        let dilated = dilate_labels(&eroded, &self.labels, rows, cols, TactileImager::DILATION_RADIUS);
+        let own_first = self.options.labels == MaskLabels::Pressing;
+        let dilated = dilate_labels(
+            &eroded,
+            &self.labels,
+            rows,
+            cols,
+            TactileImager::DILATION_RADIUS,
+            own_first,
+        );
         let (out_rows, out_cols) = self.options.image_size;
         let mut mask = vec![0u8; out_rows * out_cols];
         for (o, m) in mask.iter_mut().enumerate() {
@@ -568,10 +595,18 @@ fn block(i: usize, n_src: usize, n_out: usize) -> (usize, usize) {
     (start, end.min(n_src))
 }
 
-/// The labels of a grey dilation with a disk of `radius`: a pixel with a label of its own keeps
-/// it; any other takes the label of the brightest `grey` pixel within the disk (first in raster
-/// order on ties), or 0 if all are black.
-fn dilate_labels(grey: &[u8], labels: &[u8], rows: usize, cols: usize, radius: usize) -> Vec<u8> {
+/// The labels of a grey dilation with a disk of `radius`: a pixel takes the label of the
+/// brightest `grey` pixel within the disk (first in raster order on ties; the pixel whose value
+/// the dilation copied), or 0 if all are black; with `own_first`, a pixel with a label of its
+/// own keeps it ([`MaskLabels::Pressing`]).
+fn dilate_labels(
+    grey: &[u8],
+    labels: &[u8],
+    rows: usize,
+    cols: usize,
+    radius: usize,
+    own_first: bool,
+) -> Vec<u8> {
     let r = radius as isize;
     let offsets: Vec<(isize, isize)> = (-r..=r)
         .flat_map(|dy| (-r..=r).map(move |dx| (dy, dx)))
@@ -581,7 +616,7 @@ fn dilate_labels(grey: &[u8], labels: &[u8], rows: usize, cols: usize, radius: u
     for y in 0..rows as isize {
         for x in 0..cols as isize {
             let own = labels[y as usize * cols + x as usize];
-            if own > 0 {
+            if own_first && own > 0 {
                 out[y as usize * cols + x as usize] = own;
                 continue;
             }
@@ -611,4 +646,20 @@ fn mix(seed: u64, subject: u32, index: u32) -> u64 {
         z ^= z >> 31;
     }
     z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_as_imaged_follow_the_brighter_pixel_the_dilation_copied() {
+        // One row: a bright pixel of part 2 beside a dim one of part 5, then black.
+        let grey = [200, 50, 0, 0, 0, 0];
+        let labels = [2, 5, 0, 0, 0, 0];
+        // Pressing: the dim pixel keeps its own part; the black ones take the brightest within 2.
+        assert_eq!(dilate_labels(&grey, &labels, 1, 6, 2, true), [2, 5, 2, 5, 0, 0]);
+        // As imaged: the dim pixel shows the bright one's value, so its part too.
+        assert_eq!(dilate_labels(&grey, &labels, 1, 6, 2, false), [2, 2, 2, 5, 0, 0]);
+    }
 }
