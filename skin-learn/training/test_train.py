@@ -80,5 +80,48 @@ class Lovasz(unittest.TestCase):
         self.assertGreater(float(logits.grad.abs().sum()), 0.0)
 
 
+
+class Lean(unittest.TestCase):
+    def test_the_lean_export_is_four_convolutions_and_gives_what_torch_gives(self):
+        import tempfile
+        import types
+
+        import onnx
+
+        torch.manual_seed(4)
+        model = randomised(train.LeanHandsNet())
+        with tempfile.TemporaryDirectory() as d:
+            a = types.SimpleNamespace(out=os.path.join(d, "lean.onnx"), dataset=["DIR"], seed=0, arch="lean")
+            info = dict(arch="lean", train_images=1, test_images=1, subjects=1, test_subjects_from=1)
+            train.export(model, a, 68, 100, False, {}, info)
+            ops = [n.op_type for n in onnx.load(a.out).graph.node]
+            self.assertEqual(ops.count("Conv"), 4)
+            self.assertNotIn("BatchNormalization", ops)  # folded into the convolutions
+            self.assertIn("HandsNet, lean", open(os.path.join(d, "lean.md")).read())
+            try:
+                import onnxruntime as ort
+            except ImportError:
+                return
+            x = torch.rand(3, 1, 68, 100)
+            with torch.no_grad():
+                want = torch.softmax(model(x), 1).numpy()
+            got = ort.InferenceSession(a.out, providers=["CPUExecutionProvider"]).run(None, {"image": x.numpy()})[0]
+            self.assertLess(float(np.abs(got - want).max()), 1e-5)
+        # A sixth of Table 4.1's multiply-adds, or less.
+        def macs(m):
+            total = 0
+            def hook(mod, inp, out):
+                nonlocal total
+                total += out.numel() * mod.weight[0].numel()
+            hs = [c.register_forward_hook(hook) for c in m.modules() if isinstance(c, (torch.nn.Conv2d, torch.nn.Linear))]
+            with torch.no_grad():
+                m.eval()(torch.zeros(1, 1, 68, 100))
+            for h in hs:
+                h.remove()
+            return total
+        self.assertLess(macs(model) * 6, macs(train.HandsNet()))
+
+
 if __name__ == "__main__":
     unittest.main()
+

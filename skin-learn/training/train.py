@@ -2,8 +2,11 @@
 """Train HandsNet (hand / non-hand, thesis Table 4.1) or the hand-part segmenter on a dataset
 written by `skin synth`, and export it to ONNX for skin-learn (tract) with a model card.
 
-    python train.py handsnet --dataset DIR --out fixtures/models/handsnet.onnx
+    python train.py handsnet --arch lean --dataset DIR --out fixtures/models/handsnet.onnx
     python train.py segnet   --dataset DIR --out fixtures/models/handseg.onnx
+
+`--arch lean` trains the HandsNet the project ships: Table 4.1's four blocks over 16 to 128
+channels instead of 32 to 256, a sixth of the multiply-adds, for the per-frame path.
 
 Train and test are split by subject (the thesis' 70/30 split on unseen people). The defaults
 are the thesis' recipe (App. C): HandsNet lr 0.01 x0.2 every 40 epochs, batch 64, 80 epochs,
@@ -78,6 +81,42 @@ class HandsNet(nn.Module):
 
     def first_convs(self):
         return list(self.conv1.parameters()) + list(self.conv2.parameters())
+
+
+class LeanHandsNet(nn.Module):
+    """HandsNet with a fraction of the work, for the per-frame path: the same four blocks of
+    convolution, batch norm, ReLU and 2 x 2 max-pool, and the same image size, but a 5 x 5 first
+    convolution and 3 x 3 after it, over WIDTHS channels (16, 32, 64, 128: a sixth of Table
+    4.1's multiply-adds), then one hidden layer of 64. The convolutions have no bias (batch
+    norm follows, and the exporter folds it into them), so the exported model is four
+    convolutions, four pools and two products."""
+
+    def __init__(self, rows=68, cols=100, widths=(16, 32, 64, 128)):
+        super().__init__()
+
+        def block(cin, cout, k):
+            return nn.Sequential(
+                nn.Conv2d(cin, cout, k, padding=k // 2, bias=False),
+                nn.BatchNorm2d(cout),
+                nn.ReLU(inplace=True),
+                nn.MaxPool2d(2, 2),
+            )
+
+        w = widths
+        self.convs = nn.Sequential(block(1, w[0], 5), *[block(a, b, 3) for a, b in zip(w, w[1:])])
+        r, c = rows, cols
+        for _ in w:
+            r, c = r // 2, c // 2
+        self.fc1 = nn.Linear(w[-1] * r * c, 64)
+        self.drop = nn.Dropout(0.5)
+        self.fc2 = nn.Linear(64, 2)
+
+    def forward(self, x):
+        x = torch.flatten(self.convs(x), 1)
+        return self.fc2(self.drop(F.relu(self.fc1(x))))
+
+    def first_convs(self):
+        return list(self.convs[0].parameters()) + list(self.convs[1].parameters())
 
 
 class HandSeg(nn.Module):
@@ -256,6 +295,8 @@ def evaluate(model, x, y, task, batch=256):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("task", choices=["handsnet", "segnet"])
+    ap.add_argument("--arch", choices=["table4.1", "lean"], default="table4.1",
+                    help="HandsNet: table4.1 (the thesis' layers) or lean (a sixth of the work, for the per-frame path)")
     ap.add_argument("--dataset", required=True, action="append",
                     help="directory written by `skin synth`; repeat to train on several (each split by its own subjects)")
     ap.add_argument("--out", required=True, help="ONNX file to write (a .pt and a .md card beside it)")
@@ -287,6 +328,8 @@ def main():
     seg = a.task == "segnet"
     if not seg and (a.width is not None or a.lovasz != 0):
         ap.error("--width and --lovasz are options of the segmenter")
+    if seg and a.arch != "table4.1":
+        ap.error("--arch is an option of HandsNet")
     if a.lovasz < 0 or (a.width is not None and a.width < 1):
         ap.error("--width must be at least 1 and --lovasz at least 0")
     if a.test_every < 1:
@@ -327,11 +370,19 @@ def main():
     print(f"{a.task}: {len(xtr)} training and {len(xte)} test images ({rows_px} x {cols_px}); "
           f"test subjects >= {cut} of {n_subjects}", flush=True)
 
-    model = HandSeg(width) if seg else HandsNet(rows_px, cols_px)
+    if seg:
+        model = HandSeg(width)
+    else:
+        model = (LeanHandsNet if a.arch == "lean" else HandsNet)(rows_px, cols_px)
     if state is not None:
         if init_width is not None and init_width < width:
             widen(state, model)
         else:
+            missing = set(model.state_dict()) ^ set(state)
+            if missing:
+                arch = "" if seg else f" (--arch {a.arch})"
+                sys.exit(f"--init {a.init}: its weights are not those of this model{arch}: "
+                         f"{', '.join(sorted(missing)[:4])} ...; a lean HandsNet needs --arch lean")
             model.load_state_dict(state)
     first = {id(p) for p in model.first_convs()}
     groups = [
@@ -380,7 +431,7 @@ def main():
         print(f"averaged the weights of epochs {a.swa_from} to {epochs}", flush=True)
     scores = evaluate(model, xte, yte, a.task) if len(xte) else {}
     export(model, a, rows_px, cols_px, seg, scores, dict(
-        **({"width": width} if seg else {}), **({"lovasz": a.lovasz} if seg and a.lovasz > 0 else {}),
+        **({"width": width} if seg else {"arch": a.arch}), **({"lovasz": a.lovasz} if seg and a.lovasz > 0 else {}),
         optimizer=a.optimizer, epochs=epochs, lr=lr, lr_drop_factor=drop, lr_drop_every=epochs if every >= epochs else every,
         **({"swa_from": a.swa_from} if swa is not None else {}),
         batch=batch, train_images=len(xtr), test_images=len(xte), subjects=n_subjects,
@@ -410,7 +461,8 @@ def export(model, a, rows, cols, seg, scores, info):
     classes = PARTS if seg else ["hand", "non_hand"]
     card = [
         "---",
-        f"model: {'hand-part segmentation (compact encoder-decoder)' if seg else 'HandsNet (thesis Table 4.1)'}",
+        "model: " + ("hand-part segmentation (compact encoder-decoder)" if seg
+                     else "HandsNet, lean (16-128 channels)" if a.arch == "lean" else "HandsNet (thesis Table 4.1)"),
         f"input: [N, 1, {rows}, {cols}] grey",
         "input_scale: unit",
         f"output: {'[N, 7, ' + str(rows) + ', ' + str(cols) + '] part scores' if seg else '[N, 2] probabilities (softmax)'}",
