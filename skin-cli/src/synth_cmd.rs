@@ -194,6 +194,12 @@ pub fn run(args: Args) -> Result<()> {
     );
     let list: Vec<String> = kinds.iter().map(|((_, k), n)| format!("{k} {n}")).collect();
     crate::say!("  {}", list.join(", "));
+    say_options(&args, thinned);
+    Ok(())
+}
+
+/// The report's lines on what the options changed: `thinned` samples imaged through thinned maps.
+fn say_options(args: &Args, thinned: usize) {
     if let Some(up_to) = args.remove_up_to {
         crate::say!(
             "  {thinned} imaged through maps with up to {:.0}% of the taxels removed",
@@ -205,5 +211,4 @@ pub fn run(args: Args) -> Result<()> {
             "  hand-part masks: each part's region as it shows on the image (--mask-labels as-imaged)"
         );
     }
-    Ok(())
 }

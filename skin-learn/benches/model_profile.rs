@@ -48,51 +48,8 @@ fn profile(path: &Path) {
         .ok()
         .and_then(|b| b.parse().ok())
         .unwrap_or(1);
-    let model = tract_onnx::onnx().model_for_path(path).unwrap();
-    // A model whose input shape is fixed (a single layer of bench/conv_layers.py) runs at it;
-    // a tactile image model at [batch, 1, 68, 100].
-    let fixed: Option<Vec<usize>> = model.input_fact(0).ok().and_then(|f| {
-        f.shape
-            .dims()
-            .map(|d| {
-                d.concretize()
-                    .and_then(|t| t.to_i64().ok())
-                    .and_then(|v| usize::try_from(v).ok())
-            })
-            .collect::<Option<Vec<usize>>>()
-            .filter(|_| !f.shape.is_open())
-    });
-    let shape = fixed.unwrap_or_else(|| vec![batch, 1, 68, 100]);
-    let plan = model
-        .with_input_fact(0, f32::fact(&shape).into())
-        .and_then(|m| m.into_optimized())
-        .and_then(|mut m| {
-            // As skin-learn plans it, unless PLAIN_TRACT is set.
-            if std::env::var("PLAIN_TRACT").is_err() {
-                skin_learn::max_pool::swap_max_pools(&mut m)?;
-            }
-            Ok(m)
-        })
-        .and_then(|m| m.into_runnable())
-        .unwrap();
+    let (plan, input) = plan_and_input(path, batch);
     let mut state = TypedSimpleState::new(&plan).unwrap();
-    let input: Tensor = if shape[..] == [batch, 1, 68, 100] {
-        tract_ndarray::Array4::from_shape_fn((batch, 1, 68, 100), |(_, _, r, c)| {
-            if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
-                0.8f32
-            } else {
-                0.0
-            }
-        })
-        .into()
-    } else {
-        let n: usize = shape.iter().product();
-        Tensor::from_shape(
-            &shape,
-            &(0..n).map(|i| (i % 101) as f32 / 101.0).collect::<Vec<_>>(),
-        )
-        .unwrap()
-    };
     for _ in 0..WARM_UP {
         state.run(tvec!(input.clone().into())).unwrap();
     }
@@ -136,4 +93,54 @@ fn profile(path: &Path) {
             node.name.chars().take(28).collect::<String>()
         );
     }
+}
+
+/// The model's optimised plan (as skin-learn plans it, unless PLAIN_TRACT is set) and an input
+/// for it.
+fn plan_and_input(path: &Path, batch: usize) -> (std::sync::Arc<TypedRunnableModel>, Tensor) {
+    let model = tract_onnx::onnx().model_for_path(path).unwrap();
+    // A model whose input shape is fixed (a single layer of bench/conv_layers.py) runs at it;
+    // a tactile image model at [batch, 1, 68, 100].
+    let fixed: Option<Vec<usize>> = model.input_fact(0).ok().and_then(|f| {
+        f.shape
+            .dims()
+            .map(|d| {
+                d.concretize()
+                    .and_then(|t| t.to_i64().ok())
+                    .and_then(|v| usize::try_from(v).ok())
+            })
+            .collect::<Option<Vec<usize>>>()
+            .filter(|_| !f.shape.is_open())
+    });
+    let shape = fixed.unwrap_or_else(|| vec![batch, 1, 68, 100]);
+    let plan = model
+        .with_input_fact(0, f32::fact(&shape).into())
+        .and_then(|m| m.into_optimized())
+        .and_then(|mut m| {
+            // As skin-learn plans it, unless PLAIN_TRACT is set.
+            if std::env::var("PLAIN_TRACT").is_err() {
+                skin_learn::max_pool::swap_max_pools(&mut m)?;
+            }
+            Ok(m)
+        })
+        .and_then(|m| m.into_runnable())
+        .unwrap();
+    let input: Tensor = if shape[..] == [batch, 1, 68, 100] {
+        tract_ndarray::Array4::from_shape_fn((batch, 1, 68, 100), |(_, _, r, c)| {
+            if (r as f32 - 34.0).hypot(c as f32 - 50.0) < 18.0 {
+                0.8f32
+            } else {
+                0.0
+            }
+        })
+        .into()
+    } else {
+        let n: usize = shape.iter().product();
+        Tensor::from_shape(
+            &shape,
+            &(0..n).map(|i| (i % 101) as f32 / 101.0).collect::<Vec<_>>(),
+        )
+        .unwrap()
+    };
+    (plan, input)
 }

@@ -135,7 +135,6 @@ fn labels_as_imaged_spread_a_brighter_part_over_its_neighbours() {
         differ += sa.mask.iter().zip(&sb.mask).filter(|(x, y)| x != y).count();
         let read = |mask: &[u8]| {
             taxel_labels(&map, &raster, pressing.image_size, mask, &sa.pressures)
-                .into_iter()
                 .filter(|&(i, l)| sa.taxel_parts[i] > 0 && l == sa.taxel_parts[i])
                 .count()
         };
