@@ -4,7 +4,7 @@ use anyhow::{Context as _, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use skin_learn::dataset::DatasetWriter;
-use skin_learn::synth::{MaskLabels, Removal, SynthOptions, Synthesizer};
+use skin_learn::synth::{DeadSpots, MaskLabels, Removal, SynthOptions, Synthesizer};
 use std::collections::BTreeMap;
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
@@ -33,8 +33,14 @@ use std::path::PathBuf;
 ///
 /// --remove-up-to F images --thinned-share of the samples (half by default) through maps with
 /// taxels removed as Test B removes them (Ch. 5), 16 maps with fractions spread evenly up to F:
-/// training data for models that must hold up on a skin with dead or missing taxels. Readings in
-/// frames.txt keep every taxel; the same --seed without it gives the same contacts, imaged whole.
+/// training data for models that must hold up on a skin with dead or missing taxels.
+/// --blind-spots N images --blind-share of the samples (30% by default) through maps whose
+/// taxels read zero within 1 to N blind spots of a quarter of --blind-radius-mm to all of it, as
+/// Test A blinds them (Table 5.1: 1-4 spots of 10-40 mm is --blind-spots 4 --blind-radius-mm 40),
+/// 64 maps. A sample is imaged through at most one degraded map, so the two shares add up to at
+/// most 1. Readings in frames.txt keep every taxel; the same --seed without either option gives
+/// the same contacts, imaged whole, and adding --blind-spots leaves the thinned samples as they
+/// were.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -73,6 +79,16 @@ pub struct Args {
     /// With --remove-up-to: the share of samples imaged through a thinned map, 0 to 1.
     #[arg(long, value_name = "S", default_value_t = 0.5, requires = "remove_up_to", value_parser = crate::numbers::within(0.0, 1.0))]
     thinned_share: f64,
+    /// Image some samples through maps with 1 to N blind spots (1 to 64; Table 5.1 goes to 4).
+    #[arg(long, value_name = "N", value_parser = crate::numbers::count::<1, 64>)]
+    blind_spots: Option<usize>,
+    /// With --blind-spots: the largest spot radius, millimetres (radii are drawn from a quarter
+    /// of it to all of it).
+    #[arg(long, value_name = "R", default_value_t = 40.0, requires = "blind_spots", value_parser = crate::numbers::above(0.0, 1e3))]
+    blind_radius_mm: f64,
+    /// With --blind-spots: the share of samples imaged through a map with blind spots, 0 to 1.
+    #[arg(long, value_name = "S", default_value_t = 0.3, requires = "blind_spots", value_parser = crate::numbers::within(0.0, 1.0))]
+    blind_share: f64,
     /// Hand-part masks: `pressing` (the part that pressed each pixel's taxels) or `as-imaged`
     /// (each part's region as it shows on the image, as the thesis labelled by hand).
     #[arg(long, value_enum, default_value_t = Labels::Pressing)]
@@ -88,6 +104,9 @@ enum Labels {
 
 /// Thinned maps --remove-up-to draws from.
 const THINNED_MAPS: usize = 16;
+/// Maps with blind spots --blind-spots draws from: more than the thinned maps, as each spot sits
+/// in one place where a removal thins the whole map.
+const BLIND_MAPS: usize = 64;
 
 /// The generator the arguments ask for, on `map`.
 fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> {
@@ -100,18 +119,39 @@ fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> 
         },
         ..SynthOptions::default()
     };
-    let synth = Synthesizer::new(map, options).with_context(|| format!("{}", args.layout.display()))?;
-    let Some(up_to) = args.remove_up_to else {
-        return Ok(synth);
-    };
-    let removal = Removal {
-        share: args.thinned_share,
-        up_to,
-        maps: THINNED_MAPS,
-    };
-    synth
-        .with_removal(map, removal, args.seed)
-        .with_context(|| format!("{}: --remove-up-to {up_to}", args.layout.display()))
+    let mut synth = Synthesizer::new(map, options).with_context(|| format!("{}", args.layout.display()))?;
+    if args.remove_up_to.is_some()
+        && args.blind_spots.is_some()
+        && args.thinned_share + args.blind_share > 1.0
+    {
+        bail!(
+            "--thinned-share {} and --blind-share {} add up to more than 1: a sample is imaged through one degraded map at most",
+            args.thinned_share,
+            args.blind_share
+        );
+    }
+    if let Some(up_to) = args.remove_up_to {
+        let removal = Removal {
+            share: args.thinned_share,
+            up_to,
+            maps: THINNED_MAPS,
+        };
+        synth = synth
+            .with_removal(map, removal, args.seed)
+            .with_context(|| format!("{}: --remove-up-to {up_to}", args.layout.display()))?;
+    }
+    if let Some(spots) = args.blind_spots {
+        let dead = DeadSpots {
+            share: args.blind_share,
+            spots,
+            radius_mm: args.blind_radius_mm,
+            maps: BLIND_MAPS,
+        };
+        synth = synth
+            .with_dead_spots(map, dead, args.seed)
+            .with_context(|| format!("{}: --blind-spots {spots}", args.layout.display()))?;
+    }
+    Ok(synth)
 }
 
 /// The most memory the samples may take before they are written, bytes.
@@ -169,7 +209,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut writer = DatasetWriter::create(out.path(), &map.ids, &map.to_json(), args.size)
         .map_err(|e| crate::output::user_error(&out, e.into()))?;
     let mut kinds: BTreeMap<(bool, &str), usize> = BTreeMap::new();
-    let (mut partial, mut tips, mut hands, mut thinned) = (0, 0, 0, 0);
+    let (mut partial, mut tips, mut hands, mut thinned, mut blinded) = (0, 0, 0, 0, 0);
     for (i, s) in &samples {
         writer
             .add(*i, s)
@@ -179,6 +219,7 @@ pub fn run(args: Args) -> Result<()> {
         partial += usize::from(s.partial);
         tips += usize::from(s.fingertips_only);
         thinned += usize::from(s.removed > 0.0);
+        blinded += usize::from(s.dead > 0.0);
     }
     writer
         .finish()
@@ -194,16 +235,23 @@ pub fn run(args: Args) -> Result<()> {
     );
     let list: Vec<String> = kinds.iter().map(|((_, k), n)| format!("{k} {n}")).collect();
     crate::say!("  {}", list.join(", "));
-    say_options(&args, thinned);
+    say_options(&args, thinned, blinded);
     Ok(())
 }
 
-/// The report's lines on what the options changed: `thinned` samples imaged through thinned maps.
-fn say_options(args: &Args, thinned: usize) {
+/// The report's lines on what the options changed: `thinned` samples imaged through thinned
+/// maps, `blinded` through maps with blind spots.
+fn say_options(args: &Args, thinned: usize, blinded: usize) {
     if let Some(up_to) = args.remove_up_to {
         crate::say!(
             "  {thinned} imaged through maps with up to {:.0}% of the taxels removed",
             100.0 * up_to
+        );
+    }
+    if let Some(spots) = args.blind_spots {
+        crate::say!(
+            "  {blinded} imaged through maps with 1 to {spots} blind spots of up to {} mm",
+            args.blind_radius_mm
         );
     }
     if let Labels::AsImaged = args.mask_labels {

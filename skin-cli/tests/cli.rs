@@ -1229,6 +1229,69 @@ fn synth_with_taxels_removed_keeps_the_readings_and_thins_the_images() {
 }
 
 #[test]
+fn synth_with_blind_spots_keeps_the_readings_and_darkens_some_images() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (whole, blind) = (tmp.path().join("whole"), tmp.path().join("blind"));
+    synth(&whole, "5");
+    let args = |extra: &[&str]| synth_run(&blind, "5", extra);
+    let o = args(&["--blind-spots", "4", "--blind-share", "1"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(
+        out.contains("60 imaged through maps with 1 to 4 blind spots of up to 40 mm"),
+        "{out}"
+    );
+    for f in ["labels.csv", "frames.txt", "taxel_parts.txt", "map.json"] {
+        assert_eq!(
+            std::fs::read(whole.join(f)).unwrap(),
+            std::fs::read(blind.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    // A dead taxel only takes light away: no pixel brighter than in the whole map's image
+    // except through contact-max normalisation, so compare lit pixel counts.
+    let data = skin_learn::dataset::Dataset::read(&blind).unwrap();
+    let (mut changed, mut darker) = (0, 0);
+    for e in &data.entries {
+        let (b, w) = (
+            grey(&blind.join("images").join(&e.file)),
+            grey(&whole.join("images").join(&e.file)),
+        );
+        if b != w {
+            changed += 1;
+            let lit = |g: &[u8]| g.iter().filter(|&&v| v > 0).count();
+            darker += usize::from(lit(&b) <= lit(&w));
+        }
+    }
+    assert!(changed >= 10, "{changed} of 60 images changed");
+    assert!(
+        darker * 10 >= changed * 9,
+        "{darker} of {changed} changed images lit no more pixels"
+    );
+    // Refused: a share without spots, shares adding up to more than 1, spots out of range.
+    let o = args(&["--blind-share", "0.5"]);
+    assert!(!o.status.success());
+    let o = args(&["--blind-spots", "2", "--remove-up-to", "0.5"]);
+    assert!(o.status.success(), "the default shares, 0.5 and 0.3, go together");
+    let o = args(&[
+        "--blind-spots",
+        "2",
+        "--blind-share",
+        "0.6",
+        "--remove-up-to",
+        "0.5",
+    ]);
+    let (_, err) = text(&o);
+    assert!(
+        !o.status.success() && err.contains("--thinned-share") && err.contains("--blind-share"),
+        "{err}"
+    );
+    let o = args(&["--blind-spots", "0"]);
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--blind-spots"), "{err}");
+}
+
+#[test]
 fn synth_labels_as_imaged_keep_the_images_and_redraw_some_masks() {
     let tmp = tempfile::tempdir().unwrap();
     let (pressing, as_imaged) = (tmp.path().join("pressing"), tmp.path().join("as_imaged"));

@@ -328,3 +328,208 @@ fn thinning_refuses_settings_out_of_range_and_another_map_than_the_generators() 
         .to_string();
     assert!(e.contains("map to thin"), "{e}");
 }
+
+/// The whole map's image pipeline, as `skin synth` and `skin image` build it.
+fn whole_imager(map: &TactileMap) -> skin_geom::TactileImager {
+    let raster = Rasterizer::new(map, Grid::StepMm(1.0)).unwrap();
+    let size = skin_core::image::ImageSize { rows: 68, cols: 100 };
+    skin_geom::TactileImager::new(raster, skin_geom::Normalisation::ContactMax, true, Some(size)).unwrap()
+}
+
+#[test]
+fn samples_with_dead_spots_keep_their_contacts_and_read_zero_where_a_taxel_is_dead() {
+    use skin_learn::synth::DeadSpots;
+    let map = forearm();
+    let n = map.ids.len();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    // One spot smaller than the taxel pitch: exactly one dead taxel per map, so the image can be
+    // checked against the whole map's pipeline with that one reading set to zero.
+    let one_dead = DeadSpots {
+        share: 1.0,
+        spots: 1,
+        radius_mm: 0.1,
+        maps: 16,
+    };
+    let mut plain = whole.clone();
+    let mut dead = whole.clone().with_dead_spots(&map, one_dead, 4).unwrap();
+    let mut again = whole.clone().with_dead_spots(&map, one_dead, 4).unwrap();
+    let mut reference = whole_imager(&map);
+    let mut changed = 0;
+    for k in 0..24 {
+        let (a, b) = (plain.sample(4, k / 8, k % 8), dead.sample(4, k / 8, k % 8));
+        assert_eq!(
+            (&a.kind, &a.pressures, &a.taxel_parts),
+            (&b.kind, &b.pressures, &b.taxel_parts)
+        );
+        assert_eq!((b.removed, b.dead), (0.0, 1.0 / n as f64));
+        for ((&l, &g), &w) in b.mask.iter().zip(&b.image).zip(&a.mask) {
+            assert_eq!(l, if g > 0 { w } else { 0 });
+        }
+        assert_eq!(b, again.sample(4, k / 8, k % 8), "sample {k} is not repeatable");
+        if a.image == b.image {
+            continue;
+        }
+        changed += 1;
+        // Some single taxel, read as zero by the whole map's pipeline, gives the same image.
+        let found = (0..n).any(|t| {
+            let mut p = b.pressures.clone();
+            p[t] = 0.0;
+            reference.process(&p).unwrap().to_vec() == b.image
+        });
+        assert!(found, "sample {k}: no single dead taxel explains its image");
+    }
+    assert!(changed >= 3, "{changed} of 24 images changed");
+
+    // Table 5.1's spots: larger dead fractions, many maps, the share drawn as asked.
+    let table = DeadSpots {
+        share: 0.3,
+        spots: 4,
+        radius_mm: 40.0,
+        maps: 64,
+    };
+    let mut spots = whole.clone().with_dead_spots(&map, table, 4).unwrap();
+    let (mut blinded, mut fractions) = (0, std::collections::BTreeSet::new());
+    for k in 0..400 {
+        let s = spots.sample(4, k / 8, k % 8);
+        if s.dead > 0.0 {
+            blinded += 1;
+            fractions.insert((s.dead * 1e6) as u64);
+            // 4 spots of 40 mm at most: 4 discs of 5,000 mm^2 on a map of 75,000 mm^2.
+            assert!(s.dead < 0.35, "{}", s.dead);
+        }
+    }
+    assert!((85..=155).contains(&blinded), "{blinded} of 400 (30% asked)");
+    assert!(fractions.len() >= 20, "{} distinct maps", fractions.len());
+}
+
+#[test]
+fn dead_spots_leave_thinned_samples_as_they_were_and_share_the_rest() {
+    use skin_learn::synth::{DeadSpots, Removal};
+    let map = forearm();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let removal = Removal {
+        share: 0.5,
+        up_to: 0.7,
+        maps: 8,
+    };
+    let dead = DeadSpots {
+        share: 0.3,
+        spots: 4,
+        radius_mm: 40.0,
+        maps: 32,
+    };
+    let mut thin = whole.clone().with_removal(&map, removal, 6).unwrap();
+    let mut both = whole
+        .clone()
+        .with_removal(&map, removal, 6)
+        .unwrap()
+        .with_dead_spots(&map, dead, 6)
+        .unwrap();
+    // The order the two are added in does not matter.
+    let mut other_order = whole
+        .clone()
+        .with_dead_spots(&map, dead, 6)
+        .unwrap()
+        .with_removal(&map, removal, 6)
+        .unwrap();
+    let (mut thinned, mut blinded) = (0, 0);
+    for k in 0..400 {
+        let (a, b) = (thin.sample(6, k / 8, k % 8), both.sample(6, k / 8, k % 8));
+        assert_eq!(b, other_order.sample(6, k / 8, k % 8));
+        assert!(!(b.removed > 0.0 && b.dead > 0.0), "sample {k} degraded twice");
+        if a.removed > 0.0 {
+            thinned += 1;
+            assert_eq!(a, b, "sample {k}: thinned differently");
+        } else if b.dead > 0.0 {
+            blinded += 1;
+        }
+    }
+    assert!(
+        (165..=235).contains(&thinned),
+        "{thinned} of 400 thinned (50% asked)"
+    );
+    // 30% of all samples, taken from the half left whole.
+    assert!(
+        (85..=155).contains(&blinded),
+        "{blinded} of 400 with blind spots (30% asked)"
+    );
+}
+
+#[test]
+fn dead_spots_refuse_settings_out_of_range_shares_above_one_and_another_map() {
+    use skin_learn::synth::{DeadSpots, Removal};
+    let map = forearm();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let dead = DeadSpots {
+        share: 0.5,
+        spots: 4,
+        radius_mm: 40.0,
+        maps: 8,
+    };
+    for bad in [
+        DeadSpots { share: -0.1, ..dead },
+        DeadSpots {
+            share: f64::NAN,
+            ..dead
+        },
+        DeadSpots { spots: 0, ..dead },
+        DeadSpots { spots: 65, ..dead },
+        DeadSpots {
+            radius_mm: 0.0,
+            ..dead
+        },
+        DeadSpots {
+            radius_mm: f64::INFINITY,
+            ..dead
+        },
+        DeadSpots { maps: 0, ..dead },
+    ] {
+        let e = whole
+            .clone()
+            .with_dead_spots(&map, bad, 3)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("share") || e.contains("spot") || e.contains("maps"),
+            "{e}"
+        );
+    }
+    // Shares above 1 together, whichever is added second.
+    let removal = Removal {
+        share: 0.6,
+        up_to: 0.7,
+        maps: 4,
+    };
+    let e = whole
+        .clone()
+        .with_removal(&map, removal, 3)
+        .unwrap()
+        .with_dead_spots(&map, dead, 3)
+        .unwrap_err();
+    assert!(e.to_string().contains("at most 1 with the other"), "{e}");
+    let e = whole
+        .clone()
+        .with_dead_spots(&map, dead, 3)
+        .unwrap()
+        .with_removal(&map, removal, 3)
+        .unwrap_err();
+    assert!(e.to_string().contains("at most 1 with the other"), "{e}");
+    // Another map than the generator's.
+    let e = whole
+        .clone()
+        .with_dead_spots(&whole_patch(), dead, 3)
+        .unwrap_err();
+    assert!(e.to_string().contains("blind spots"), "{e}");
+}
+
+/// A flat 10 x 10 patch: a map other than [`forearm`].
+fn whole_patch() -> TactileMap {
+    let taxels = (0..100u32)
+        .map(|i| Taxel {
+            id: TaxelId(i),
+            position: Point3::new((i % 10) as f64 * 0.01, (i / 10) as f64 * 0.01, 0.0),
+            normal: Unit::new_normalize(Vector3::z()),
+        })
+        .collect();
+    TactileMap::flatten(&LinkSkin::new("patch", taxels), &FlattenOptions::default()).unwrap()
+}

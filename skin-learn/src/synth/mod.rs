@@ -33,11 +33,14 @@
 //! # Ok::<(), skin_geom::Error>(())
 //! ```
 
+mod degraded;
 pub mod hand;
 pub mod objects;
 mod shapes;
 
 use crate::parts::Part;
+use degraded::Degradations;
+pub use degraded::{DeadSpots, Removal};
 pub use hand::{Interaction, Subject};
 pub use objects::ObjectKind;
 
@@ -46,7 +49,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use shapes::{Patch, press};
-use skin_geom::{Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
+use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 
 /// Where a contact sits on the map: its centre (metres, map coordinates) and rotation (radians).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,45 +142,6 @@ impl Default for SynthOptions {
     }
 }
 
-/// Taxels removed from the map a sample is imaged through, as Test B removes them (Ch. 5): a
-/// model trained only on whole maps loses a sixth of its accuracy when 70% of the taxels are gone
-/// (Table 5.3); trained with some of its images from thinned maps, it keeps its decisions on a
-/// skin with dead or missing taxels.
-///
-/// The contact is pressed on the whole map as always (its readings, in `frames.txt`, keep every
-/// taxel); a share of the samples is then imaged, image and mask, through one of `maps` thinned
-/// maps whose removed fractions are spread evenly up to `up_to`. Its mask is the whole map's,
-/// cut to the pixels the thinned image still lights: the truth Test B scores a segmenter against
-/// (Ch. 5.3). The removal orders come from the dataset's seed, never from the small seeds
-/// `skin eval --test-b` draws its maps with.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Removal {
-    /// Share of the samples imaged through a thinned map, 0 to 1.
-    pub share: f64,
-    /// Largest fraction of taxels removed, 0 to 1 (exclusive); 0.7 is Table 5.3's last row.
-    pub up_to: f64,
-    /// How many thinned maps to draw from (fractions `up_to * k / maps`, k = 1..=maps).
-    pub maps: usize,
-}
-
-/// A thinned map: the indices of the taxels it keeps, and the image pipeline on it.
-#[derive(Debug, Clone)]
-struct Thinned {
-    keep: Vec<usize>,
-    removed: f64,
-    imager: TactileImager,
-}
-
-/// The real image pipeline on `map` at the generator's grid step and output size.
-fn pipeline(map: &TactileMap, options: &SynthOptions) -> skin_geom::Result<TactileImager> {
-    let raster = Rasterizer::new(map, Grid::StepMm(options.step_mm))?;
-    let size = skin_core::image::ImageSize {
-        rows: options.image_size.0,
-        cols: options.image_size.1,
-    };
-    TactileImager::new(raster, Normalisation::ContactMax, true, Some(size))
-}
-
 /// `imager`'s image of `pressures`; black if it cannot make one (the buffers are sized from the
 /// map, so it always can).
 fn image_of(imager: &mut TactileImager, pressures: &[f32], size: (usize, usize)) -> Vec<u8> {
@@ -209,6 +173,9 @@ pub struct Sample {
     /// Fraction of the taxels removed from the map the image and mask were made on (0: the
     /// whole map; see [`Removal`]).
     pub removed: f64,
+    /// Fraction of the taxels dead in blind spots on the map the image and mask were made on
+    /// (0: none; see [`DeadSpots`]).
+    pub dead: f64,
 }
 
 /// Where a pixel of the full-resolution grid takes its value from.
@@ -234,8 +201,9 @@ pub struct Synthesizer {
     // Per-sample buffers.
     grey: Vec<u8>,
     labels: Vec<u8>,
-    /// Thinned maps some samples are imaged through ([`Synthesizer::with_removal`]).
-    removal: Option<(Removal, Vec<Thinned>)>,
+    /// Degraded maps some samples are imaged through ([`Synthesizer::with_removal`],
+    /// [`Synthesizer::with_dead_spots`]).
+    degraded: Degradations,
 }
 
 impl Synthesizer {
@@ -269,62 +237,8 @@ impl Synthesizer {
             hi,
             grey: vec![0; rows * cols],
             labels: vec![0; rows * cols],
-            removal: None,
+            degraded: Degradations::default(),
         })
-    }
-
-    /// The same generator, with a share of the samples imaged through maps with taxels removed
-    /// (see [`Removal`]); `map` is the generator's own map, `seed` draws the removal orders (use
-    /// the dataset's seed). An error if `map` is another map, a setting is out of range or a
-    /// thinned map keeps fewer than three taxels.
-    pub fn with_removal(
-        mut self,
-        map: &TactileMap,
-        removal: Removal,
-        seed: u64,
-    ) -> skin_geom::Result<Synthesizer> {
-        let bad = |name, value, expected| skin_geom::Error::Parameter {
-            name,
-            value,
-            expected,
-        };
-        if map.points != self.points {
-            return Err(bad(
-                "taxels of the map to thin",
-                map.points.len() as f64,
-                "the generator's own map",
-            ));
-        }
-        if !(removal.share.is_finite() && (0.0..=1.0).contains(&removal.share)) {
-            return Err(bad("share of samples thinned", removal.share, "0 to 1"));
-        }
-        if !(removal.up_to.is_finite() && removal.up_to > 0.0 && removal.up_to < 1.0) {
-            return Err(bad(
-                "fraction of taxels removed",
-                removal.up_to,
-                "above 0, below 1",
-            ));
-        }
-        if !(1..=256).contains(&removal.maps) {
-            return Err(bad("thinned maps", removal.maps as f64, "1 to 256"));
-        }
-        let mut thinned = Vec::with_capacity(removal.maps);
-        for k in 1..=removal.maps {
-            let decimation = Decimation {
-                fraction: removal.up_to * k as f64 / removal.maps as f64,
-                // Top bit set: never one of the test's maps (seeds 0, 1, 2, ...).
-                seed: mix(seed ^ 0x7E57_B000_0000_0000, u32::MAX, k as u32) | 1 << 63,
-            };
-            let keep = decimation.survivors(map.points.len())?;
-            let smaller = decimation.apply(map)?;
-            thinned.push(Thinned {
-                removed: 1.0 - keep.len() as f64 / map.points.len().max(1) as f64,
-                keep,
-                imager: pipeline(&smaller, &self.options)?,
-            });
-        }
-        self.removal = Some((removal, thinned));
-        Ok(self)
     }
 
     /// The options.
@@ -348,25 +262,8 @@ impl Synthesizer {
             Kind::Other(ObjectKind::sample(&mut rng))
         };
         let mut sample = self.sample_kind(&who, subject, kind, &mut rng);
-        if let Some((removal, thinned)) = &mut self.removal {
-            // A stream of its own: the contacts are those of the same dataset without removal.
-            let mut rng = ChaCha8Rng::seed_from_u64(mix(seed ^ 0x7E57_B000_0000_0000, subject, index));
-            if !thinned.is_empty() && rng.random_bool(removal.share) {
-                let k = rng.random_range(0..thinned.len());
-                let t = &mut thinned[k];
-                let pressures: Vec<f32> = t.keep.iter().map(|&i| sample.pressures[i]).collect();
-                let image = image_of(&mut t.imager, &pressures, self.options.image_size);
-                // The truth Test B scores against (Ch. 5.3): the whole map's parts, where the
-                // thinned image still shows something.
-                for (m, &g) in sample.mask.iter_mut().zip(&image) {
-                    if g == 0 {
-                        *m = 0;
-                    }
-                }
-                sample.image = image;
-                sample.removed = t.removed;
-            }
-        }
+        self.degraded
+            .apply(seed, subject, index, &mut sample, self.options.image_size);
         sample
     }
 
@@ -439,6 +336,7 @@ impl Synthesizer {
             image,
             mask,
             removed: 0.0,
+            dead: 0.0,
         }
     }
 
