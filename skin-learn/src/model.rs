@@ -101,7 +101,7 @@ pub trait PartSegmenter: Send {
     fn input_size(&self) -> ImageSize;
 
     /// One part label per pixel, row-major: 0 background, then thumb, index, middle, ring,
-    /// pinkie, palm ([`crate::parts::HandPart`]).
+    /// pinkie, palm ([`crate::parts::Part`]).
     fn segment(&mut self, image: ImageView<'_, u8>) -> Result<Vec<u8>, ModelError>;
 }
 

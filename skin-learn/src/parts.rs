@@ -102,7 +102,7 @@ impl Shares {
     }
 }
 
-/// E.g. "palm 52%, index 20%" (a label that is not a part is "class<label>"), or "no hand part".
+/// E.g. "palm 52%, index 20%" (a label that is not a part is "`class<label>`"), or "no hand part".
 impl std::fmt::Display for Shares {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if self.0.is_empty() {

@@ -59,7 +59,7 @@ use skin_core::Separation;
 use skin_core::image::ImageSize;
 use std::path::{Path, PathBuf};
 
-/// A session's configuration (see the [module](self) for the file).
+/// A session's configuration (see the `session::config` module for the file).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SessionConfig {

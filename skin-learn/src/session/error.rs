@@ -199,7 +199,7 @@ pub enum InputError {
     },
 }
 
-/// What can go wrong building or running a [`Session`].
+/// What can go wrong building or running a [`Session`](crate::session::Session).
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     /// The pipeline and the links it was given do not match.
