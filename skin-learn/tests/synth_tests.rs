@@ -307,20 +307,7 @@ fn thinning_refuses_settings_out_of_range_and_another_map_than_the_generators() 
         );
     }
     // Another map than the generator's: refused, not indexed out of range.
-    let other = TactileMap::flatten(
-        &LinkSkin::new(
-            "patch",
-            (0..100u32)
-                .map(|i| Taxel {
-                    id: TaxelId(i),
-                    position: Point3::new((i % 10) as f64 * 0.01, (i / 10) as f64 * 0.01, 0.0),
-                    normal: Unit::new_normalize(Vector3::z()),
-                })
-                .collect(),
-        ),
-        &FlattenOptions::default(),
-    )
-    .unwrap();
+    let other = whole_patch();
     let e = whole
         .clone()
         .with_removal(&other, removal(0.5), 3)
@@ -522,7 +509,7 @@ fn dead_spots_refuse_settings_out_of_range_shares_above_one_and_another_map() {
     assert!(e.to_string().contains("blind spots"), "{e}");
 }
 
-/// A flat 10 x 10 patch: a map other than [`forearm`].
+/// A flat 10 x 10 patch, 10 mm apart: a map other than [`forearm`].
 fn whole_patch() -> TactileMap {
     let taxels = (0..100u32)
         .map(|i| Taxel {
