@@ -21,6 +21,12 @@ images, hand, masks = data["images"], data["hand"], data["masks"]
 print(f"{len(images)} images {images.shape[1:]} uint8: {hand.sum()} hands, {len(hand) - hand.sum()} other contacts")
 print(f"hand pixels per part (thumb .. palm): {np.bincount(masks[hand].ravel(), minlength=7)[1:]}")
 
+# For models that must hold up on a damaged skin: the same contacts, some imaged through maps
+# with up to 70% of the taxels removed (Test B) or with 1-4 blind spots of up to 40 mm (Test A).
+hardy = skin.synthesize(tmap, 200, seed=7, remove_up_to=0.7, blind_spots=4)
+print(f"{(hardy['removed'] > 0).sum()} thinned, {(hardy['dead'] > 0).sum()} with blind spots, "
+      f"{((hardy['removed'] == 0) & (hardy['dead'] == 0)).sum()} whole")
+
 # The same samples on disk, and read back as a map-style dataset.
 with tempfile.TemporaryDirectory() as tmp:
     subprocess.run([sys.argv[1] if len(sys.argv) > 1 else "target/debug/skin", "synth", "--layout", "fixtures/forearm/layout.json",

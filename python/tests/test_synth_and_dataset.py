@@ -37,6 +37,32 @@ def test_synthesize_equals_skin_synth(synth_dir):
     assert (s["masks"][~s["hand"]] == 0).all() and (s["masks"][s["hand"]].max(axis=(1, 2)) > 0).all()
 
 
+def test_synthesize_with_degraded_maps_and_labels_as_imaged_equals_skin_synth(tmp_path, synth_dir):
+    tmap = skin.read_map(LAYOUT)
+    options = ["--remove-up-to", "0.7", "--thinned-share", "0.4", "--blind-spots", "4", "--blind-share", "0.4", "--mask-labels", "as-imaged"]
+    out = tmp_path / "degraded"
+    run_skin("synth", "--layout", LAYOUT, "--count", "24", "--subjects", "3", "--seed", "5", *options, "-o", out)
+    s = skin.synthesize(tmap, 24, seed=5, subjects=3, remove_up_to=0.7, thinned_share=0.4, blind_spots=4, blind_share=0.4, mask_labels="as-imaged")
+    ds = skin.SynthDataset(out)
+    for i in range(24):
+        sample = ds[i]
+        np.testing.assert_array_equal(sample["image"], s["images"][i])
+        if s["hand"][i]:
+            np.testing.assert_array_equal(sample["mask"], s["masks"][i])
+    # Each sample through one map at most: thinned (up to 70% removed), blind spots, or whole.
+    removed, dead = s["removed"], s["dead"]
+    assert removed.shape == dead.shape == (24,) and removed.dtype == np.float64
+    assert ((removed > 0) & (dead > 0)).sum() == 0
+    assert 0 < (removed > 0).sum() < 24 and 0 < (dead > 0).sum() < 24
+    assert removed.max() <= 0.7 + 1e-9 and dead.max() < 1
+    # The same contacts as without the options, read by every taxel; a whole sample is imaged as before.
+    plain = skin.synthesize(tmap, 24, seed=5, subjects=3)
+    np.testing.assert_array_equal(plain["pressures"], s["pressures"])
+    assert (plain["removed"] == 0).all() and (plain["dead"] == 0).all()
+    whole = (removed == 0) & (dead == 0)
+    np.testing.assert_array_equal(plain["images"][whole], s["images"][whole])
+
+
 def test_dataset_split_by_subject_and_transform(synth_dir):
     train = skin.SynthDataset(synth_dir, subjects=[0, 1])
     test = skin.SynthDataset(synth_dir, subjects=[2], transform=lambda d: (d["image"].astype(np.float32) / 255, d["label"]))

@@ -102,12 +102,6 @@ enum Labels {
     AsImaged,
 }
 
-/// Thinned maps --remove-up-to draws from.
-const THINNED_MAPS: usize = 16;
-/// Maps with blind spots --blind-spots draws from: more than the thinned maps, as each spot sits
-/// in one place where a removal thins the whole map.
-const BLIND_MAPS: usize = 64;
-
 /// The generator the arguments ask for, on `map`.
 fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> {
     let options = SynthOptions {
@@ -134,7 +128,7 @@ fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> 
         let removal = Removal {
             share: args.thinned_share,
             up_to,
-            maps: THINNED_MAPS,
+            maps: Removal::MAPS,
         };
         synth = synth
             .with_removal(map, removal, args.seed)
@@ -145,7 +139,7 @@ fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> 
             share: args.blind_share,
             spots,
             radius_mm: args.blind_radius_mm,
-            maps: BLIND_MAPS,
+            maps: DeadSpots::MAPS,
         };
         synth = synth
             .with_dead_spots(map, dead, args.seed)

@@ -8,7 +8,7 @@ use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
-use skin_learn::synth::{SynthOptions, Synthesizer};
+use skin_learn::synth::{DeadSpots, MaskLabels, Removal, SynthOptions, Synthesizer};
 use std::path::PathBuf;
 
 /// The most memory the arrays of one call may take, bytes (as `skin synth`).
@@ -18,9 +18,19 @@ const MAX_BYTES: usize = 8 << 30;
 /// `subjects` (one per 40 samples; at most `count`) and `size` (68, 100) (sample i belongs to subject i * subjects / count): a dict of `images`
 /// and part `masks` (S, rows, cols) uint8, `hand` (S,) bool, `kind` (names), `subject` (S,),
 /// `partial` and `fingertips` (S,) bool, `pressures` (S, N) float32 and `taxel_parts` (S, N) uint8
-/// in map order. Made in parallel with the GIL released.
+/// in map order, and `removed` and `dead` (S,) float64: the fraction of the taxels removed from,
+/// or dead in blind spots on, the map each image was made on (0 for the whole map). Made in
+/// parallel with the GIL released.
+///
+/// The options are those of `skin synth`: `mask_labels` ("pressing" or "as-imaged"),
+/// `remove_up_to` with `thinned_share`, `blind_spots` with `blind_radius_mm` and `blind_share`.
 #[pyfunction]
-#[pyo3(signature = (map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5))]
+#[pyo3(signature = (
+    map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5,
+    mask_labels = "pressing", remove_up_to = None, thinned_share = 0.5, blind_spots = None,
+    blind_radius_mm = 40.0, blind_share = 0.3
+))]
+#[allow(clippy::too_many_arguments)] // keyword arguments, as `skin synth` has options
 pub(crate) fn synthesize<'py>(
     py: Python<'py>,
     map: &TactileMap,
@@ -29,6 +39,12 @@ pub(crate) fn synthesize<'py>(
     subjects: Option<&Bound<'py, PyAny>>,
     size: Option<&Bound<'py, PyAny>>,
     hand_fraction: f64,
+    mask_labels: &str,
+    remove_up_to: Option<f64>,
+    thinned_share: f64,
+    blind_spots: Option<&Bound<'py, PyAny>>,
+    blind_radius_mm: f64,
+    blind_share: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let count = arrays::count("count", count)?;
     let seed = seed.map_or(Ok(1), |s| arrays::count("seed", s))? as u64;
@@ -57,12 +73,35 @@ pub(crate) fn synthesize<'py>(
         return Err(arg("hand_fraction", format!("{hand_fraction}: expected 0 to 1")));
     }
     let subjects = subjects.unwrap_or(count.div_ceil(40)).clamp(1, count);
+    let labels = match mask_labels {
+        "pressing" => MaskLabels::Pressing,
+        "as-imaged" => MaskLabels::AsImaged,
+        other => {
+            return Err(arg(
+                "mask_labels",
+                format!("{other:?}: expected \"pressing\" or \"as-imaged\""),
+            ));
+        }
+    };
     let options = SynthOptions {
         image_size: (image.rows, image.cols),
         hand_fraction,
+        labels,
         ..SynthOptions::default()
     };
-    let synth = Synthesizer::new(&map.inner, options).map_err(|e| errors::raise(Kind::Geometry, &e))?;
+    let blind_spots = blind_spots.map(|b| arrays::count("blind_spots", b)).transpose()?;
+    let degrade = Degrade {
+        remove_up_to,
+        thinned_share,
+        blind_spots,
+        blind_radius_mm,
+        blind_share,
+    };
+    let synth = degrade.on(
+        Synthesizer::new(&map.inner, options).map_err(|e| errors::raise(Kind::Geometry, &e))?,
+        &map.inner,
+        seed,
+    )?;
     let samples: Vec<_> = py.detach(|| {
         (0..count)
             .into_par_iter()
@@ -77,6 +116,75 @@ pub(crate) fn synthesize<'py>(
             .collect()
     });
     samples_dict(py, &samples, image, map.inner.ids.len())
+}
+
+/// `synthesize`'s degraded maps: taxels removed (Test B) and blind spots (Test A), as `skin synth
+/// --remove-up-to` and `--blind-spots` make them, with the same ranges.
+struct Degrade {
+    remove_up_to: Option<f64>,
+    thinned_share: f64,
+    blind_spots: Option<usize>,
+    blind_radius_mm: f64,
+    blind_share: f64,
+}
+
+impl Degrade {
+    /// `synth` with the degraded maps asked for; an error naming the argument at fault.
+    fn on(&self, mut synth: Synthesizer, map: &skin_geom::TactileMap, seed: u64) -> PyResult<Synthesizer> {
+        let within = |name: &str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(arg(name, format!("{v}: expected {lo} to {hi}")))
+            }
+        };
+        within("thinned_share", self.thinned_share, 0.0, 1.0)?;
+        within("blind_share", self.blind_share, 0.0, 1.0)?;
+        if self.remove_up_to.is_some()
+            && self.blind_spots.is_some()
+            && self.thinned_share + self.blind_share > 1.0
+        {
+            return Err(arg(
+                "blind_share",
+                format!(
+                    "{} with thinned_share {}: more than 1 together; a sample is imaged through one degraded map at most",
+                    self.blind_share, self.thinned_share
+                ),
+            ));
+        }
+        let geometry = |e: skin_geom::Error| errors::raise(Kind::Geometry, &e);
+        if let Some(up_to) = self.remove_up_to {
+            within("remove_up_to", up_to, 0.01, 0.95)?;
+            let removal = Removal {
+                share: self.thinned_share,
+                up_to,
+                maps: Removal::MAPS,
+            };
+            synth = synth.with_removal(map, removal, seed).map_err(geometry)?;
+        }
+        if let Some(spots) = self.blind_spots {
+            if !(1..=64).contains(&spots) {
+                return Err(arg("blind_spots", format!("{spots}: expected 1 to 64")));
+            }
+            if !(self.blind_radius_mm.is_finite()
+                && self.blind_radius_mm > 0.0
+                && self.blind_radius_mm <= 1e3)
+            {
+                return Err(arg(
+                    "blind_radius_mm",
+                    format!("{}: expected above 0, at most 1000", self.blind_radius_mm),
+                ));
+            }
+            let dead = DeadSpots {
+                share: self.blind_share,
+                spots,
+                radius_mm: self.blind_radius_mm,
+                maps: DeadSpots::MAPS,
+            };
+            synth = synth.with_dead_spots(map, dead, seed).map_err(geometry)?;
+        }
+        Ok(synth)
+    }
 }
 
 /// The samples as the arrays `synthesize` returns.
@@ -125,6 +233,10 @@ fn samples_dict<'py>(
         )?,
     )?;
     d.set_item("kind", samples.iter().map(|s| s.kind.name()).collect::<Vec<_>>())?;
+    let fraction =
+        |f: &dyn Fn(&skin_learn::synth::Sample) -> f64| samples.iter().map(f).collect::<Vec<f64>>();
+    d.set_item("removed", arrays::out(py, fraction(&|s| s.removed), &[count])?)?;
+    d.set_item("dead", arrays::out(py, fraction(&|s| s.dead), &[count])?)?;
     Ok(d)
 }
 

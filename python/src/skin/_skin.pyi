@@ -273,6 +273,12 @@ def synthesize(
     subjects: Optional[int] = None,  # one per 40 samples
     size: Optional[Sequence[int]] = None,  # (68, 100)
     hand_fraction: float = 0.5,
+    mask_labels: str = "pressing",  # or "as-imaged"
+    remove_up_to: Optional[float] = None,  # 0.01 to 0.95: Test B's removal, up to this fraction
+    thinned_share: float = 0.5,
+    blind_spots: Optional[int] = None,  # 1 to 64: Test A's blind spots, up to this many
+    blind_radius_mm: float = 40.0,
+    blind_share: float = 0.3,
 ) -> Dict[str, Any]: ...
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
 

@@ -33,6 +33,11 @@ pub struct Removal {
     pub maps: usize,
 }
 
+impl Removal {
+    /// The thinned maps `skin synth --remove-up-to` and the Python `synthesize` draw from.
+    pub const MAPS: usize = 16;
+}
+
 /// Blind spots on the map a share of the samples is imaged through, as Test A makes them: every
 /// taxel within a radius of a few random taxels reads zero (a patch of skin torn or unplugged
 /// during contact). Each of `maps` maps has 1 to `spots` spots of one radius drawn evenly from
@@ -49,6 +54,12 @@ pub struct DeadSpots {
     pub radius_mm: f64,
     /// How many maps with blind spots to draw from, 1 to 1,024.
     pub maps: usize,
+}
+
+impl DeadSpots {
+    /// The maps `skin synth --blind-spots` and the Python `synthesize` draw from: more than
+    /// [`Removal::MAPS`], as each spot sits in one place where a removal thins the whole map.
+    pub const MAPS: usize = 64;
 }
 
 /// A degraded map: the taxels it keeps (None: all, some dead), and the image pipeline on it.
