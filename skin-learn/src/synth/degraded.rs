@@ -2,7 +2,7 @@
 //! removed (Test B, [`Removal`]) or dead in blind spots (Test A, [`DeadSpots`]).
 //!
 //! A model trained only on whole maps loses a sixth of its accuracy when 70% of the taxels are
-//! gone (Table 5.3) and a tenth with four blind spots of 40 mm (Table 5.1); trained with some of
+//! gone (Table 5.3) and 8% with four blind spots of 40 mm (Table 5.1); trained with some of
 //! its images from degraded maps, it keeps its decisions on a skin with dead or missing taxels.
 //! The degraded maps come from skin-geom's [`Decimation`] and [`BlindSpots`], the code `skin
 //! degrade` and `skin eval --test-a/--test-b` use, with seeds of their own: salted with the
