@@ -240,7 +240,8 @@ impl Synthesizer {
             maps.push(Degraded {
                 keep: None,
                 removed: 0.0,
-                dead: blinded.zeroed.len() as f64 / n.max(1) as f64,
+                // Only the spots' taxels: a map may come with dead taxels of its own.
+                dead: blinded.zeroed.len().saturating_sub(map.zeroed.len()) as f64 / n.max(1) as f64,
                 imager: pipeline(&blinded, &self.options)?,
             });
         }
