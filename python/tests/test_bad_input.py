@@ -316,6 +316,15 @@ def test_options_that_contradict_are_refused(tmap):
         skin.Imager(tmap, full_scale=100.0)
     with pytest.raises(skin.ArrayError, match="grid: give grid or step_mm"):
         skin.Imager(tmap, grid=(10, 10), step_mm=2.0)
+    # A share or radius without the degradation it belongs to would be ignored: refused instead.
+    for kwargs, message in [
+        ({"thinned_share": 0.4}, "^thinned_share: only with remove_up_to"),
+        ({"thinned_share": 0.4, "blind_spots": 2}, "^thinned_share: only with remove_up_to"),
+        ({"blind_share": 0.2}, "^blind_share: only with blind_spots"),
+        ({"blind_radius_mm": 10.0, "remove_up_to": 0.5}, "^blind_radius_mm: only with blind_spots"),
+    ]:
+        with pytest.raises(skin.ArrayError, match=message):
+            skin.synthesize(tmap, 3, **kwargs)
     probes = skin.read_probes(FIXTURES / "hex_patch" / "probes.csv")
     for kwargs, name in [({"outward": (0, 0, 0)}, "outward"), ({"outward": (np.nan, 0, 1)}, "outward"), ({"max_iterations": 0}, "max_iterations"), ({"max_open_angle_deg": 400}, "max_open_angle_deg")]:
         with pytest.raises(skin.ArrayError, match=name):

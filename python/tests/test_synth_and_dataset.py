@@ -54,7 +54,8 @@ def test_synthesize_with_degraded_maps_and_labels_as_imaged_equals_skin_synth(tm
     assert removed.shape == dead.shape == (24,) and removed.dtype == np.float64
     assert ((removed > 0) & (dead > 0)).sum() == 0
     assert 0 < (removed > 0).sum() < 24 and 0 < (dead > 0).sum() < 24
-    assert removed.max() <= 0.7 + 1e-9 and dead.max() < 1
+    # A removal rounds to whole taxels: at most half a taxel over the fraction asked for.
+    assert removed.max() <= 0.7 + 0.5 / len(tmap) and dead.max() < 1
     # The same contacts as without the options, read by every taxel; a whole sample is imaged as before.
     plain = skin.synthesize(tmap, 24, seed=5, subjects=3)
     np.testing.assert_array_equal(plain["pressures"], s["pressures"])

@@ -1222,7 +1222,8 @@ fn synth_with_taxels_removed_keeps_the_readings_and_thins_the_images() {
     assert!(changed >= 50, "{changed} of 60 images changed");
     // Refused: a share without a fraction, a fraction out of range.
     let o = args(&["--thinned-share", "0.5"]);
-    assert!(!o.status.success());
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--remove-up-to"), "{err}");
     let o = args(&["--remove-up-to", "1"]);
     let (_, err) = text(&o);
     assert!(!o.status.success() && err.contains("--remove-up-to"), "{err}");
@@ -1268,9 +1269,19 @@ fn synth_with_blind_spots_keeps_the_readings_and_darkens_some_images() {
         darker * 10 >= changed * 9,
         "{darker} of {changed} changed images lit no more pixels"
     );
-    // Refused: a share without spots, shares adding up to more than 1, spots out of range.
+    // Refused: a share without spots, a radius outside (0, 1000] mm, shares adding up to more
+    // than 1, spots out of range.
     let o = args(&["--blind-share", "0.5"]);
-    assert!(!o.status.success());
+    let (_, err) = text(&o);
+    assert!(!o.status.success() && err.contains("--blind-spots"), "{err}");
+    for radius in ["0", "1000.1", "nan"] {
+        let o = args(&["--blind-spots", "2", "--blind-radius-mm", radius]);
+        let (_, err) = text(&o);
+        assert!(
+            !o.status.success() && err.contains("--blind-radius-mm"),
+            "{radius}: {err}"
+        );
+    }
     let o = args(&["--blind-spots", "2", "--remove-up-to", "0.5"]);
     assert!(o.status.success(), "the default shares, 0.5 and 0.3, go together");
     let o = args(&[

@@ -278,33 +278,52 @@ fn thinning_refuses_settings_out_of_range_and_another_map_than_the_generators() 
         maps: 8,
     };
     // Out of range: refused with the setting's name.
-    for bad in [
-        Removal {
-            share: 1.5,
-            ..removal(0.5)
-        },
-        Removal {
-            up_to: 1.0,
-            ..removal(0.5)
-        },
-        Removal {
-            up_to: 0.0,
-            ..removal(0.5)
-        },
-        Removal {
-            maps: 0,
-            ..removal(0.5)
-        },
-        Removal {
-            share: f64::NAN,
-            ..removal(0.5)
-        },
+    for (bad, name) in [
+        (
+            Removal {
+                share: 1.5,
+                ..removal(0.5)
+            },
+            "share of samples thinned = 1.5",
+        ),
+        (
+            Removal {
+                share: f64::NAN,
+                ..removal(0.5)
+            },
+            "share of samples thinned = NaN",
+        ),
+        (
+            Removal {
+                up_to: 1.0,
+                ..removal(0.5)
+            },
+            "fraction of taxels removed = 1",
+        ),
+        (
+            Removal {
+                up_to: 0.0,
+                ..removal(0.5)
+            },
+            "fraction of taxels removed = 0",
+        ),
+        (
+            Removal {
+                maps: 0,
+                ..removal(0.5)
+            },
+            "thinned maps = 0",
+        ),
+        (
+            Removal {
+                maps: 257,
+                ..removal(0.5)
+            },
+            "thinned maps = 257",
+        ),
     ] {
         let e = whole.clone().with_removal(&map, bad, 3).unwrap_err().to_string();
-        assert!(
-            e.contains("share") || e.contains("removed") || e.contains("maps"),
-            "{e}"
-        );
+        assert!(e.starts_with(name), "{e}: expected {name}");
     }
     // Another map than the generator's: refused, not indexed out of range.
     let other = whole_patch();
@@ -342,7 +361,7 @@ fn samples_with_dead_spots_keep_their_contacts_and_read_zero_where_a_taxel_is_de
     let mut again = whole.clone().with_dead_spots(&map, one_dead, 4).unwrap();
     let mut reference = whole_imager(&map);
     let mut changed = 0;
-    for k in 0..24 {
+    for k in 0..120 {
         let (a, b) = (plain.sample(4, k / 8, k % 8), dead.sample(4, k / 8, k % 8));
         assert_eq!(
             (&a.kind, &a.pressures, &a.taxel_parts),
@@ -365,7 +384,8 @@ fn samples_with_dead_spots_keep_their_contacts_and_read_zero_where_a_taxel_is_de
         });
         assert!(found, "sample {k}: no single dead taxel explains its image");
     }
-    assert!(changed >= 3, "{changed} of 24 images changed");
+    // 24 of the 120 with these seeds: a dead taxel darkens only the contacts it lies under.
+    assert!(changed >= 15, "{changed} of 120 images changed");
 
     // Table 5.1's spots: larger dead fractions, many maps, the share drawn as asked.
     let table = DeadSpots {
@@ -443,7 +463,69 @@ fn dead_spots_leave_thinned_samples_as_they_were_and_share_the_rest() {
 }
 
 #[test]
-fn dead_spots_refuse_settings_out_of_range_shares_above_one_and_another_map() {
+fn dead_spots_refuse_settings_out_of_range() {
+    use skin_learn::synth::DeadSpots;
+    let map = forearm();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let dead = DeadSpots {
+        share: 0.5,
+        spots: 4,
+        radius_mm: 40.0,
+        maps: 8,
+    };
+    for (bad, name) in [
+        (
+            DeadSpots { share: -0.1, ..dead },
+            "share of samples with blind spots = -0.1",
+        ),
+        (
+            DeadSpots { share: 1.1, ..dead },
+            "share of samples with blind spots = 1.1",
+        ),
+        (
+            DeadSpots {
+                share: f64::NAN,
+                ..dead
+            },
+            "share of samples with blind spots = NaN",
+        ),
+        (DeadSpots { spots: 0, ..dead }, "blind spots on a map = 0"),
+        (DeadSpots { spots: 65, ..dead }, "blind spots on a map = 65"),
+        (
+            DeadSpots {
+                radius_mm: 0.0,
+                ..dead
+            },
+            "blind-spot radius (mm) = 0",
+        ),
+        (
+            DeadSpots {
+                radius_mm: 1000.1,
+                ..dead
+            },
+            "blind-spot radius (mm) = 1000.1",
+        ),
+        (
+            DeadSpots {
+                radius_mm: f64::INFINITY,
+                ..dead
+            },
+            "blind-spot radius (mm) = inf",
+        ),
+        (DeadSpots { maps: 0, ..dead }, "maps with blind spots = 0"),
+        (DeadSpots { maps: 1025, ..dead }, "maps with blind spots = 1025"),
+    ] {
+        let e = whole
+            .clone()
+            .with_dead_spots(&map, bad, 3)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with(name), "{e}: expected {name}");
+    }
+}
+
+#[test]
+fn dead_spots_refuse_shares_above_one_together_and_another_map() {
     use skin_learn::synth::{DeadSpots, Removal};
     let map = forearm();
     let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
@@ -453,34 +535,6 @@ fn dead_spots_refuse_settings_out_of_range_shares_above_one_and_another_map() {
         radius_mm: 40.0,
         maps: 8,
     };
-    for bad in [
-        DeadSpots { share: -0.1, ..dead },
-        DeadSpots {
-            share: f64::NAN,
-            ..dead
-        },
-        DeadSpots { spots: 0, ..dead },
-        DeadSpots { spots: 65, ..dead },
-        DeadSpots {
-            radius_mm: 0.0,
-            ..dead
-        },
-        DeadSpots {
-            radius_mm: f64::INFINITY,
-            ..dead
-        },
-        DeadSpots { maps: 0, ..dead },
-    ] {
-        let e = whole
-            .clone()
-            .with_dead_spots(&map, bad, 3)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("share") || e.contains("spot") || e.contains("maps"),
-            "{e}"
-        );
-    }
     // Shares above 1 together, whichever is added second.
     let removal = Removal {
         share: 0.6,
@@ -519,4 +573,46 @@ fn whole_patch() -> TactileMap {
         })
         .collect();
     TactileMap::flatten(&LinkSkin::new("patch", taxels), &FlattenOptions::default()).unwrap()
+}
+
+/// FNV-1a over the samples' images, masks and degraded fractions: a fingerprint that does not
+/// change with the Rust release (std's hasher may).
+fn fingerprint(samples: &[skin_learn::synth::Sample]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for s in samples {
+        let bytes = s.image.iter().chain(&s.mask).copied();
+        let fractions = s.removed.to_le_bytes().into_iter().chain(s.dead.to_le_bytes());
+        for b in bytes.chain(fractions) {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// The model cards give the `skin synth` commands their training sets were made with, so the
+/// same command must make the same images in every later release: a whole dataset and a thinned
+/// one (the shipped HandsNet's stage 1 was trained on `--remove-up-to` sets made before blind
+/// spots existed). A change here is a change of every published training set; if it is meant,
+/// say so in the model cards and update the figures.
+#[test]
+fn the_same_seed_makes_the_same_images_release_after_release() {
+    use skin_learn::synth::Removal;
+    let map = forearm();
+    let whole = Synthesizer::new(&map, SynthOptions::default()).unwrap();
+    let removal = Removal {
+        share: 0.5,
+        up_to: 0.8,
+        maps: Removal::MAPS,
+    };
+    let mut thin = whole.clone().with_removal(&map, removal, 7).unwrap();
+    let mut plain = whole.clone();
+    let draw = |s: &mut Synthesizer| (0..48).map(|k| s.sample(7, k / 12, k % 12)).collect::<Vec<_>>();
+    let (plain, thin) = (draw(&mut plain), draw(&mut thin));
+    assert!(thin.iter().any(|s| s.removed > 0.0) && thin.iter().any(|s| s.removed == 0.0));
+    assert_eq!(
+        (fingerprint(&plain), fingerprint(&thin)),
+        // Also what the generator made before blind spots existed (checked on that code).
+        (15_793_153_196_841_891_960, 5_961_979_745_084_049_381),
+        "the generator's images changed"
+    );
 }

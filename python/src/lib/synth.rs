@@ -23,12 +23,13 @@ const MAX_BYTES: usize = 8 << 30;
 /// parallel with the GIL released.
 ///
 /// The options are those of `skin synth`: `mask_labels` ("pressing" or "as-imaged"),
-/// `remove_up_to` with `thinned_share`, `blind_spots` with `blind_radius_mm` and `blind_share`.
+/// `remove_up_to` with `thinned_share` (0.5), `blind_spots` with `blind_radius_mm` (40) and
+/// `blind_share` (0.3); a share or radius given without the option it belongs to is refused.
 #[pyfunction]
 #[pyo3(signature = (
     map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5,
-    mask_labels = "pressing", remove_up_to = None, thinned_share = 0.5, blind_spots = None,
-    blind_radius_mm = 40.0, blind_share = 0.3
+    mask_labels = "pressing", remove_up_to = None, thinned_share = None, blind_spots = None,
+    blind_radius_mm = None, blind_share = None
 ))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin synth` has options
 pub(crate) fn synthesize<'py>(
@@ -41,10 +42,10 @@ pub(crate) fn synthesize<'py>(
     hand_fraction: f64,
     mask_labels: &str,
     remove_up_to: Option<f64>,
-    thinned_share: f64,
+    thinned_share: Option<f64>,
     blind_spots: Option<&Bound<'py, PyAny>>,
-    blind_radius_mm: f64,
-    blind_share: f64,
+    blind_radius_mm: Option<f64>,
+    blind_share: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let count = arrays::count("count", count)?;
     let seed = seed.map_or(Ok(1), |s| arrays::count("seed", s))? as u64;
@@ -90,13 +91,13 @@ pub(crate) fn synthesize<'py>(
         ..SynthOptions::default()
     };
     let blind_spots = blind_spots.map(|b| arrays::count("blind_spots", b)).transpose()?;
-    let degrade = Degrade {
+    let degrade = Degrade::new(
         remove_up_to,
         thinned_share,
         blind_spots,
         blind_radius_mm,
         blind_share,
-    };
+    )?;
     let synth = degrade.on(
         Synthesizer::new(&map.inner, options).map_err(|e| errors::raise(Kind::Geometry, &e))?,
         &map.inner,
@@ -129,6 +130,49 @@ struct Degrade {
 }
 
 impl Degrade {
+    /// The options with their defaults, refusing a share or radius without its option (as `skin
+    /// synth` refuses `--blind-share` without `--blind-spots`): it would be silently ignored.
+    fn new(
+        remove_up_to: Option<f64>,
+        thinned_share: Option<f64>,
+        blind_spots: Option<usize>,
+        blind_radius_mm: Option<f64>,
+        blind_share: Option<f64>,
+    ) -> PyResult<Self> {
+        let needs = |name: &str, given: bool, option: &str, set: bool| {
+            if given && !set {
+                Err(arg(name, format!("only with {option}")))
+            } else {
+                Ok(())
+            }
+        };
+        needs(
+            "thinned_share",
+            thinned_share.is_some(),
+            "remove_up_to",
+            remove_up_to.is_some(),
+        )?;
+        needs(
+            "blind_share",
+            blind_share.is_some(),
+            "blind_spots",
+            blind_spots.is_some(),
+        )?;
+        needs(
+            "blind_radius_mm",
+            blind_radius_mm.is_some(),
+            "blind_spots",
+            blind_spots.is_some(),
+        )?;
+        Ok(Degrade {
+            remove_up_to,
+            thinned_share: thinned_share.unwrap_or(0.5),
+            blind_spots,
+            blind_radius_mm: blind_radius_mm.unwrap_or(40.0),
+            blind_share: blind_share.unwrap_or(0.3),
+        })
+    }
+
     /// `synth` with the degraded maps asked for; an error naming the argument at fault.
     fn on(&self, mut synth: Synthesizer, map: &skin_geom::TactileMap, seed: u64) -> PyResult<Synthesizer> {
         let within = |name: &str, v: f64, lo: f64, hi: f64| {

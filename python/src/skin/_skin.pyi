@@ -275,10 +275,10 @@ def synthesize(
     hand_fraction: float = 0.5,
     mask_labels: str = "pressing",  # or "as-imaged"
     remove_up_to: Optional[float] = None,  # 0.01 to 0.95: Test B's removal, up to this fraction
-    thinned_share: float = 0.5,
+    thinned_share: Optional[float] = None,  # 0.5; only with remove_up_to
     blind_spots: Optional[int] = None,  # 1 to 64: Test A's blind spots, up to this many
-    blind_radius_mm: float = 40.0,
-    blind_share: float = 0.3,
+    blind_radius_mm: Optional[float] = None,  # 40.0; only with blind_spots
+    blind_share: Optional[float] = None,  # 0.3; only with blind_spots
 ) -> Dict[str, Any]: ...
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
 
