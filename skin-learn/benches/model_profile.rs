@@ -8,7 +8,7 @@
 //! ```
 //!
 //! A model whose input shape is fixed runs at that shape (the single layers of
-//! `bench/conv_layers.py`). `BATCH=32` profiles a batch; `PLAIN_TRACT=1` leaves tract's own max-pools in the plan;
+//! `bench/conv_layers.py`). `BATCH=32` profiles a batch; `PLAIN_TRACT=1` leaves tract's own convolutions and max-pools in the plan;
 //! `FULL=1` prints each node's whole description (the matrix kernel it picked).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)] // a profiling tool
@@ -115,13 +115,14 @@ fn plan_and_input(path: &Path, batch: usize) -> (std::sync::Arc<TypedRunnableMod
     let shape = fixed.unwrap_or_else(|| vec![batch, 1, 68, 100]);
     let plan = model
         .with_input_fact(0, f32::fact(&shape).into())
-        .and_then(|m| m.into_optimized())
-        .and_then(|mut m| {
+        .and_then(|m| m.into_typed())
+        .and_then(|m| {
             // As skin-learn plans it, unless PLAIN_TRACT is set.
             if std::env::var("PLAIN_TRACT").is_err() {
-                skin_learn::max_pool::swap_max_pools(&mut m)?;
+                skin_learn::tract_plan::optimise(m)
+            } else {
+                m.into_optimized()
             }
-            Ok(m)
         })
         .and_then(|m| m.into_runnable())
         .unwrap();

@@ -124,7 +124,8 @@ impl ImageModel {
     }
 
     /// The plan for one image, made on first use: a concrete `[1, 1, H, W]` input, tract's
-    /// optimisations, the project's max-pool, and a state reused from run to run.
+    /// optimisations with the project's own operators ([`crate::tract_plan`]), and a state
+    /// reused from run to run.
     fn plan(&mut self) -> Result<&mut Plan, ModelError> {
         if self.plan.is_none() {
             let shape_err = |why: String| ModelError::Shape {
@@ -135,8 +136,8 @@ impl ImageModel {
                 .model
                 .clone()
                 .with_input_fact(0, f32::fact([1, 1, self.height, self.width]).into())
-                .and_then(|m| m.into_optimized())
-                .and_then(|mut m| crate::max_pool::swap_max_pools(&mut m).map(|_| m))
+                .and_then(|m| m.into_typed())
+                .and_then(crate::tract_plan::optimise)
                 .map_err(|e| shape_err(format!("planning for one image: {e:#}")))?;
             let output_shape = typed
                 .output_fact(0)

@@ -86,7 +86,9 @@
 //! - `classify` (feature `onnx`): tactile image classification (hand / non-hand, HandsNet,
 //!   Ch. 4.3) with any ONNX classifier of grey images, run by tract; `segment` (feature `onnx`):
 //!   hand-part segmentation (Ch. 4.4) the same way. [`card`]: the model card beside a model.
-//!   `max_pool` (feature `onnx`): the vectorised 2 x 2 max-pool both put in tract's plans.
+//!   `tract_plan` (feature `onnx`): how both plan a model for tract, with the project's own
+//!   operators: `direct_conv` (x86-64), a convolution without tract's patch matrix, and
+//!   `max_pool`, the vectorised 2 x 2 max-pool.
 //! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8;
 //!   [`segmentation_diagnostics`]: where a segmenter goes wrong (seams, misnamed parts, mirror).
 //! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
@@ -111,6 +113,8 @@ pub mod card;
 #[cfg(feature = "onnx")]
 pub mod classify;
 pub mod dataset;
+#[cfg(all(feature = "onnx", target_arch = "x86_64"))]
+pub mod direct_conv;
 mod error;
 #[cfg(feature = "onnx")]
 pub mod evaluation;
@@ -128,5 +132,7 @@ pub mod segmentation_diagnostics;
 pub mod session;
 pub mod synth;
 pub mod touch;
+#[cfg(feature = "onnx")]
+pub mod tract_plan;
 
 pub use error::{Error, Result};
