@@ -192,13 +192,15 @@ impl DirectConv {
             let block_weights = g.c_in * g.offsets.len() * BLOCK;
             let work = |first: usize, out: &mut [f32]| -> TractResult<()> {
                 with_scratch(&TILES, |tiles| {
-                    tiles.clear();
-                    tiles.resize(BLOCK * g.flat, 0.0);
+                    // Grown once; the kernel writes every value before it reads one.
+                    if tiles.len() < BLOCK * g.flat {
+                        tiles.resize(BLOCK * g.flat, 0.0);
+                    }
                     for (k, out) in out.chunks_mut(per_block).enumerate() {
                         let b = first + k;
                         let weights = &self.weights[b * block_weights..(b + 1) * block_weights];
                         let bias = &self.bias[b * BLOCK..(b + 1) * BLOCK];
-                        pulp::Simd::vectorize(
+                        let ran = pulp::Simd::vectorize(
                             simd,
                             Kernel {
                                 g,
@@ -209,6 +211,9 @@ impl DirectConv {
                                 out: tiles,
                             },
                         );
+                        if !ran {
+                            bail!("DirectConv's kernel does not fit {g:?}");
+                        }
                         // The valid columns of each row.
                         for (channel, plane) in out.chunks_mut(g.ho * g.wo).enumerate() {
                             let flat = &tiles[channel * g.flat..];
@@ -262,10 +267,12 @@ struct Kernel<'a> {
 }
 
 impl pulp::WithSimd for Kernel<'_> {
-    type Output = ();
+    /// Whether the kernel ran: false, and nothing written, where the vectors or buffers do
+    /// not fit the geometry (never, as planned).
+    type Output = bool;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) {
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> bool {
         let Kernel {
             g,
             padded,
@@ -276,7 +283,7 @@ impl pulp::WithSimd for Kernel<'_> {
         } = self;
         // This kernel is planned for 8-lane vectors (the geometry's tiles); nothing else runs.
         if S::F32_LANES != LANES || bias.len() != BLOCK || out.len() < BLOCK * g.flat {
-            return;
+            return false;
         }
         let taps = g.offsets.len();
         let zero = simd.splat_f32s(0.0);
@@ -337,6 +344,7 @@ impl pulp::WithSimd for Kernel<'_> {
                 }
             }
         }
+        true
     }
 }
 
