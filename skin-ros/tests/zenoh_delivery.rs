@@ -43,6 +43,24 @@ fn slow_subscriber(port: u16, key: &str, delay: Duration) -> (zenoh::Session, Re
     (session, got)
 }
 
+/// The events `got` holds, in order, once it holds `count` of them or `timeout` has passed.
+fn events_received(got: &Received, count: usize, timeout: Duration) -> Vec<String> {
+    let start = std::time::Instant::now();
+    loop {
+        let events: Vec<String> = got
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|(key, _)| key.starts_with("0/skin/events/"))
+            .map(|(_, p)| String::from_utf8_lossy(p).into_owned())
+            .collect();
+        if events.len() >= count || start.elapsed() >= timeout {
+            return events;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 fn outlet(port: u16, topics: &Topics) -> ZenohOutlet {
     let options = ZenohOptions {
         connect: vec![format!("tcp/127.0.0.1:{port}")],
@@ -71,15 +89,13 @@ fn a_slow_subscriber_flooded_with_clouds_receives_every_event() {
             .unwrap();
     }
     let report = outlet.close(Duration::from_secs(120));
-    let events: Vec<String> = got
-        .lock()
-        .unwrap()
-        .iter()
-        .filter(|(key, _)| key.starts_with("0/skin/events/"))
-        .map(|(_, p)| String::from_utf8_lossy(p).into_owned())
-        .collect();
+    // `close` returns once the subscriber's process has read every byte from its socket; the
+    // subscriber may still be handing the last batch it read (up to 64 KiB, dozens of events)
+    // to its 10 ms callback. Its own pace is not the outlet's to wait for: wait for it here.
+    let events = events_received(&got, 100, Duration::from_secs(60));
     let want: Vec<String> = (0..100).map(|k| format!("event {k}")).collect();
-    assert_eq!(events, want);
+    // The report says whether the outlet saw its bytes taken (`in_flight`) should this fail.
+    assert_eq!(events, want, "{report:?}");
     let e = &report.topics[topics.events];
     assert!(e.reliable);
     assert_eq!(
