@@ -1,4 +1,5 @@
-//! A direct 2-D convolution for tract plans (feature `onnx`), on x86-64 CPUs with AVX2 and FMA.
+//! A direct 2-D convolution for tract plans (feature `onnx`), on x86-64 CPUs with AVX2 and FMA
+//! (x86-64-v3).
 //!
 //! tract 0.23.9 runs a convolution as a patch gather (its "lazy im2col") feeding its matrix
 //! product: 1.5-2.5x onnxruntime's time on the layers of the project's models, the more so
@@ -65,7 +66,8 @@ struct Geometry {
 
 impl Geometry {
     /// The layout for a convolution of `[c_in, h, w]` by a `kh x kw` kernel dilated by
-    /// `(dh, dw)` and padded by `(top, bottom, left, right)`, if it has any output.
+    /// `(dh, dw)` and padded by `(top, bottom, left, right)`, if it has any output and every
+    /// buffer it sizes can be addressed (the sizes come from a model file).
     #[allow(clippy::too_many_arguments)]
     fn new(
         (c_in, c_out): (usize, usize),
@@ -74,19 +76,31 @@ impl Geometry {
         (dh, dw): (usize, usize),
         (top, bottom, left, right): (usize, usize, usize, usize),
     ) -> Option<Geometry> {
-        let span_h = (kh.checked_sub(1)?).checked_mul(dh)?;
-        let span_w = (kw.checked_sub(1)?).checked_mul(dw)?;
-        let ho = (h + top + bottom).checked_sub(span_h)?;
-        let wo = (w + left + right).checked_sub(span_w)?;
-        let row = w + left.max(right);
-        // Output column wo - 1 must sit in the row (padding larger than the kernel's reach
-        // would leave outputs past it): wo <= row.
-        if ho == 0 || wo == 0 || wo > row || c_in == 0 || c_out == 0 {
+        if c_in == 0 || c_out == 0 || h == 0 || w == 0 {
             return None;
         }
-        let flat = (ho * row).div_ceil(TILE) * TILE;
+        let span_h = (kh.checked_sub(1)?).checked_mul(dh)?;
+        let span_w = (kw.checked_sub(1)?).checked_mul(dw)?;
+        let tall = h.checked_add(top)?.checked_add(bottom)?;
+        let ho = tall.checked_sub(span_h)?;
+        let wo = w.checked_add(left)?.checked_add(right)?.checked_sub(span_w)?;
+        let row = w.checked_add(left.max(right))?;
+        // Output column wo - 1 must sit in the row (padding larger than the kernel's reach
+        // would leave outputs past it): wo <= row.
+        if ho == 0 || wo == 0 || wo > row {
+            return None;
+        }
+        let flat = ho.checked_mul(row)?.checked_next_multiple_of(TILE)?;
         // The last tile reads up to flat - 1 + the largest offset.
-        let plane = (h + top + bottom) * row + span_w + TILE;
+        let plane = tall.checked_mul(row)?.checked_add(span_w)?.checked_add(TILE)?;
+        // The padded copy, one block's tiles, one output image and the packed weights.
+        c_in.checked_mul(plane)?;
+        BLOCK.checked_mul(flat)?;
+        c_out.checked_mul(ho)?.checked_mul(wo)?;
+        c_out
+            .checked_next_multiple_of(BLOCK)?
+            .checked_mul(c_in)?
+            .checked_mul(kh.checked_mul(kw)?)?;
         let offsets = (0..kh)
             .flat_map(|i| (0..kw).map(move |j| i * dh * row + j * dw))
             .collect();
@@ -159,6 +173,7 @@ impl DirectConv {
     fn new(geometry: Geometry, weights: &[f32], bias: &[f32], relu: bool) -> Option<DirectConv> {
         let taps = geometry.offsets.len();
         let (c_in, c_out) = (geometry.c_in, geometry.c_out);
+        // Geometry::new checked that these products fit.
         if weights.len() != c_out * c_in * taps || !(bias.len() == c_out || bias.len() == 1) {
             return None;
         }
@@ -412,6 +427,20 @@ impl TypedOp for DirectConv {
             bail!("DirectConv takes [N, C, H, W], got {shape:?}");
         }
         let g = &self.geometry;
+        let planned = [g.c_in, g.h, g.w];
+        if shape
+            .iter()
+            .skip(1)
+            .zip(planned)
+            .any(|(d, p)| d.to_usize().is_ok_and(|d| d != p))
+        {
+            bail!(
+                "DirectConv planned for [N, {}, {}, {}], got {shape:?}",
+                g.c_in,
+                g.h,
+                g.w
+            );
+        }
         let dims: TVec<TDim> = tvec!(shape[0].clone(), g.c_out.into(), g.ho.into(), g.wo.into());
         Ok(tvec!(f32::fact(dims)))
     }
@@ -510,7 +539,8 @@ fn relu_after(model: &TypedModel, outlet: OutletId) -> TractResult<Option<Outlet
     Ok((zero && same_shape).then_some(relu))
 }
 
-/// Whether this CPU runs [`DirectConv`] (x86-64 with AVX2 and FMA).
+/// Whether this CPU runs [`DirectConv`]: x86-64-v3, that is AVX2 and FMA with the BMI and
+/// LZCNT instructions that come with them (every x86-64 CPU since 2013-2015).
 pub fn available() -> bool {
     pulp::x86::V3::try_new().is_some()
 }
@@ -552,37 +582,56 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
     use proptest::prelude::*;
+    use tract_onnx::tract_core::ops::cnn::{PaddingSpec, PoolSpec};
+
+    /// A stride-1 convolution's shape and parameters, as ONNX states them.
+    struct Spec {
+        c_in: usize,
+        c_out: usize,
+        h: usize,
+        w: usize,
+        kh: usize,
+        kw: usize,
+        dh: usize,
+        dw: usize,
+        /// Top, bottom, left, right.
+        pads: [usize; 4],
+    }
+
+    impl Spec {
+        /// Output height and width, by ONNX's formula.
+        fn output(&self) -> (usize, usize) {
+            let [top, bottom, left, right] = self.pads;
+            (
+                self.h + top + bottom - (self.kh - 1) * self.dh,
+                self.w + left + right - (self.kw - 1) * self.dw,
+            )
+        }
+    }
 
     /// The definition of a stride-1 convolution (ONNX Conv, one group), one output at a time,
-    /// in f64.
-    #[allow(clippy::too_many_arguments)]
-    fn reference(
-        input: &[f32],
-        weights: &[f32],
-        bias: &[f32],
-        g: &Geometry,
-        (kh, kw): (usize, usize),
-        (dh, dw): (usize, usize),
-        relu: bool,
-    ) -> Vec<f32> {
+    /// in f64, from the parameters alone (not the op's geometry).
+    fn reference(input: &[f32], weights: &[f32], bias: &[f32], s: &Spec, relu: bool) -> Vec<f32> {
+        let (ho, wo) = s.output();
+        let [top, _, left, _] = s.pads;
         let mut out = Vec::new();
-        for o in 0..g.c_out {
-            for y in 0..g.ho {
-                for x in 0..g.wo {
+        for o in 0..s.c_out {
+            for y in 0..ho {
+                for x in 0..wo {
                     let mut sum = f64::from(if bias.len() == 1 { bias[0] } else { bias[o] });
-                    for c in 0..g.c_in {
-                        for i in 0..kh {
-                            for j in 0..kw {
+                    for c in 0..s.c_in {
+                        for i in 0..s.kh {
+                            for j in 0..s.kw {
                                 let (r, q) = (
-                                    (y + i * dh) as isize - g.top as isize,
-                                    (x + j * dw) as isize - g.left as isize,
+                                    (y + i * s.dh) as isize - top as isize,
+                                    (x + j * s.dw) as isize - left as isize,
                                 );
-                                if r < 0 || q < 0 || r >= g.h as isize || q >= g.w as isize {
+                                if r < 0 || q < 0 || r >= s.h as isize || q >= s.w as isize {
                                     continue;
                                 }
-                                let v = input[(c * g.h + r as usize) * g.w + q as usize];
-                                sum +=
-                                    f64::from(v) * f64::from(weights[((o * g.c_in + c) * kh + i) * kw + j]);
+                                let v = input[(c * s.h + r as usize) * s.w + q as usize];
+                                let k = weights[((o * s.c_in + c) * s.kh + i) * s.kw + j];
+                                sum += f64::from(v) * f64::from(k);
                             }
                         }
                     }
@@ -593,19 +642,20 @@ mod tests {
         out
     }
 
-    fn run(op: &DirectConv, n: usize, input: &[f32]) -> Vec<f32> {
+    /// The op's output for `n` images `[c_in, h, w]`: its shape and values.
+    fn run(op: &DirectConv, n: usize, input: &[f32]) -> (Vec<usize>, Vec<f32>) {
         let g = &op.geometry;
         let input = Tensor::from_shape(&[n, g.c_in, g.h, g.w], input).unwrap();
         let out = op
             .eval(&EvalContext::out_of_plan(), tvec!(input.into_tvalue()))
             .unwrap();
-        assert_eq!(out[0].shape(), &[n, g.c_out, g.ho, g.wo]);
-        out[0]
+        let values = out[0]
             .try_as_plain_ram()
             .unwrap()
             .as_slice::<f32>()
             .unwrap()
-            .to_vec()
+            .to_vec();
+        (out[0].shape().to_vec(), values)
     }
 
     proptest! {
@@ -619,12 +669,18 @@ mod tests {
             kh in 1usize..6, kw in 1usize..6, dh in 1usize..4, dw in 1usize..4,
             pads in prop::array::uniform4(0usize..6), relu: bool, one_bias: bool, seed: u64,
         ) {
-            prop_assume!(available());
+            if !available() {
+                // tract keeps its convolutions on this CPU (`swap_convolutions` swaps none).
+                return Ok(());
+            }
             let [top, bottom, left, right] = pads;
             let Some(g) = Geometry::new((c_in, c_out), (h, w), (kh, kw), (dh, dw), (top, bottom, left, right)) else {
                 // No output, or padding past the kernel's reach: tract keeps such convolutions.
+                let no_output = h + top + bottom <= (kh - 1) * dh || w + left + right <= (kw - 1) * dw;
+                prop_assert!(no_output || left.min(right) > (kw - 1) * dw, "refused {pads:?}");
                 return Ok(());
             };
+            let spec = Spec { c_in, c_out, h, w, kh, kw, dh, dw, pads };
             let mut state = seed | 1;
             let mut next = move || {
                 state ^= state << 13; state ^= state >> 7; state ^= state << 17;
@@ -635,11 +691,13 @@ mod tests {
             let weights: Vec<f32> = (0..c_out * c_in * kh * kw).map(|_| next()).collect();
             let bias: Vec<f32> = (0..if one_bias { 1 } else { c_out }).map(|_| next()).collect();
             let op = DirectConv::new(g.clone(), &weights, &bias, relu).unwrap();
-            let got = run(&op, n, &input);
+            let (shape, got) = run(&op, n, &input);
+            let (ho, wo) = spec.output();
+            prop_assert_eq!(shape, vec![n, c_out, ho, wo]);
             let per_image = c_in * h * w;
             let want: Vec<f32> = input
                 .chunks_exact(per_image)
-                .flat_map(|image| reference(image, &weights, &bias, &g, (kh, kw), (dh, dw), relu))
+                .flat_map(|image| reference(image, &weights, &bias, &spec, relu))
                 .collect();
             prop_assert_eq!(got.len(), want.len());
             for (i, (a, b)) in got.iter().zip(&want).enumerate() {
@@ -698,5 +756,177 @@ mod tests {
                 .fold(0.0f32, f32::max);
             assert!(worst < 1e-4, "{name}: outputs differ by up to {worst}");
         }
+    }
+
+    /// A decluttered model of one convolution of a `[1, c_in, h, w]` input; a ReLU after it
+    /// where `relu` is set; the convolution's own output a model output too where `keep` is.
+    fn one_convolution(conv: Conv, (h, w): (usize, usize), relu: bool, keep: bool) -> TypedModel {
+        use tract_onnx::tract_core::ops::change_axes::wire_with_rank_broadcast;
+        let spec = &conv.pool_spec;
+        let (c_in, c_out) = (spec.input_channels, spec.output_channels);
+        let (kh, kw) = (spec.kernel_shape[0], spec.kernel_shape[1]);
+        let per_group = c_in / conv.group;
+        let values = |n: usize, step: usize| -> Vec<f32> {
+            (0..n).map(|k| (k * step % 101) as f32 / 50.0 - 1.0).collect()
+        };
+        let mut model = TypedModel::default();
+        let x = model.add_source("x", f32::fact([1, c_in, h, w])).unwrap();
+        let weights = Tensor::from_shape(
+            &[c_out, per_group, kh, kw],
+            &values(c_out * per_group * kh * kw, 37),
+        );
+        let bias = Tensor::from_shape(&[c_out], &values(c_out, 13));
+        let weights = model.add_const("weights", weights.unwrap()).unwrap();
+        let bias = model.add_const("bias", bias.unwrap()).unwrap();
+        let y = model.wire_node("conv", conv, &[x, weights, bias]).unwrap()[0];
+        let mut outputs = vec![];
+        if relu {
+            let zero = model.add_const("zero", tensor0(0f32)).unwrap();
+            let max = tract_onnx::tract_core::ops::math::max();
+            outputs.push(wire_with_rank_broadcast("relu", &mut model, max, &[y, zero]).unwrap()[0]);
+        }
+        if keep || !relu {
+            outputs.push(y);
+        }
+        model.select_output_outlets(&outputs).unwrap();
+        model.into_decluttered().unwrap()
+    }
+
+    /// An f32 convolution of `c.0` into `c.1` channels by a `k` kernel, dilated by (1, 2).
+    fn conv(c: (usize, usize), k: (usize, usize), padding: PaddingSpec, stride: usize, group: usize) -> Conv {
+        Conv {
+            pool_spec: PoolSpec {
+                data_format: DataFormat::NCHW,
+                kernel_shape: tvec![k.0, k.1],
+                padding,
+                dilations: Some(tvec![1, 2]),
+                strides: Some(tvec![stride, stride]),
+                input_channels: c.0,
+                output_channels: c.1,
+            },
+            kernel_fmt: KernelFormat::OIHW,
+            group,
+            q_params: None,
+        }
+    }
+
+    /// Every output of `model` run by tract as it is, and with its convolutions swapped:
+    /// how many were swapped, which of them took in a ReLU, and the largest difference.
+    fn swapped_against_tract(model: TypedModel, (c, h, w): (usize, usize, usize)) -> (usize, Vec<bool>, f32) {
+        let mut swapped = model.clone();
+        let count = swap_convolutions(&mut swapped).unwrap();
+        let fused = swapped
+            .nodes
+            .iter()
+            .filter_map(|n| n.op_as::<DirectConv>().map(|op| op.relu))
+            .collect();
+        let input: Tensor = tract_ndarray::Array4::from_shape_fn((1, c, h, w), |(_, k, r, q)| {
+            ((k * 31 + r * 7 + q * 13) % 17) as f32 / 8.0 - 1.0
+        })
+        .into();
+        let outputs = |m: TypedModel| {
+            let runnable = m.into_optimized().unwrap().into_runnable().unwrap();
+            let out = runnable.run(tvec!(input.clone().into())).unwrap();
+            out.iter()
+                .map(|t| t.try_as_plain_ram().unwrap().as_slice::<f32>().unwrap().to_vec())
+                .collect::<Vec<_>>()
+        };
+        let (want, got) = (outputs(model), outputs(swapped));
+        assert_eq!(want.len(), got.len());
+        let mut worst = 0.0f32;
+        for (want, got) in want.iter().zip(&got) {
+            assert_eq!(want.len(), got.len());
+            for (a, b) in want.iter().zip(got) {
+                worst = worst.max((a - b).abs() / (1.0 + a.abs()));
+            }
+        }
+        (count, fused, worst)
+    }
+
+    /// Built models, against tract on the same input: asymmetric padding of each kind reaches
+    /// the right sides; a ReLU is taken in only where nothing else reads the convolution; the
+    /// strided and grouped convolutions stay with tract.
+    #[test]
+    fn swaps_only_what_it_covers_and_keeps_tracts_outputs() {
+        if !available() {
+            eprintln!("skipped: this CPU has no AVX2 and FMA, tract keeps its convolutions");
+            return;
+        }
+        let (c_in, h, w) = (5, 9, 11);
+        // Two rows above and none below, none left and one right.
+        let explicit = || PaddingSpec::Explicit(tvec![2, 0], tvec![0, 1]);
+        let cases = [
+            (
+                "explicit, ReLU",
+                conv((c_in, 6), (3, 3), explicit(), 1, 1),
+                true,
+                false,
+                1,
+                vec![true],
+            ),
+            (
+                "explicit, ReLU, convolution read too",
+                conv((c_in, 6), (3, 3), explicit(), 1, 1),
+                true,
+                true,
+                1,
+                vec![false],
+            ),
+            (
+                "same lower, even kernel",
+                conv((c_in, 8), (4, 2), PaddingSpec::SameLower, 1, 1),
+                false,
+                false,
+                1,
+                vec![false],
+            ),
+            (
+                "same upper, even kernel, ReLU",
+                conv((c_in, 3), (2, 4), PaddingSpec::SameUpper, 1, 1),
+                true,
+                false,
+                1,
+                vec![true],
+            ),
+            (
+                "stride 2",
+                conv((c_in, 6), (3, 3), explicit(), 2, 1),
+                true,
+                false,
+                0,
+                vec![],
+            ),
+            (
+                "two groups",
+                conv((4, 6), (3, 3), explicit(), 1, 2),
+                true,
+                false,
+                0,
+                vec![],
+            ),
+        ];
+        for (name, conv, relu, keep, count, fused) in cases {
+            let c = conv.pool_spec.input_channels;
+            let model = one_convolution(conv, (h, w), relu, keep);
+            let (swapped, took_in, worst) = swapped_against_tract(model, (c, h, w));
+            assert_eq!((swapped, took_in), (count, fused), "{name}");
+            assert!(worst < 1e-4, "{name}: outputs differ by up to {worst}");
+        }
+    }
+
+    /// Shapes a model file may declare that leave nothing to compute or overflow a buffer's
+    /// size are tract's to handle (or refuse), never a panic here.
+    #[test]
+    fn refuses_empty_and_unaddressable_shapes() {
+        let pads = (2, 2, 2, 2);
+        assert!(Geometry::new((1, 1), (0, 5), (3, 3), (1, 1), pads).is_none());
+        assert!(Geometry::new((1, 1), (5, 0), (3, 3), (1, 1), pads).is_none());
+        assert!(Geometry::new((0, 1), (5, 5), (3, 3), (1, 1), pads).is_none());
+        assert!(Geometry::new((1, 1), (5, 5), (0, 3), (1, 1), pads).is_none());
+        let huge = usize::MAX / 2;
+        assert!(Geometry::new((1, 1), (huge, huge), (3, 3), (1, 1), pads).is_none());
+        assert!(Geometry::new((huge, 1), (5, 5), (3, 3), (1, 1), pads).is_none());
+        assert!(Geometry::new((1, 1), (5, 5), (3, 3), (huge, 1), (huge, huge, 1, 1)).is_none());
+        assert!(Geometry::new((1, 1), (5, 5), (3, 3), (1, 1), pads).is_some());
     }
 }
