@@ -6,6 +6,7 @@ import io
 import math
 import os
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,16 @@ const L = V.links[arguments[0]], f = V.frame, pressed = [];
 for (let i = 0; i < L.n; i++) if (f.pressures[L.offset + i] > V.scene.threshold) pressed.push(i);
 return {number: f.number, time: f.time, pressed: pressed, missing: f.missing, incomplete: f.incomplete};
 """
+
+
+def while_running(driver, script, *args, timeout=120):
+    """`script`'s value, read again and again until the run is over (the page's `ended`) or
+    `timeout` seconds have passed: how many reads that makes depends on the machine, so a loop
+    over them is bounded by the run, not by a count."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and not driver.execute_script("return window.skinView.ended === true"):
+        yield driver.execute_script(script, *args)
+        time.sleep(0.005)
 
 
 def canvas_image(driver, k: int) -> Image.Image:
@@ -74,15 +85,14 @@ def scene(driver) -> dict:
 
 
 def test_a_press_is_painted_where_the_map_puts_it_and_touch_0_is_a_hand(browser, tmp_path):
-    served = Served("run", RUN, "--log", LOG, "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "2")
+    served = Served("run", RUN, "--log", LOG, "-o", tmp_path / "out", "-q", "--view", "0", "--speed", "0.5")
     try:
         browser.get(served.url)
         link = scene(browser)["links"][0]
         assert len(link["uv_mm"]) == 715
         wait_for(browser, "return window.skinView.frames > 0", what="a frame")
         checked = False
-        for _ in range(2000):
-            before = browser.execute_script(SHOWN, 0)
+        for before in while_running(browser, SHOWN, 0):
             if not before or len(before["pressed"]) < 10:
                 continue
             image = canvas_image(browser, 0)
@@ -237,8 +247,7 @@ def test_a_stitched_arm_is_drawn_at_the_current_posture(browser, tmp_path):
         sc = scene(browser)
         assert sc["stitched"] and len(sc["links"]) == 2
         checked = False
-        for _ in range(3000):
-            before = browser.execute_script(STITCHED)
+        for before in while_running(browser, STITCHED):
             if not before or sum(map(len, before["pressed"])) < 10 or not all(before["pressed"]):
                 continue
             canvas = browser.find_element(By.CSS_SELECTOR, "canvas.stitched")
