@@ -563,11 +563,8 @@ pub fn swap_convolutions(model: &mut TypedModel) -> TractResult<usize> {
         };
         let relu = relu_after(model, OutletId::new(id, 0))?;
         op.relu = relu.is_some();
-        let mut patch = TypedModelPatch::default();
-        let input = patch.tap_model(model, node.inputs[0])?;
-        let out = patch.wire_node(&node.name, op, &[input])?;
-        patch.shunt_outside(model, relu.unwrap_or(OutletId::new(id, 0)), out[0])?;
-        patch.apply(model)?;
+        let (name, input) = (node.name.clone(), node.inputs[0]);
+        crate::tract_plan::swap_in(model, &name, op, input, relu.unwrap_or(OutletId::new(id, 0)))?;
         swapped += 1;
     }
     if swapped > 0 {

@@ -154,19 +154,16 @@ pub fn swap_max_pools(model: &mut TypedModel) -> TractResult<usize> {
         if !is_plain_2x2(op, model.outlet_fact(node.inputs[0])?) {
             continue;
         }
-        let patch = match relu_input(model, node.inputs[0])? {
+        match relu_input(model, node.inputs[0])? {
             Some(input) => {
-                let mut patch = TypedModelPatch::default();
-                let tapped = patch.tap_model(model, input)?;
-                let pooled = patch.wire_node(&node.name, MaxPool2x2 { relu: true }, &[tapped])?;
-                patch.shunt_outside(model, id.into(), pooled[0])?;
-                patch
+                let name = node.name.clone();
+                crate::tract_plan::swap_in(model, &name, MaxPool2x2 { relu: true }, input, id.into())?;
             }
             None => {
                 TypedModelPatch::replace_single_op(model, node, &node.inputs, MaxPool2x2 { relu: false })?
+                    .apply(model)?;
             }
-        };
-        patch.apply(model)?;
+        }
         swapped += 1;
     }
     if swapped > 0 {
