@@ -114,7 +114,7 @@ pub mod card;
 pub mod classify;
 pub mod dataset;
 #[cfg(all(feature = "onnx", target_arch = "x86_64"))]
-pub mod direct_conv;
+mod direct_conv;
 mod error;
 #[cfg(feature = "onnx")]
 pub mod evaluation;

@@ -1,5 +1,5 @@
 //! How skin-learn plans a tactile image model for tract (feature `onnx`): tract's declutter,
-//! the project's direct convolution where the CPU runs it ([`crate::direct_conv`], x86-64 with
+//! the project's direct convolution where the CPU runs it (`direct_conv`, x86-64 with
 //! AVX2 and FMA), tract's optimisation, then the project's 2 x 2 max-pool
 //! ([`crate::max_pool`]). The classifier and segmenter plan their models this way, and so do
 //! the benches that time them.
