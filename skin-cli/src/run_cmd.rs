@@ -376,13 +376,8 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
         if !args.quiet {
             crate::say!("{summary}");
         }
-        let most = session
-            .touches()
-            .iter()
-            .map(|t| t.peak.contacts)
-            .max()
-            .unwrap_or(0);
-        let row = [rec.frames_read() as usize, session.stats().touches, most];
+        let stats = session.stats();
+        let row = [rec.frames_read() as usize, stats.touches, stats.most_contacts];
         let _ = writeln!(table, "{name}\t{}\t{}\t{}", row[0], row[1], row[2]);
         crate::say!("{name:<30} {:>7}  {:>7}  {:>7}", row[0], row[1], row[2]);
     }

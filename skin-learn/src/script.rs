@@ -133,24 +133,108 @@ impl Script {
 
     /// Matches each scripted touch with the found touch overlapping it the longest.
     pub fn score(&self, found: &[Found<'_>]) -> Score {
-        let matches: Vec<Option<usize>> = self
-            .touches
-            .iter()
-            .map(|t| {
-                found
-                    .iter()
-                    .enumerate()
-                    .map(|(j, d)| (j, d.end_s.min(t.end_s) - d.start_s.max(t.start_s)))
-                    .filter(|(_, overlap)| *overlap >= 0.0)
-                    .max_by(|a, b| a.1.total_cmp(&b.1))
-                    .map(|(j, _)| j)
-            })
-            .collect();
+        let mut tally = Tally::new(self.clone());
+        for f in found {
+            tally.add(f);
+        }
+        tally.score()
+    }
+}
+
+/// The found touch a scripted touch is matched with so far.
+#[derive(Debug, Clone, PartialEq)]
+struct Best {
+    /// Seconds of overlap (0 where their ends touch).
+    overlap: f64,
+    /// Its index among the touches found.
+    index: usize,
+    /// The class it was given.
+    class: Option<Box<str>>,
+}
+
+/// A score kept as found touches come, one at a time: memory per scripted touch, whatever the
+/// number of touches found, so a session of any length scores itself without keeping its
+/// touches. [`Script::score`] is this over a list.
+///
+/// ```
+/// use skin_learn::script::{Found, Script, Tally};
+///
+/// let script = Script::parse("0\t1.0\t2.0\thand\tgrasp\n", "s.tsv".as_ref())?;
+/// let mut tally = Tally::new(script);
+/// tally.add(&Found { start_s: 1.05, end_s: 2.1, class: Some("hand") });
+/// tally.add(&Found { start_s: 6.0, end_s: 6.5, class: None });
+/// let score = tally.score();
+/// assert_eq!((score.found(), score.right(), score.extra_among(tally.found())), (1, 1, 1));
+/// # Ok::<(), skin_core::Error>(())
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tally {
+    script: Script,
+    /// For each scripted touch, its match so far.
+    best: Vec<Option<Best>>,
+    /// Found touches taken.
+    found: usize,
+}
+
+impl Tally {
+    /// A tally of `script` with no touch found yet.
+    pub fn new(script: Script) -> Tally {
+        Tally {
+            best: vec![None; script.touches.len()],
+            script,
+            found: 0,
+        }
+    }
+
+    /// The script it scores against.
+    pub fn script(&self) -> &Script {
+        &self.script
+    }
+
+    /// The script, for a tally started again.
+    pub fn into_script(self) -> Script {
+        self.script
+    }
+
+    /// Takes the next found touch (its index is the number taken before it). A scripted touch
+    /// it overlaps at least as long as its match so far takes it instead: of equal overlaps,
+    /// the later touch.
+    pub fn add(&mut self, found: &Found<'_>) {
+        let index = self.found;
+        self.found += 1;
+        for (t, best) in self.script.touches.iter().zip(&mut self.best) {
+            let overlap = found.end_s.min(t.end_s) - found.start_s.max(t.start_s);
+            if !(overlap >= 0.0) || best.as_ref().is_some_and(|b| overlap.total_cmp(&b.overlap).is_lt()) {
+                continue;
+            }
+            *best = Some(Best {
+                overlap,
+                index,
+                class: found.class.map(Box::from),
+            });
+        }
+    }
+
+    /// Found touches taken so far.
+    pub fn found(&self) -> usize {
+        self.found
+    }
+
+    /// The class given to the found touch matched with scripted touch `scripted` (none if
+    /// none matched, or it was never decided).
+    pub fn class_of(&self, scripted: usize) -> Option<&str> {
+        self.best.get(scripted)?.as_ref()?.class.as_deref()
+    }
+
+    /// The score of the touches taken so far.
+    pub fn score(&self) -> Score {
+        let matches = self.best.iter().map(|b| b.as_ref().map(|b| b.index)).collect();
         let correct = self
+            .script
             .touches
             .iter()
-            .zip(&matches)
-            .map(|(t, m)| m.is_some_and(|j| found[j].class == Some(t.class.as_str())))
+            .zip(&self.best)
+            .map(|(t, b)| b.as_ref().is_some_and(|b| b.class.as_deref() == Some(t.class.as_str())))
             .collect();
         Score { matches, correct }
     }
@@ -169,9 +253,15 @@ impl Score {
 
     /// Found touches that no scripted touch took.
     pub fn extra(&self, found: &[Found<'_>]) -> usize {
-        (0..found.len())
-            .filter(|j| !self.matches.contains(&Some(*j)))
-            .count()
+        self.extra_among(found.len())
+    }
+
+    /// Of `found` touches found (numbered from 0), those that no scripted touch took.
+    pub fn extra_among(&self, found: usize) -> usize {
+        let mut taken: Vec<usize> = self.matches.iter().flatten().copied().filter(|&j| j < found).collect();
+        taken.sort_unstable();
+        taken.dedup();
+        found - taken.len()
     }
 
     /// For each found touch, the scripted touch matched with it.
@@ -222,6 +312,67 @@ mod tests {
         assert_eq!((score.found(), score.right(), score.extra(&found)), (2, 1, 2));
         assert_eq!(score.scripted_of(1), Some(0));
         assert_eq!(score.scripted_of(0), None);
+    }
+
+    /// The match of each scripted touch as a list scores it all at once: the found touch of
+    /// longest overlap, the last of equals.
+    fn longest_overlaps(script: &Script, found: &[Found<'_>]) -> Vec<Option<usize>> {
+        let overlap = |t: &Scripted, d: &Found<'_>| d.end_s.min(t.end_s) - d.start_s.max(t.start_s);
+        script
+            .touches
+            .iter()
+            .map(|t| {
+                (0..found.len())
+                    .filter(|&j| overlap(t, &found[j]) >= 0.0)
+                    .max_by(|&a, &b| overlap(t, &found[a]).total_cmp(&overlap(t, &found[b])))
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// Touches taken one at a time score as the whole list does: matches, classes, extras.
+        #[test]
+        fn a_tally_scores_as_the_whole_list(
+            scripted in proptest::collection::vec((0u8..20, 0u8..4, proptest::bool::ANY), 0..6),
+            found in proptest::collection::vec((0u8..20, 0u8..4, 0u8..3), 0..12),
+        ) {
+            let classes = ["hand", "non_hand"];
+            let script = Script {
+                touches: scripted
+                    .iter()
+                    .map(|&(start, len, hand)| Scripted {
+                        start_s: f64::from(start) * 0.5,
+                        end_s: f64::from(start + len) * 0.5,
+                        class: classes[usize::from(!hand)].into(),
+                        kind: String::new(),
+                    })
+                    .collect(),
+            };
+            let found: Vec<Found<'_>> = found
+                .iter()
+                .map(|&(start, len, class)| Found {
+                    start_s: f64::from(start) * 0.5,
+                    end_s: f64::from(start + len) * 0.5,
+                    class: classes.get(usize::from(class)).copied(),
+                })
+                .collect();
+            let mut tally = Tally::new(script.clone());
+            for f in &found {
+                tally.add(f);
+            }
+            let score = tally.score();
+            let matches = longest_overlaps(&script, &found);
+            proptest::prop_assert_eq!(&score.matches, &matches);
+            for (k, m) in matches.iter().enumerate() {
+                let class = m.and_then(|j| found[j].class);
+                proptest::prop_assert_eq!(tally.class_of(k), class);
+                proptest::prop_assert_eq!(score.correct[k], class == Some(script.touches[k].class.as_str()));
+            }
+            let extra = (0..found.len()).filter(|j| !matches.contains(&Some(*j))).count();
+            proptest::prop_assert_eq!(score.extra(&found), extra);
+            proptest::prop_assert_eq!(score.extra_among(tally.found()), extra);
+            proptest::prop_assert_eq!(script.score(&found), score);
+        }
     }
 
     #[test]

@@ -293,14 +293,9 @@ fn most_contacts(fingers: usize, extra: &str) -> Option<Vec<usize>> {
         let rec = skin_core::format::recording::read(f).unwrap();
         let mut session = Session::from_config(&config).unwrap();
         session.run_recording(&rec, f, &mut Vec::<Event>::new()).unwrap();
-        most.push(
-            session
-                .touches()
-                .iter()
-                .map(|t| t.peak.contacts)
-                .max()
-                .unwrap_or(0),
-        );
+        let most_kept = session.touches().map(|t| t.peak.contacts).max().unwrap_or(0);
+        assert_eq!(session.stats().most_contacts, most_kept, "{}", f.display());
+        most.push(most_kept);
     }
     Some(most)
 }
@@ -479,4 +474,49 @@ fn a_bus_maps_dead_taxels_reach_the_stitching_in_either_order() {
         stitched_images(true) == stitching_first,
         "the stitched images depend on the order"
     );
+}
+
+/// A long session keeps its last touches only, yet counts and scores every one: a scripted
+/// touch long gone from the table is still found, and every other touch is extra.
+#[test]
+fn a_long_session_keeps_its_last_touches_and_scores_them_all() {
+    use skin_learn::script::Script;
+    use skin_learn::session::TOUCH_HISTORY;
+    use support::memory::{Count, Presses, forearm_session};
+    let dir = tempfile::tempdir().unwrap();
+    let session = forearm_session(dir.path(), false);
+    let mut presses = Presses::new(&session, 50);
+    // Touch k starts 2 + 2k s into the run (40 frames of rest, then 40 frames a touch).
+    let script = Script::parse(
+        "0\t2.0\t2.3\thand\tpoke\n1\t2.0\t2.3\tnon_hand\tball\n2\t3000.0\t3000.3\thand\tgrasp\n",
+        Path::new("s.tsv"),
+    )
+    .unwrap();
+    let mut session = session.with_script(script);
+    let mut sink = Count::default();
+    presses.rest(&mut session, 40, &mut sink);
+    let touches = TOUCH_HISTORY + 500;
+    for _ in 0..touches {
+        presses.touch(&mut session, 35, &mut sink);
+    }
+    assert_eq!(session.stats().touches, touches);
+    assert_eq!(session.touches().len(), TOUCH_HISTORY);
+    let first = session.touches().next().unwrap();
+    assert!((first.start - (2.0 + 2.0 * 500.0)).abs() < 0.2, "{first:?}");
+    let summary = session.summary(0.0);
+    let score = summary.script_score().unwrap();
+    // Touch 0 matches both scripted touches at 2 s; the one at 1,499 touches' time is found.
+    assert_eq!((score.scripted, score.found, score.right), (3, 3, 0));
+    assert_eq!(score.extra, touches - 2);
+    let text = summary.to_string();
+    assert!(text.contains(&format!("{touches} touch(es):")), "{text}");
+    assert!(text.contains(&format!("the last {TOUCH_HISTORY} listed")), "{text}");
+    assert!(text.contains("scripted touch 0 (hand poke) taken for -"), "{text}");
+    let rows = text.lines().filter(|l| l.contains("(not scripted)")).count();
+    assert_eq!(rows, TOUCH_HISTORY - 1, "one kept row is scripted touch 2's");
+    // Started again: the same script, nothing found yet.
+    let session = session.restarted().unwrap();
+    let score = session.summary(0.0).script_score().unwrap();
+    assert_eq!((score.scripted, score.found, score.extra), (3, 0, 0));
+    assert_eq!((session.stats().touches, session.touches().len()), (0, 0));
 }

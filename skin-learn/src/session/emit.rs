@@ -14,6 +14,9 @@ impl Session {
     }
 
     fn emit_one<S: Sink + ?Sized>(&mut self, e: &TouchEvent, sink: &mut S) -> Result<(), SessionError> {
+        if let TouchEvent::Released(touch) = e {
+            self.ended(touch);
+        }
         let name = |l: usize| self.setup.links[l].name.clone();
         let event = match e {
             TouchEvent::Appeared(touch) => Event::Appeared {
@@ -32,7 +35,6 @@ impl Session {
                 }
             }
             TouchEvent::Released(touch) => {
-                self.done.push(touch.clone());
                 Event::Released {
                     link: name(touch.link),
                     touch: touch.clone(),

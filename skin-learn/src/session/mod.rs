@@ -55,12 +55,19 @@ pub use stitching::{Spanning, Stitching};
 pub use summary::{ScriptScore, Summary, Timings};
 
 use crate::model::Classes;
-use crate::script::Script;
+use crate::script::{Found, Script, Tally};
 use crate::touch::{Released, TouchEvent, TouchPipeline};
 use skin_can::{BusMap, LayoutFrames, Missing};
 use skin_control::hri::{ClassGate, GateAction};
 use skin_core::{Baseline, BaselineLearner, BaselineOptions, LinkSkin, Polarity, TaxelHealth};
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
+
+/// The touches that ended a session keeps ([`Session::touches`], the table of its
+/// [`Session::summary`]): the last this many. A session runs for as long as a robot does, so
+/// it keeps no memory per touch beyond these; every touch reaches the sinks as it ends
+/// ([`Event::Released`]), and the counts and the score against a script take every one.
+pub const TOUCH_HISTORY: usize = 1_000;
 
 /// How a session runs (the parts of [`SessionConfig`] that are not files).
 #[derive(Debug, Clone, PartialEq)]
@@ -125,7 +132,6 @@ struct Setup {
     options: SessionOptions,
     can: Option<CanInput>,
     stitching: Option<Stitching>,
-    script: Option<Script>,
     /// Names the input in errors (the configuration, or "frames").
     source: PathBuf,
     /// What reading the layout file did ([`Session::from_config`]).
@@ -143,8 +149,10 @@ pub struct Session {
     raw: Vec<Vec<f32>>,
     pressures: Vec<Vec<f32>>,
     touch_events: Vec<TouchEvent>,
-    /// The touches that ended.
-    done: Vec<Released>,
+    /// The last [`TOUCH_HISTORY`] touches that ended, oldest first.
+    done: VecDeque<Released>,
+    /// The score against the script so far ([`Session::with_script`]).
+    tally: Option<Tally>,
     t0_us: Option<u64>,
     last_time: f64,
     stats: SessionStats,
@@ -203,14 +211,14 @@ impl Session {
                 options,
                 can: None,
                 stitching: None,
-                script: None,
                 source: PathBuf::from("frames"),
                 layout_notes: Vec::new(),
                 dead: Vec::new(),
             },
             pipeline,
             touch_events: Vec::new(),
-            done: Vec::new(),
+            done: VecDeque::new(),
+            tally: None,
             t0_us: None,
             last_time: 0.0,
             stats: SessionStats::default(),
@@ -273,7 +281,7 @@ impl Session {
 
     /// Scores the finished touches against a script ([`Session::summary`]).
     pub fn with_script(mut self, script: Script) -> Session {
-        self.setup.script = Some(script);
+        self.tally = Some(Tally::new(script));
         self
     }
 
@@ -324,9 +332,32 @@ impl Session {
         self.pipeline.classes()
     }
 
-    /// The touches that ended so far.
-    pub fn touches(&self) -> &[Released] {
-        &self.done
+    /// The touches that ended, oldest first: the last [`TOUCH_HISTORY`] of them
+    /// ([`SessionStats::touches`] counts them all).
+    pub fn touches(&self) -> impl ExactSizeIterator<Item = &Released> + DoubleEndedIterator + '_ {
+        self.done.iter()
+    }
+
+    /// Takes a touch that ended: counts it, scores it against the script, and keeps it among
+    /// the last [`TOUCH_HISTORY`] (room for all of them made once, so a long session's
+    /// touches move no memory).
+    fn ended(&mut self, touch: &Released) {
+        self.stats.touches += 1;
+        self.stats.most_contacts = self.stats.most_contacts.max(touch.peak.contacts);
+        if let Some(tally) = &mut self.tally {
+            tally.add(&Found {
+                start_s: touch.start,
+                end_s: touch.time,
+                class: touch.decision.as_ref().map(|d| d.class.name()),
+            });
+        }
+        if self.done.len() >= TOUCH_HISTORY {
+            self.done.pop_front();
+        }
+        if self.done.capacity() < TOUCH_HISTORY {
+            self.done.reserve_exact(TOUCH_HISTORY - self.done.len());
+        }
+        self.done.push_back(touch.clone());
     }
 
     /// The gate's current action (none before the first decision, or without a gate).

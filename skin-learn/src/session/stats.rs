@@ -15,6 +15,8 @@ pub struct SessionStats {
     pub counter_resets: u64,
     /// Touches that ended.
     pub touches: usize,
+    /// The most separate contacts a touch that ended had at its fullest.
+    pub most_contacts: usize,
     /// Contacts that spanned a joint (each counted once, when it began).
     pub across_joints: u64,
     /// Baseline corrections, and the taxel offsets they reset.
@@ -45,7 +47,6 @@ impl Session {
             .iter()
             .fold((0, 0), |(e, t), c| (e + c.events, t + c.taxels));
         SessionStats {
-            touches: self.done.len(),
             baseline_corrections: corrections,
             pipeline: self.pipeline.times().clone(),
             ..self.stats.clone()

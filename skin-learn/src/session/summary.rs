@@ -1,8 +1,8 @@
 //! A session's summary and its time per stage, as text (what `skin run` prints and writes to
 //! `summary.txt`).
 
-use super::{Session, SessionStats};
-use crate::script::{Found, Score, Script};
+use super::{Session, SessionStats, TOUCH_HISTORY};
+use crate::script::{Score, Tally};
 use crate::touch::Released;
 use std::fmt::{self, Display, Formatter};
 use std::time::Duration;
@@ -40,9 +40,9 @@ impl Summary<'_> {
         self.session.stats()
     }
 
-    /// The touches that ended, in the order they ended.
-    pub fn touches(&self) -> &[Released] {
-        &self.session.done
+    /// The touches that ended, in the order they ended: the last [`TOUCH_HISTORY`] of them.
+    pub fn touches(&self) -> impl ExactSizeIterator<Item = &Released> + DoubleEndedIterator + '_ {
+        self.session.touches()
     }
 
     /// The input's span, seconds.
@@ -52,28 +52,14 @@ impl Summary<'_> {
 
     /// The score against the script (none without one).
     pub fn script_score(&self) -> Option<ScriptScore> {
-        let script = self.session.setup.script.as_ref()?;
-        let found = self.found();
-        let score = script.score(&found);
+        let tally = self.session.tally.as_ref()?;
+        let score = tally.score();
         Some(ScriptScore {
-            scripted: script.touches.len(),
+            scripted: tally.script().touches.len(),
             found: score.found(),
             right: score.right(),
-            extra: score.extra(&found),
+            extra: score.extra_among(tally.found()),
         })
-    }
-
-    /// The finished touches as the script scores them.
-    fn found(&self) -> Vec<Found<'_>> {
-        let s = self.session;
-        s.done
-            .iter()
-            .map(|d| Found {
-                start_s: d.start,
-                end_s: d.time,
-                class: d.decision.as_ref().map(|dec| dec.class.name()),
-            })
-            .collect()
     }
 }
 
@@ -104,11 +90,10 @@ impl Display for Summary<'_> {
         }
         self.write_health(out)?;
         // Each scripted touch's detected touch: the one overlapping it the longest.
-        let found = self.found();
-        let score = s.setup.script.as_ref().map(|script| script.score(&found));
+        let score = s.tally.as_ref().map(Tally::score);
         self.write_touches(out, score.as_ref())?;
-        if let (Some(script), Some(score)) = (&s.setup.script, &score) {
-            Self::write_script(out, script, score, &found)?;
+        if let (Some(tally), Some(score)) = (&s.tally, &score) {
+            Self::write_script(out, tally, score)?;
         }
         Ok(())
     }
@@ -168,17 +153,26 @@ impl Summary<'_> {
     /// The table of finished touches, with the scripted touch each one matched.
     fn write_touches(&self, out: &mut Formatter<'_>, score: Option<&Score>) -> fmt::Result {
         let s = self.session;
-        write!(out, "{} touch(es):", s.done.len())?;
+        let ended = s.stats.touches;
+        // The touches kept are the last ones: the first kept is touch `first` of all that ended.
+        let first = ended - s.done.len();
+        write!(out, "{ended} touch(es):")?;
+        if first > 0 {
+            write!(
+                out,
+                "\n  the last {TOUCH_HISTORY} listed (a session keeps no more; the events have every touch)"
+            )?;
+        }
         write!(
             out,
             "\n  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}parts",
-            if s.setup.script.is_some() {
+            if s.tally.is_some() {
                 "script               "
             } else {
                 ""
             }
         )?;
-        for (j, d) in s.done.iter().enumerate() {
+        for (j, d) in (first..).zip(&s.done) {
             let (class, prob, parts) = match &d.decision {
                 Some(dec) => (
                     dec.class.name().to_string(),
@@ -191,10 +185,10 @@ impl Summary<'_> {
                 ),
                 None => ("-".into(), "-".into(), String::new()),
             };
-            let script = match (&s.setup.script, score) {
-                (Some(script), Some(score)) => {
+            let script = match (&s.tally, score) {
+                (Some(tally), Some(score)) => {
                     let name = score.scripted_of(j).map_or("(not scripted)".to_string(), |k| {
-                        let t = &script.touches[k];
+                        let t = &tally.script().touches[k];
                         format!("{} {}", t.class, t.kind)
                     });
                     format!("{name:<21}")
@@ -219,12 +213,8 @@ impl Summary<'_> {
     }
 
     /// The score against the script, and each scripted touch missed or taken for another class.
-    fn write_script(
-        out: &mut Formatter<'_>,
-        script: &Script,
-        score: &Score,
-        found: &[Found<'_>],
-    ) -> fmt::Result {
+    fn write_script(out: &mut Formatter<'_>, tally: &Tally, score: &Score) -> fmt::Result {
+        let script = tally.script();
         write!(
             out,
             "\nscript: {} of {} scripted touches found, {} with the right class ({:.1}%); {} touch(es) not in the script",
@@ -232,12 +222,12 @@ impl Summary<'_> {
             script.touches.len(),
             score.right(),
             100.0 * score.right() as f64 / script.touches.len().max(1) as f64,
-            score.extra(found)
+            score.extra_among(tally.found())
         )?;
         for (k, (t, m)) in script.touches.iter().zip(&score.matches).enumerate() {
             match m {
-                Some(j) if !score.correct[k] => {
-                    let got = found[*j].class.unwrap_or("-");
+                Some(_) if !score.correct[k] => {
+                    let got = tally.class_of(k).unwrap_or("-");
                     write!(
                         out,
                         "\n  scripted touch {k} ({} {}) taken for {got}",

@@ -3,6 +3,7 @@
 #![allow(dead_code, clippy::unwrap_used)] // each test file uses part of it; a failed set-up should stop the test
 
 pub mod elastic_probe;
+pub mod memory;
 
 use skin_geom::{FlattenOptions, TactileMap};
 use std::path::{Path, PathBuf};
