@@ -166,8 +166,92 @@ mod session_config {
         );
     }
 
+    #[test]
+    fn a_sim_key_set_as_a_binding_sets_it_names_the_key_and_what_it_takes() {
+        use skin_learn::session::SimConfig;
+        let origin = Path::new("[sim]");
+        let mut sim = SimConfig::default();
+        sim.set("noise", toml::Value::Integer(3), origin).unwrap();
+        sim.set(
+            "missing_modules",
+            toml::Value::Array(vec!["can0:5".into()]),
+            origin,
+        )
+        .unwrap();
+        assert_eq!(
+            (sim.noise, sim.missing_modules.as_slice()),
+            (3.0, &["can0:5".to_owned()][..])
+        );
+        assert_eq!(sim.cover_mm, SimConfig::default().cover_mm);
+        for (key, value, message) in [
+            (
+                "noise",
+                toml::Value::from("x"),
+                "[sim]: [sim] noise = \"x\": expected counts from 0 to full_scale",
+            ),
+            (
+                "dead",
+                toml::Value::Integer(5),
+                "[sim] dead = 5: expected a list of taxel ids",
+            ),
+            (
+                "dead",
+                toml::Value::Array(vec![(-1).into()]),
+                "[sim] dead = [-1]: expected a list of taxel ids",
+            ),
+            (
+                "missing_modules",
+                "can0:5".into(),
+                "[sim] missing_modules = \"can0:5\": expected a list of modules",
+            ),
+            (
+                "seed",
+                toml::Value::Float(1.5),
+                "[sim] seed = 1.5: expected a whole number",
+            ),
+            (
+                "frame_rate_hz",
+                "20".into(),
+                "[sim] frame_rate_hz = \"20\": expected frames a second",
+            ),
+            (
+                "noize",
+                toml::Value::Integer(1),
+                "[sim] key = noize: expected one of frame_rate_hz, cover_mm",
+            ),
+        ] {
+            let e = sim.clone().set(key, value, origin).unwrap_err().to_string();
+            assert!(e.contains(message) && !e.contains("column"), "{key}: {e}");
+        }
+        // A number of the right kind out of its range: named by the check that follows.
+        sim.set("noise", toml::Value::Float(f64::NAN), origin).unwrap();
+        let e = sim.check(origin).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "[sim]: [sim] noise = NaN: expected counts from 0 to full_scale"
+        );
+        let e = SimConfig::value_error("rest", "None", origin).to_string();
+        assert_eq!(
+            e,
+            "[sim]: [sim] rest = None: expected counts from 0 to full_scale"
+        );
+    }
+
     proptest! {
         #![proptest_config(config())]
+
+        #[test]
+        fn a_sim_key_is_set_or_refused_by_name(key in "[a-z_]{1,16}", n in any::<i64>(), x in any::<f64>(), text in ".{0,60}") {
+            use skin_learn::session::SimConfig;
+            for value in [toml::Value::Integer(n), toml::Value::Float(x), toml::Value::String(text.clone()), toml::Value::Array(vec![toml::Value::Integer(n)])] {
+                let mut sim = SimConfig::default();
+                if let Err(e) = sim.set(&key, value, Path::new("[sim]")) {
+                    let e = e.to_string();
+                    prop_assert!(e.contains(&format!("[sim] {key} = ")) || e.contains(&format!("[sim] key = {}", key.chars().take(40).collect::<String>())), "{}", e);
+                    prop_assert!(e.len() < 300, "{}", e);
+                }
+            }
+        }
 
         #[test]
         fn configurations_are_parsed_or_refused(text in prop_oneof![mutated(SESSION), arbitrary_text()]) {

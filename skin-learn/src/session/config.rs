@@ -246,33 +246,48 @@ impl Default for SimConfig {
     }
 }
 
+/// Each `[sim]` key: how errors name it and what it takes, in words (said once, by
+/// [`SimConfig::check`] and [`SimConfig::set`] alike).
+#[rustfmt::skip]
+const SIM_KEYS: [(&str, &str); 12] = [
+    ("[sim] frame_rate_hz", "frames a second from 0.1 to 10000"),
+    ("[sim] cover_mm", "millimetres from 0.1 to 50"),
+    ("[sim] half_scale_kpa", "kPa from 0.01 to 1e6"),
+    ("[sim] full_scale", "counts from 1 to 65535"),
+    ("[sim] gain_spread", "a fraction from 0 to 0.9"),
+    ("[sim] rest", "counts from 0 to full_scale"),
+    ("[sim] rest_spread", "counts from 0 to full_scale"),
+    ("[sim] noise", "counts from 0 to full_scale"),
+    ("[sim] dead", "a list of taxel ids, whole numbers from 0 to 4294967295"),
+    ("[sim] missing_modules", "a list of modules, each INTERFACE:ADDRESS, e.g. [\"can0:5\"]"),
+    ("[sim] dropout", "a probability from 0 to 1"),
+    ("[sim] seed", "a whole number from 0 to 9223372036854775807"),
+];
+
+/// The `[sim]` keys, for an error about a key it does not have.
+const SIM_KEY_NAMES: &str = "one of frame_rate_hz, cover_mm, half_scale_kpa, full_scale, gain_spread, \
+     rest, rest_spread, noise, dead, missing_modules, dropout, seed";
+
 impl SimConfig {
     /// Every number in its range, every module named `INTERFACE:ADDRESS`; `path` (or whatever
     /// gave the table) names it in errors.
     pub fn check(&self, path: &Path) -> Result<(), ConfigError> {
-        let value = |field: &'static str, value: String, expected: &'static str| ConfigError::Value {
-            file: path.to_owned(),
-            field,
-            value,
-            expected,
-        };
         let fs = self.full_scale.max(1.0);
-        let counts = "counts from 0 to full_scale";
         #[rustfmt::skip]
         let ranges = [
-            ("[sim] frame_rate_hz", self.frame_rate_hz, 0.1, 10_000.0, "frames a second from 0.1 to 10000"),
-            ("[sim] cover_mm", self.cover_mm, 0.1, 50.0, "millimetres from 0.1 to 50"),
-            ("[sim] half_scale_kpa", self.half_scale_kpa, 0.01, 1e6, "kPa from 0.01 to 1e6"),
-            ("[sim] full_scale", self.full_scale, 1.0, 65_535.0, "counts from 1 to 65535"),
-            ("[sim] gain_spread", self.gain_spread, 0.0, 0.9, "a fraction from 0 to 0.9"),
-            ("[sim] rest", self.rest, 0.0, fs, counts),
-            ("[sim] rest_spread", self.rest_spread, 0.0, fs, counts),
-            ("[sim] noise", self.noise, 0.0, fs, counts),
-            ("[sim] dropout", self.dropout, 0.0, 1.0, "a probability from 0 to 1"),
+            ("frame_rate_hz", self.frame_rate_hz, 0.1, 10_000.0),
+            ("cover_mm", self.cover_mm, 0.1, 50.0),
+            ("half_scale_kpa", self.half_scale_kpa, 0.01, 1e6),
+            ("full_scale", self.full_scale, 1.0, 65_535.0),
+            ("gain_spread", self.gain_spread, 0.0, 0.9),
+            ("rest", self.rest, 0.0, fs),
+            ("rest_spread", self.rest_spread, 0.0, fs),
+            ("noise", self.noise, 0.0, fs),
+            ("dropout", self.dropout, 0.0, 1.0),
         ];
-        for (field, v, lo, hi, expected) in ranges {
+        for (key, v, lo, hi) in ranges {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(value(field, v.to_string(), expected));
+                return Err(SimConfig::value_error(key, &v.to_string(), path));
             }
         }
         for m in &self.missing_modules {
@@ -280,14 +295,69 @@ impl SimConfig {
                 .rsplit_once(':')
                 .is_some_and(|(bus, address)| !bus.is_empty() && address.parse::<u32>().is_ok());
             if !ok {
-                return Err(value(
-                    "[sim] missing_modules",
-                    m.chars().take(40).collect(),
-                    "INTERFACE:ADDRESS, e.g. \"can0:5\"",
-                ));
+                return Err(ConfigError::Value {
+                    file: path.to_owned(),
+                    field: "[sim] missing_modules",
+                    value: m.chars().take(40).collect(),
+                    expected: "INTERFACE:ADDRESS, e.g. \"can0:5\"",
+                });
             }
         }
         Ok(())
+    }
+
+    /// Sets one key as a `[sim]` table in a file sets it (`key = value`; a binding converts its
+    /// own values to TOML's). A key `[sim]` does not have, or a value of the wrong kind (text
+    /// for a number, a number for a list), is an error that names the key and says what it
+    /// takes; the value's range is [`SimConfig::check`]'s, left to it.
+    pub fn set(&mut self, key: &str, value: toml::Value, origin: &Path) -> Result<(), ConfigError> {
+        let shown = value.to_string();
+        let mut table = toml::Table::new();
+        table.insert(key.to_owned(), value);
+        // Every other key takes its default: only `key` is copied over.
+        let one: SimConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|_| SimConfig::value_error(key, &shown, origin))?;
+        match key {
+            "frame_rate_hz" => self.frame_rate_hz = one.frame_rate_hz,
+            "cover_mm" => self.cover_mm = one.cover_mm,
+            "half_scale_kpa" => self.half_scale_kpa = one.half_scale_kpa,
+            "full_scale" => self.full_scale = one.full_scale,
+            "gain_spread" => self.gain_spread = one.gain_spread,
+            "rest" => self.rest = one.rest,
+            "rest_spread" => self.rest_spread = one.rest_spread,
+            "noise" => self.noise = one.noise,
+            "dead" => self.dead = one.dead,
+            "missing_modules" => self.missing_modules = one.missing_modules,
+            "dropout" => self.dropout = one.dropout,
+            "seed" => self.seed = one.seed,
+            _ => return Err(SimConfig::value_error(key, &shown, origin)),
+        }
+        Ok(())
+    }
+
+    /// The error for `key = shown` in a `[sim]` table from `origin`: what the key takes, or the
+    /// keys there are when it is none of them. For a binding's values that have no TOML
+    /// counterpart (Python's `None`), and [`SimConfig::set`]'s own.
+    pub fn value_error(key: &str, shown: &str, origin: &Path) -> ConfigError {
+        let clip = |text: &str| -> String { text.chars().take(40).collect() };
+        match SIM_KEYS
+            .iter()
+            .find(|(field, _)| field.strip_prefix("[sim] ") == Some(key))
+        {
+            Some(&(field, expected)) => ConfigError::Value {
+                file: origin.to_owned(),
+                field,
+                value: clip(shown),
+                expected,
+            },
+            None => ConfigError::Value {
+                file: origin.to_owned(),
+                field: "[sim] key",
+                value: clip(key),
+                expected: SIM_KEY_NAMES,
+            },
+        }
     }
 }
 
