@@ -428,7 +428,7 @@ def test_bad_input_is_named(tmp_path):
         SkinBridge(FIXTURES / "forearm" / "layout.json", spacing_mm=0)
     with pytest.raises(KeyError, match="no tool 'ball'"):
         Kit(bare_robot(bridge.layout)).press("ball", [0, 0, 0], [0, 0, 1], 1.0, 0.0, 1.0)
-    with pytest.raises(skin.ConfigError, match="unknown field `noize`"):
+    with pytest.raises(skin.ConfigError, match=r"\[sim\] key = noize: expected one of frame_rate_hz"):
         SkinBridge(FIXTURES / "forearm" / "layout.json", response={"noize": 1})
     with pytest.raises(skin.ConfigError, match=r"\[sim\] cover_mm = 0"):
         SkinBridge(FIXTURES / "forearm" / "layout.json", response={"cover_mm": 0})
@@ -441,6 +441,34 @@ def test_bad_input_is_named(tmp_path):
     spec = bare_robot(bridge.layout)
     with pytest.raises(ValueError, match='body .forearm. has no geom that collides'):
         bridge.attach(spec, contact="model")
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"noise": "x"}, r"\[sim\]: \[sim\] noise = \"x\": expected counts from 0 to full_scale"),
+        ({"noise": None}, r"\[sim\] noise = None: expected counts from 0 to full_scale"),
+        ({"noise": float("nan")}, r"\[sim\] noise = NaN: expected counts from 0 to full_scale"),
+        ({"frame_rate_hz": "20"}, r"\[sim\] frame_rate_hz = \"20\": expected frames a second from 0.1 to 10000"),
+        ({"dead": 5}, r"\[sim\] dead = 5: expected a list of taxel ids"),
+        ({"dead": [-1]}, r"\[sim\] dead = \[-1\]: expected a list of taxel ids, whole numbers from 0 to 4294967295"),
+        ({"dead": [[16]]}, r"\[sim\] dead = \[\[16\]\]: expected a list of taxel ids"),
+        ({"missing_modules": "can0:5"}, r"\[sim\] missing_modules = \"can0:5\": expected a list of modules"),
+        ({"seed": 1.5}, r"\[sim\] seed = 1.5: expected a whole number"),
+        ({"seed": 2**70}, r"\[sim\] seed = 1180591620717411303424: expected a whole number"),
+        ({"noize": 1}, r"\[sim\] key = noize: expected one of frame_rate_hz, cover_mm"),
+        ({5: 1}, r"\[sim\] key = 5: expected one of frame_rate_hz"),
+    ],
+)
+def test_a_wrong_sim_override_names_its_key_and_what_it_takes(overrides, message):
+    # As a user gets them wrong: text for a number, None, NaN, a number for a list, a list for
+    # a number, a key misspelt. Each message names the key, never a column of some JSON text.
+    for call in (lambda: skin.read_sim_config(None, overrides), lambda: SkinBridge(FIXTURES / "forearm" / "layout.json", response=overrides)):
+        with pytest.raises(skin.ConfigError, match=message) as caught:
+            call()
+        assert "column" not in str(caught.value)
+    # numpy's numbers are numbers.
+    assert skin.read_sim_config(None, {"noise": np.float32(2.5), "seed": np.int64(7), "dead": (16, np.uint32(17))})["dead"] == [16, 17]
 
 
 def test_a_press_is_checked_when_it_is_scripted():

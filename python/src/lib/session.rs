@@ -15,7 +15,9 @@ use skin_core::image::ImageSize;
 use skin_core::{LinkSkin, Polarity};
 use skin_learn::card::ModelCard;
 use skin_learn::model::{Classes, Models};
-use skin_learn::session::{Event as RustEvent, Session as RustSession, SessionConfig, SessionOptions};
+use skin_learn::session::{
+    Event as RustEvent, Session as RustSession, SessionConfig, SessionOptions, SimConfig,
+};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -231,25 +233,64 @@ pub(crate) fn read_sim_config(
             .map_err(errors::config)?
             .sim
             .unwrap_or_default(),
-        None => skin_learn::session::SimConfig::default(),
+        None => SimConfig::default(),
     };
     let json = py.import("json")?;
-    if let Some(overrides) = overrides {
-        let mut table = serde_json::to_value(&sim).map_err(|e| errors::error(Kind::Config, e))?;
-        let given: String = json.call_method1("dumps", (overrides,))?.extract()?;
-        let given: serde_json::Value =
-            serde_json::from_str(&given).map_err(|e| errors::error(Kind::Config, e))?;
-        if let (Some(t), Some(g)) = (table.as_object_mut(), given.as_object()) {
-            for (k, v) in g {
-                t.insert(k.clone(), v.clone());
-            }
+    // Each key set as a file's `[sim]` table sets it: a wrong key or kind of value is named
+    // with what the key takes (skin-learn's words).
+    for (key, value) in overrides.into_iter().flat_map(|o| o.iter()) {
+        let Ok(key) = key.extract::<String>() else {
+            return Err(errors::config(SimConfig::value_error(
+                &key.repr()?.to_string(),
+                "",
+                &origin,
+            )));
+        };
+        match toml_value(&value, 0) {
+            Some(value) => sim.set(&key, value, &origin),
+            None => Err(SimConfig::value_error(&key, &value.repr()?.to_string(), &origin)),
         }
-        sim = serde_json::from_value(table)
-            .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", origin.display())))?;
+        .map_err(errors::config)?;
     }
     sim.check(&origin).map_err(errors::config)?;
     let text = serde_json::to_string(&sim).map_err(|e| errors::error(Kind::Config, e))?;
     Ok(json.call_method1("loads", (text,))?.unbind())
+}
+
+/// A Python value as a TOML file would hold it (a `[sim]` value: a bool, a whole number, a
+/// number, text or a flat list of those); None for any other (None, a dict, a nested list, a
+/// whole number past 64 bits).
+fn toml_value(value: &Bound<'_, PyAny>, depth: usize) -> Option<toml::Value> {
+    use pyo3::types::{PyBool, PyFloat, PyInt, PyString, PyTuple};
+    if value.is_instance_of::<PyBool>() {
+        return value.extract().ok().map(toml::Value::Boolean);
+    }
+    if value.is_instance_of::<PyInt>() {
+        return value.extract().ok().map(toml::Value::Integer);
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return value.extract().ok().map(toml::Value::Float);
+    }
+    if value.is_instance_of::<PyString>() {
+        return value.extract().ok().map(toml::Value::String);
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        // `[sim]`'s lists are flat: a list in a list is refused, not walked however deep.
+        if depth > 0 {
+            return None;
+        }
+        let items = value.try_iter().ok()?;
+        return items
+            .map(|item| item.ok().and_then(|item| toml_value(&item, depth + 1)))
+            .collect::<Option<Vec<_>>>()
+            .map(toml::Value::Array);
+    }
+    // numpy's scalars: whole numbers by `__index__`, others by `__float__`.
+    value
+        .extract::<i64>()
+        .map(toml::Value::Integer)
+        .or_else(|_| value.extract::<f64>().map(toml::Value::Float))
+        .ok()
 }
 
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
