@@ -20,6 +20,7 @@ except ImportError:  # pragma: no cover - depends on the machine
     pytest.skip("MuJoCo is not installed (pip install mujoco; Python 3.11 or later)", allow_module_level=True)
 
 from skin.sim import FINGERS, Kit, PathFollower, SkinBridge, SkinLoop, bare_robot, robot_from_urdf, touches, two_joint_arm
+from skin.sim.bridge import HULL_DEPTH, MAX_TIMESTEP, allowed_depth, holding_force
 
 CONFIG = FIXTURES / "session" / "run.toml"
 
@@ -521,7 +522,7 @@ def test_a_diverging_simulation_is_an_error_not_frames_from_the_past(tmp_path, m
     loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG))
     loop.run(0.2)
     data.qvel[:] = 1e30  # MuJoCo resets the data to its start
-    with pytest.raises(RuntimeError, match="diverged at t = 0.2"):
+    with pytest.raises(skin.SessionError, match="diverged at t = 0.2"):
         loop.run(0.1)
 
 
@@ -717,3 +718,98 @@ def test_mesh_objects_get_a_distance_field_for_the_sensor():
     g.contype = g.conaffinity = 0
     bridge.attach(spec)
     assert cube.needsdf and not shown.needsdf and not spec.mesh("skin_forearm_surface").needsdf
+
+
+
+# --- forces the scene cannot hold ------------------------------------------------------------
+
+
+def test_a_press_beyond_what_the_scene_holds_is_refused_naming_the_limit():
+    # MuJoCo's soft contact holds a tool as deep as the cover (5 mm) up to a force that grows
+    # with its mass, not its size: 0.2 kg balls of 15 to 30 mm alike; 1 kg holds five times more.
+    for radius in (0.015, 0.02, 0.03):
+        _, kit, _, _ = scene(sphere_radius=radius)
+        assert kit.force_limit("sphere") == pytest.approx(0.2 * HULL_DEPTH / (0.05 * 0.03**2))  # 22.2 N
+    bridge = SkinBridge.from_config(CONFIG)
+    spec = bare_robot(bridge.layout)
+    kit = Kit(spec)
+    kit.add_sphere(mass=1.0)
+    kit.add_bar(radius=0.015)
+    kit.add_hand()
+    # Scripted before the model is known, checked when it is.
+    kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 100.0, start=1.5, duration=1.0)
+    kit.press("bar", [0, 0.18, 0.08], [0, 0, 1], 300.0, start=1.5, duration=1.0)
+    bridge.attach(spec)
+    model = spec.compile()
+    with pytest.raises(skin.ArrayError, match=r"bar: force = 300 N at 1.5 s: more than this scene holds; beyond 33.3 N"):
+        kit.bind(model, mujoco.MjData(model))
+    assert kit.force_limit("sphere") == pytest.approx(111.1, abs=0.1) and kit.force_limit("bar") == pytest.approx(33.3, abs=0.1)
+    # The hand's flesh (its solimp, 2 cm) gives as well as the cover.
+    assert kit.tools["hand"].limit_depth == pytest.approx(HULL_DEPTH + 0.02) and kit.force_limit("hand") > 60.0
+    with pytest.raises(ValueError, match=r"sphere: force = 112 N at 3 s: .* beyond 111.1 N the sphere \(1 kg\) sinks into the skin deeper than a skin gives \(5 mm\)"):
+        kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 112.0, start=3.0, duration=1.0)
+    kit.press("sphere", [0, 0.18, 0.08], [0, 0, 1], 111.0, start=3.0, duration=1.0)
+    with pytest.raises(KeyError, match="no tool 'ball'"):
+        kit.force_limit("ball")
+
+
+def box_and_ball(cover: str, ball: str, timestep=0.002):
+    """A fixed box that carries a skin (its sensor surface, a stand-in) and a free 0.5 kg ball on
+    it, no gravity, with the contact attributes given."""
+    return mujoco.MjModel.from_xml_string(f"""<mujoco><option timestep="{timestep}" gravity="0 0 0"/><worldbody>
+      <body name="link"><geom name="skin_link_surface" type="box" size=".001 .001 .001" contype="0" conaffinity="0"/>
+        <geom name="cover" type="box" size=".1 .1 .02" {cover}/></body>
+      <body name="ball" pos="0 0 .05"><freejoint/><geom name="ball" type="sphere" size=".03" mass=".5" {ball}/></body>
+    </worldbody></mujoco>""")
+
+
+@pytest.mark.parametrize(
+    "cover, ball, depth",
+    [
+        # The cover's own softness (a higher priority), as attach makes it.
+        ('priority="1" solref=".03 1" solimp=".5 .95 .005 .5 2"', "", HULL_DEPTH),
+        # Mid-way up a wider impedance curve.
+        ('priority="1" solref=".03 1" solimp=".3 .95 .02 .4 3"', "", HULL_DEPTH),
+        # Equal priorities: mixed by solmix.
+        ('solref=".03 1" solimp=".5 .95 .005 .5 2" solmix="3"', 'solref=".01 1" solimp=".9 .99 .002 .5 2"', HULL_DEPTH),
+        # A time constant under two steps: MuJoCo's refsafe lengthens it.
+        ('priority="1" solref=".003 1" solimp=".5 .95 .005 .5 2"', "", HULL_DEPTH),
+        # Stiffness and damping given directly.
+        ('priority="1" solref="-20000 -200" solimp=".5 .95 .005 .5 2"', "", HULL_DEPTH),
+        # A soft tool (higher priority, as the kit hand's flesh): its own give adds to the cover's.
+        ("", 'priority="2" solref=".05 1" solimp=".2 .95 .01 .5 2"', HULL_DEPTH + 0.01),
+    ],
+)
+def test_the_holding_force_is_mujocos_contact_at_rest(cover, ball, depth):
+    # Pushed with the holding force, the ball settles exactly as deep as a skin allows.
+    model = box_and_ball(cover, ball)
+    data = mujoco.MjData(model)
+    tool, skin_geom = model.geom("ball").id, model.geom("cover").id
+    force, allowed = holding_force(model, 0.5, tool, skin_geom)
+    assert allowed == pytest.approx(depth) == allowed_depth(model, skin_geom, tool)
+    body = model.body("ball").id
+    for _ in range(3000):
+        data.xfrc_applied[body, 2] = -force
+        mujoco.mj_step(model, data)
+    assert data.ncon == 1 and -data.contact.dist[0] == pytest.approx(depth, rel=1e-3)
+
+
+def test_timesteps_a_skin_cannot_run_at_are_refused():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    for bad in (0.0, -0.002, float("nan"), float("inf"), 0.02, 1e-7):
+        for make in (lambda: bare_robot(layout, timestep=bad), lambda: two_joint_arm("forearm", timestep=bad)):
+            with pytest.raises(skin.ArrayError, match=f"timestep = {bad}: seconds from 1e-05 to {MAX_TIMESTEP:g}"):
+                make()
+    with pytest.raises(ValueError, match="timestep = 'fast': seconds, a number"):
+        bare_robot(layout, timestep="fast")
+    # A robot's own spec, checked when the skin is attached and when the model is bound.
+    bridge = SkinBridge(layout)
+    spec = bare_robot(layout)
+    spec.option.timestep = -0.002
+    with pytest.raises(skin.ArrayError, match="the spec's option.timestep = -0.002: seconds"):
+        bridge.attach(spec)
+    bridge, kit, model, data = scene()
+    model.opt.timestep = float("nan")
+    with pytest.raises(skin.ArrayError, match="the model's opt.timestep = nan: seconds"):
+        SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG))
+    assert bare_robot(layout, timestep=MAX_TIMESTEP).option.timestep == MAX_TIMESTEP

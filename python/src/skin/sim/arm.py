@@ -24,7 +24,8 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from .bridge import _mujoco
+from .._errors import ArrayError
+from .bridge import _mujoco, check_timestep
 
 #: The position servos' stiffness (N m / rad) and damping (N m s / rad).
 ARM_KP = 200.0
@@ -38,10 +39,10 @@ def two_joint_arm(link: str, *, upper: float = 0.3, timestep: float = 0.002):
     """A `mujoco.MjSpec`: a shoulder at the origin and an elbow `upper` metres along x, both
     turning about z, and the skin's link `link` on the forearm body of that name (its frame at
     the elbow, the fixture forearm's axis along y, its top up). Both joints turn about the
-    vertical, so gravity does not load them."""
+    vertical, so gravity does not load them. `timestep`: seconds, as `bare_robot` takes it."""
     mujoco = _mujoco()
     spec = mujoco.MjSpec()
-    spec.option.timestep = timestep
+    spec.option.timestep = check_timestep(timestep)
     shoulder = spec.worldbody.add_body(name="upper_arm")
     shoulder.add_joint(name="shoulder", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
     g = shoulder.add_geom(name="upper_arm", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, upper, 0, 0], size=[0.04, 0, 0])
@@ -79,7 +80,7 @@ class PathFollower:
                 and abs(model.actuator_biasprm[i, 1] + model.actuator_gainprm[i, 0]) < 1e-12
             )
             if not servo:
-                raise ValueError(f"actuator {a!r} is not a position servo on a joint (set_to_position)")
+                raise ArrayError(f"actuator {a!r} is not a position servo on a joint (set_to_position)")
         self.joints = [int(model.actuator_trnid[a, 0]) for a in self.ids]
         self.kp = np.array([model.actuator_gainprm[a, 0] for a in self.ids])
         self.kv = np.array([-model.actuator_biasprm[a, 2] for a in self.ids])

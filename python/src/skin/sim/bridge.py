@@ -36,18 +36,28 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _skin
+from .._errors import ArrayError
 from .response import Response
 from .surface import KERNEL_REACH, Kernel, Surface, boussinesq, sample_surface
 
 _PathLike = Union[str, Path]
 
-#: How far under the taxels the "hull" contact surface reaches, metres.
+#: How far under the taxels the "hull" contact surface reaches, metres; also how deep anything may
+#: press into a link's skin (`allowed_depth`), whatever carries it: a real cover gives no more, and
+#: a tool sunk deeper images a wider touch than any cover could.
 HULL_DEPTH = 0.005
 
 #: The "hull" cover's contact softness (MuJoCo's solref and solimp): softer than MuJoCo's default
 #: (0.02 s; 0.9 to 0.95 over 1 mm), as a skin's foam and silicone are.
 COVER_SOLREF = (0.03, 1.0)
 COVER_SOLIMP = (0.5, 0.95, 0.005, 0.5, 2.0)
+
+#: The timesteps a scene with a skin runs at, seconds. Above the largest, MuJoCo softens the cover
+#: (it keeps every contact's time constant at two steps or more) and the kit's tools, held by
+#: 8 Hz springs, no longer settle; below the smallest, a 20 Hz skin frame takes more than 5,000
+#: steps (most likely milliseconds given for seconds). MuJoCo's default is 0.002.
+MIN_TIMESTEP = 1e-5
+MAX_TIMESTEP = COVER_SOLREF[0] / 2
 
 
 @functools.cache
@@ -123,9 +133,9 @@ class SkinBridge:
         if isinstance(busmap, (str, Path)):
             busmap = _skin.BusMap.read(busmap)
         if not (1.0 <= spacing_mm <= 50.0):
-            raise ValueError(f"spacing_mm = {spacing_mm}: millimetres from 1 to 50")
+            raise ArrayError(f"spacing_mm = {spacing_mm}: millimetres from 1 to 50")
         if polarity not in ("rising", "falling"):
-            raise ValueError(f'polarity = {polarity!r}: "rising" or "falling"')
+            raise ArrayError(f'polarity = {polarity!r}: "rising" or "falling"')
         self.layout = layout
         self.busmap = busmap
         # A table from Python is checked as a configuration file's is, over the defaults.
@@ -142,7 +152,7 @@ class SkinBridge:
                 faces = np.asarray(tmap.faces)
                 if not np.array_equal(tmap.ids, link.ids):
                     if len(set(np.asarray(link.ids).tolist())) != len(link):
-                        raise ValueError(f"link {link.name!r}: its tactile map orders taxels otherwise and ids repeat; give the layout its triangles")
+                        raise ArrayError(f"link {link.name!r}: its tactile map orders taxels otherwise and ids repeat; give the layout its triangles")
                     faces = _order_of(tmap.ids, link.ids)[faces]
             surface = sample_surface(link.positions, faces, self.spacing)
             self._links.append(
@@ -204,15 +214,15 @@ class SkinBridge:
         its name, or `bodies[link]`. A link with no such body is an error naming both."""
         mujoco = _mujoco()
         if contact not in ("hull", "model"):
-            raise ValueError(f'contact = {contact!r}: "hull" or "model"')
+            raise ArrayError(f'contact = {contact!r}: "hull" or "model"')
         bodies = dict(bodies or {})
         unknown = set(bodies) - set(self.links)
         if unknown:
-            raise ValueError(f"bodies names no link of the layout: {sorted(unknown)} (links: {self.links})")
-        dt = spec.option.timestep
+            raise ArrayError(f"bodies names no link of the layout: {sorted(unknown)} (links: {self.links})")
+        dt = check_timestep(spec.option.timestep, "the spec's option.timestep")
         steps = int(round(1.0 / (self.frame_rate * dt)))
         if steps < 1 or abs(steps * dt * self.frame_rate - 1.0) > 1e-6:
-            raise ValueError(
+            raise ArrayError(
                 f"frame_rate_hz = {self.frame_rate}: a skin frame must last a whole number of MuJoCo "
                 f"steps (timestep {dt} s); e.g. {1.0 / (max(steps, 1) * dt):g} Hz"
             )
@@ -222,17 +232,17 @@ class SkinBridge:
             name = bodies.get(link.name, link.name)
             if spec.body(name) is None:
                 names = [b.name for b in spec.bodies if b.name][:12]
-                raise ValueError(
+                raise ArrayError(
                     f"link {link.name!r}: the model has no body {name!r} (bodies: {', '.join(names)}); "
                     "name it in bodies={link: body}"
                 )
             if name in placed:
-                raise ValueError(f"links {placed[name]!r} and {link.name!r} on one body {name!r}: give each link its own body")
+                raise ArrayError(f"links {placed[name]!r} and {link.name!r} on one body {name!r}: give each link its own body")
             placed[name] = link.name
             if spec.mesh(f"skin_{link.name}_surface") is not None:
-                raise ValueError(f"link {link.name!r}: this spec has its skin already (attach once)")
+                raise ArrayError(f"link {link.name!r}: this spec has its skin already (attach once)")
             if contact == "model" and not any(g.contype or g.conaffinity for g in spec.body(name).geoms):
-                raise ValueError(
+                raise ArrayError(
                     f"link {link.name!r}: body {name!r} has no geom that collides, so nothing can touch its "
                     'skin with contact="model"; give it collision geoms or use contact="hull"'
                 )
@@ -296,10 +306,10 @@ class SkinBridge:
         """The compiled model's ids and sensor addresses; call once after `spec.compile()`
         (`SkinLoop` does)."""
         mujoco = _mujoco()
-        dt = float(model.opt.timestep)
+        dt = check_timestep(model.opt.timestep, "the model's opt.timestep")
         steps = int(round(self._period / dt)) if self._period else 0
         if steps < 1 or abs(steps * dt - self._period) > 1e-9:
-            raise ValueError(
+            raise ArrayError(
                 f"the model's timestep is {dt} s but the skin was attached for {self._period} s frames "
                 f"({self.frame_rate:g} Hz): a skin frame must last a whole number of MuJoCo steps; "
                 "attach the skin with the timestep the model runs at"
@@ -307,10 +317,10 @@ class SkinBridge:
         for link in self._links:
             sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"skin_{link.name}")
             if sid < 0:
-                raise ValueError(f"link {link.name!r}: the model has no skin sensor: attach() before compile()")
+                raise ArrayError(f"link {link.name!r}: the model has no skin sensor: attach() before compile()")
             link.adr = int(model.sensor_adr[sid])
             if model.sensor_dim[sid] != 3 * len(link.surface.points):
-                raise ValueError(f"link {link.name!r}: its sensor has {model.sensor_dim[sid] // 3} points, not {len(link.surface.points)}")
+                raise ArrayError(f"link {link.name!r}: its sensor has {model.sensor_dim[sid] // 3} points, not {len(link.surface.points)}")
             link.body_id = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.body))
             # The cover and the robot's own geoms on the body: where the robot's geoms lie right
             # under the skin they take part of a press; a contact away from the skin (the
@@ -319,6 +329,43 @@ class SkinBridge:
         self._model = model
         self._steps_per_frame = steps
         self._force = np.zeros(6)
+        # Each geom's link (-1: on none), and how deep each pair may press (`too_deep`).
+        self._geom_link = np.full(model.ngeom, -1, dtype=np.int64)
+        for k, link in enumerate(self._links):
+            self._geom_link[list(link.touched)] = k
+        self._allowed: Dict[Tuple[int, int], float] = {}
+
+    def too_deep(self, data) -> List[Tuple[int, int, float, float, np.ndarray]]:
+        """The geoms pressed into a link's skin deeper than it allows (`allowed_depth`) at the last
+        step: per link and geom, the deepest contact's (link index, geom id, depth m, allowed depth
+        m, contact normal out of the link in the link's frame). A press the scene cannot hold."""
+        n = data.ncon
+        if n == 0:
+            return []
+        con = data.contact
+        deep = np.flatnonzero(con.dist < -HULL_DEPTH)
+        found: Dict[Tuple[int, int], Tuple[float, float, np.ndarray]] = {}
+        for i in deep:
+            g1, g2 = (int(g) for g in con.geom[i])
+            # (A flex's side has no geom: -1.)
+            if g1 >= 0 and g2 >= 0 and self._geom_link[g1] >= 0:
+                mine, other, outward = g1, g2, 1.0  # MuJoCo's normal points from geom1 to geom2
+            elif g1 >= 0 and g2 >= 0 and self._geom_link[g2] >= 0:
+                mine, other, outward = g2, g1, -1.0
+            else:
+                continue
+            allowed = self._allowed.get((mine, other))
+            if allowed is None:
+                allowed = self._allowed[(mine, other)] = allowed_depth(self._model, mine, other)
+            depth = -float(con.dist[i])
+            key = (int(self._geom_link[mine]), other)
+            if depth > allowed and (key not in found or depth > found[key][0]):
+                found[key] = (depth, allowed, outward * np.array(con.frame[i, :3]))
+        out = []
+        for (k, other), (depth, allowed, normal) in found.items():
+            rot = data.xmat[self._links[k].body_id].reshape(3, 3)
+            out.append((k, other, depth, allowed, rot.T @ normal))
+        return out
 
     def depth(self, data, link: Union[int, str] = 0) -> np.ndarray:
         """MuJoCo's tactile reading of a link's surface points (`surface(link).points`): how deep
@@ -412,6 +459,118 @@ def _order_of(ids: np.ndarray, wanted: np.ndarray) -> np.ndarray:
     """For each position in `ids`, its index in `wanted` (the same ids in another order)."""
     where = {int(t): k for k, t in enumerate(np.asarray(wanted))}
     return np.array([where[int(t)] for t in np.asarray(ids)], dtype=np.int64)
+
+
+def check_timestep(timestep, name: str = "timestep") -> float:
+    """`timestep` (seconds) checked for a scene with a skin (`MIN_TIMESTEP` to `MAX_TIMESTEP`);
+    `name` says where it came from in the error. Returns it as a float."""
+    try:
+        dt = float(timestep)
+    except (TypeError, ValueError):
+        raise ArrayError(f"{name} = {timestep!r}: seconds, a number") from None
+    if not MIN_TIMESTEP <= dt <= MAX_TIMESTEP:  # NaN fails too
+        raise ArrayError(
+            f"{name} = {timestep}: seconds from {MIN_TIMESTEP:g} to {MAX_TIMESTEP:g} (MuJoCo's default is "
+            f"0.002; above {MAX_TIMESTEP:g} MuJoCo softens the skin's cover, which it keeps at two steps or slower)"
+        )
+    return dt
+
+
+# --- how much a skin holds ------------------------------------------------------------------
+#
+# MuJoCo's contacts are soft: a body pressed onto another sinks into it until the contact's
+# force balances the push. At rest, one contact holds a body of mass m at depth r against
+#
+#     f = m K imp(r)^2 r / (1 - imp(r)),   K = 1 / (dmax^2 timeconst^2 dampratio^2)
+#
+# (mj_makeImpedance: the reference acceleration -K imp r, the regulariser (1 - imp) / imp times
+# 1/m; K = -solref[0] / dmax^2 for a direct solref), with imp(r) the solimp curve and the time
+# constant no shorter than two steps. Past the depth a skin allows, the touch MuJoCo images is
+# wider than any cover gives, and a little further the tool sinks through the link.
+
+
+def contact_params(model, g1: int, g2: int) -> Tuple[np.ndarray, np.ndarray]:
+    """The solref and solimp of a contact between geoms `g1` and `g2` as MuJoCo sets them: the
+    geom of higher priority's, else mixed by solmix (a direct solref: the smaller); the
+    override flag's; the time constant no shorter than two steps (unless refsafe is off); solimp
+    clamped as MuJoCo clamps it."""
+    mujoco = _mujoco()
+    p1, p2 = int(model.geom_priority[g1]), int(model.geom_priority[g2])
+    ref1, ref2 = np.array(model.geom_solref[g1]), np.array(model.geom_solref[g2])
+    imp1, imp2 = np.array(model.geom_solimp[g1]), np.array(model.geom_solimp[g2])
+    if p1 != p2:
+        ref, imp = (ref1, imp1) if p1 > p2 else (ref2, imp2)
+    else:
+        m1, m2 = float(model.geom_solmix[g1]), float(model.geom_solmix[g2])
+        small = 1e-15
+        mix = m1 / (m1 + m2) if m1 >= small and m2 >= small else (0.5 if m1 < small and m2 < small else float(m1 >= small))
+        ref = mix * ref1 + (1 - mix) * ref2 if ref1[0] > 0 and ref2[0] > 0 else np.minimum(ref1, ref2)
+        imp = mix * imp1 + (1 - mix) * imp2
+    opt = model.opt
+    if opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE):
+        ref, imp = np.array(opt.o_solref), np.array(opt.o_solimp)
+    ref, imp = np.array(ref, dtype=np.float64), np.array(imp, dtype=np.float64)
+    if ref[0] > 0 and not opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE):
+        ref[0] = max(ref[0], 2.0 * float(opt.timestep))
+    imp[[0, 1, 3]] = np.clip(imp[[0, 1, 3]], 1e-4, 0.9999)
+    imp[2] = max(imp[2], 0.0)
+    imp[4] = max(imp[4], 1.0)
+    return ref, imp
+
+
+def impedance(solimp: Sequence[float], depth: float) -> float:
+    """MuJoCo's impedance (solimp's curve) at `depth` metres into a contact."""
+    dmin, dmax, width, mid, power = (float(v) for v in solimp)
+    if dmin == dmax or width <= 1e-15:
+        return 0.5 * (dmin + dmax)
+    x = depth / width
+    if x >= 1.0 or x <= 0.0:
+        return dmax if x >= 1.0 else dmin
+    if power == 1.0:
+        y = x
+    elif x <= mid:
+        y = x**power / mid ** (power - 1.0)
+    else:
+        y = 1.0 - (1.0 - x) ** power / (1.0 - mid) ** (power - 1.0)
+    return dmin + y * (dmax - dmin)
+
+
+def allowed_depth(model, skin_geom: int, other: int) -> float:
+    """How deep geom `other` may press into the link's skin where the link's geom `skin_geom`
+    takes the contact: the cover (`HULL_DEPTH`), plus the other geom's own give where MuJoCo
+    takes that geom's softness (a higher priority: the kit hand's flesh), its solimp width."""
+    give = float(model.geom_solimp[other][2]) if model.geom_priority[other] > model.geom_priority[skin_geom] else 0.0
+    return HULL_DEPTH + give
+
+
+def holding_force(model, mass: float, tool_geom: int, skin_geom: int) -> Tuple[float, float]:
+    """The force (N) at which a tool of `mass` kg, pressing with its geom `tool_geom` on a link's
+    geom `skin_geom`, sinks as deep as the skin allows (`allowed_depth`), and that depth (m):
+    MuJoCo's soft contact at rest (see above), the whole force on one contact. Exact for a ball;
+    a tool that touches at several points (a bar, a hand) spreads its force and its mass over
+    them, so its own limit lies near this, not on it."""
+    ref, imp = contact_params(model, tool_geom, skin_geom)
+    depth = allowed_depth(model, skin_geom, tool_geom)
+    d = impedance(imp, depth)
+    dmax2 = max(imp[1] ** 2, 1e-15)
+    stiffness = 1.0 / max(dmax2 * (ref[0] * ref[1]) ** 2, 1e-15) if ref[0] > 0 else -ref[0] / dmax2
+    return float(mass * stiffness * d * d * depth / (1.0 - d)), depth
+
+
+def skin_geoms(model) -> np.ndarray:
+    """The geoms that carry a skin: every geom that collides on a body with a skin's sensor
+    surface (`attach`'s cover, or the robot's own with contact="model")."""
+    names = [model.geom(g).name for g in range(model.ngeom)]
+    bodies = {int(model.geom_bodyid[g]) for g, n in enumerate(names) if n.startswith("skin_") and n.endswith("_surface")}
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    return np.array([g for g in range(model.ngeom) if colliding[g] and int(model.geom_bodyid[g]) in bodies], dtype=np.int64)
+
+
+def collide(model, g1: int, g2: int) -> bool:
+    """MuJoCo's contype / conaffinity test: can the two geoms touch at all."""
+    return bool(
+        (model.geom_contype[g1] & model.geom_conaffinity[g2]) or (model.geom_contype[g2] & model.geom_conaffinity[g1])
+    )
 
 
 def robot_from_urdf(path: _PathLike):

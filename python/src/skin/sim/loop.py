@@ -7,6 +7,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
+from .._errors import ArrayError, SessionError
 from .bridge import SimFrame, SkinBridge, _mujoco
 
 #: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
@@ -83,7 +84,7 @@ class SkinLoop:
         if self.data.time <= before:
             # MuJoCo resets a diverging simulation to its start: say so instead of feeding the
             # session frames from the past.
-            raise RuntimeError(
+            raise SessionError(
                 f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it "
                 "(see its warning): smaller timestep, softer gains or lighter contacts"
             )
@@ -99,7 +100,7 @@ class SkinLoop:
         """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns the
         events of that stretch."""
         if not (np.isfinite(seconds) and seconds >= 0):
-            raise ValueError(f"seconds = {seconds}: simulated seconds, 0 or more")
+            raise ArrayError(f"seconds = {seconds}: simulated seconds, 0 or more")
         first = len(self.events)
         end = self.data.time + seconds - 0.5 * self.model.opt.timestep
         while self.data.time < end:
@@ -121,7 +122,7 @@ def _check_session(bridge: SkinBridge, session) -> None:
     mine = [(l.name, len(l)) for l in bridge.layout.links]
     theirs = list(zip(session.links, session.taxels))
     if mine != theirs:
-        raise ValueError(f"the session's skin {theirs} is not the bridge's {mine}: build both from one configuration")
+        raise ArrayError(f"the session's skin {theirs} is not the bridge's {mine}: build both from one configuration")
 
 
 def touches(events) -> List[dict]:

@@ -23,6 +23,8 @@ from typing import List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .._errors import ArrayError
+
 
 class Response:
     """The response model of every link's taxels (see the module's docs)."""
@@ -39,7 +41,7 @@ class Response:
         self.config = dict(config)
         c = self.config
         if polarity == "falling" and float(c["rest"]) < float(c["full_scale"]) / 2:
-            raise ValueError(
+            raise ArrayError(
                 f"[sim] rest = {c['rest']:g} with falling polarity: pressure takes counts away from the rest, "
                 f"so it must lie near full_scale ({c['full_scale']:g}); e.g. rest = 255 and full_scale = 255 for iCub"
             )
@@ -66,14 +68,14 @@ class Response:
             known.update(int(t) for t in link_ids)
         unknown = sorted(dead - known)
         if unknown:
-            raise ValueError(f"[sim] dead: taxel {unknown[0]} is on no link of the layout")
+            raise ArrayError(f"[sim] dead: taxel {unknown[0]} is on no link of the layout")
         self.busmap = busmap
         self.modules: List[Tuple[str, int, np.ndarray]] = []
         self.always_missing: List[int] = []
         if busmap is not None:
             self._bus_layout(busmap)
         elif c["missing_modules"] or self.dropout > 0.0:
-            raise ValueError("[sim] missing_modules and dropout need a bus map (busmap = ... in the configuration)")
+            raise ArrayError("[sim] missing_modules and dropout need a bus map (busmap = ... in the configuration)")
 
     def _bus_layout(self, busmap) -> None:
         slot_ids = np.asarray(busmap.ids, dtype=np.int64)
@@ -96,12 +98,12 @@ class Response:
         self.unused_reading = np.float32(np.clip(np.rint(self.config["rest"]), 0, self.full_scale))
         for k, link_ids in enumerate(self.ids):
             if len(link_ids) and not np.any(self.slot_link == k):
-                raise ValueError(f"the bus map carries none of link {k}'s {len(link_ids)} taxels: is it this skin's bus map?")
+                raise ArrayError(f"the bus map carries none of link {k}'s {len(link_ids)} taxels: is it this skin's bus map?")
         self.modules = [(iface, int(addr), np.asarray(slots, dtype=np.int64)) for iface, addr, slots in busmap.modules]
         names = {f"{iface}:{addr}": m for m, (iface, addr, _) in enumerate(self.modules)}
         for name in self.config["missing_modules"]:
             if name not in names:
-                raise ValueError(f"[sim] missing_modules: {name} is no module of the bus map")
+                raise ArrayError(f"[sim] missing_modules: {name} is no module of the bus map")
             self.always_missing.append(names[name])
 
     def counts(self, stress: Sequence[np.ndarray]) -> List[np.ndarray]:

@@ -24,7 +24,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .bridge import _mujoco
+from .._errors import ArrayError
+from .bridge import _mujoco, check_timestep, collide, holding_force, skin_geoms
 
 FINGERS = ("thumb", "index", "middle", "ring", "pinkie")
 
@@ -59,10 +60,11 @@ def bare_robot(layout, *, timestep: float = 0.002):
     """A `mujoco.MjSpec` with one fixed body per link of `layout`, named after it (its taxels'
     positions are in that body's frame): a skin with no robot model. A layout says where taxels
     sit on each link, not where links are, so the first link's frame is the world's and each
-    next one lies beside the last along x, `LINK_GAP` apart (press a link with `body=`)."""
+    next one lies beside the last along x, `LINK_GAP` apart (press a link with `body=`).
+    `timestep`: seconds, `bridge.MIN_TIMESTEP` to `bridge.MAX_TIMESTEP`."""
     mujoco = _mujoco()
     spec = mujoco.MjSpec()
-    spec.option.timestep = timestep
+    spec.option.timestep = check_timestep(timestep)
     x = 0.0
     for k, link in enumerate(layout.links):
         p = np.asarray(link.positions)
@@ -94,12 +96,16 @@ class Tool:
     inertia: np.ndarray = field(default_factory=lambda: np.ones(3))
     ctrl: Dict[str, Tuple[int, int]] = field(default_factory=dict)
     geom_ids: Dict[str, np.ndarray] = field(default_factory=dict)
+    #: The largest force it may press a skin of the model with (N; `Kit.force_limit`), and how
+    #: deep it then sinks (m).
+    limit: float = np.inf
+    limit_depth: float = 0.0
 
 
 def _positive(**values: float) -> None:
     for name, v in values.items():
         if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name} = {v}: more than 0 (metres, kilograms)")
+            raise ArrayError(f"{name} = {v}: more than 0 (metres, kilograms)")
 
 
 def _descends(model, body: int, root: int) -> bool:
@@ -192,7 +198,7 @@ class Kit:
 
     def _body(self, name: str, reach: float, kind: str):
         if name in self.tools or self.spec.body(name) is not None:
-            raise ValueError(f"the model has a body {name!r} already: give the tool another name")
+            raise ArrayError(f"the model has a body {name!r} already: give the tool another name")
         park = np.array([0.5 * len(self.tools), 0.0, PARK_HEIGHT])
         body = self.spec.worldbody.add_body(name=name, pos=park.tolist())
         # A tool is held: gravity does not pull it (the robot's bodies keep theirs).
@@ -353,11 +359,50 @@ class Kit:
             for part, names in tool.geoms.items():
                 tool.geom_ids[part] = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in names])
             self._place(tool, tool.park, np.array([1.0, 0, 0, 0]))
+        self._limits()
         mujoco.mj_forward(model, data)
         self._placed: Dict[str, Action] = {}
         self._bodies = {
             a.body: self._body_id(a.body) for a in self.actions if a.body is not None
         }
+        # Actions scripted before the model was known, checked against it now.
+        for a in self.actions:
+            self._check_force(a)
+
+    def _limits(self) -> None:
+        """Each tool's force limit on the model's skin: the least force at which any of its
+        geoms sinks as deep as a skin allows into any geom that carries a skin (`holding_force`)."""
+        model = self.model
+        skin = skin_geoms(model)
+        for tool in self.tools.values():
+            tool.limit, tool.limit_depth = np.inf, 0.0
+            for g in (g for ids in tool.geom_ids.values() for g in ids):
+                for s in skin:
+                    if collide(model, int(g), int(s)):
+                        force, depth = holding_force(model, tool.mass, int(g), int(s))
+                        if force < tool.limit:
+                            tool.limit, tool.limit_depth = force, depth
+
+    def force_limit(self, tool: str) -> float:
+        """The largest force (N) `tool` may press the model's skin with (after `bind`; infinite
+        with no skin): the force at which it sinks into the skin as deep as a skin gives, MuJoCo's
+        soft contact at rest (`bridge.holding_force`). It grows with the tool's mass (and the
+        cover's stiffness), not its size."""
+        if tool not in self.tools:
+            raise KeyError(f"no tool {tool!r} (tools: {sorted(self.tools)})")
+        if self.model is None:
+            raise RuntimeError("Kit.bind(model, data) first")
+        return float(self.tools[tool].limit)
+
+    def _check_force(self, a: Action) -> None:
+        tool = self.tools[a.tool]
+        if a.force > tool.limit:
+            raise ArrayError(
+                f"{a.tool}: force = {a.force:g} N at {a.start:g} s: more than this scene holds; beyond "
+                f"{tool.limit:.1f} N the {tool.kind} ({tool.mass:g} kg) sinks into the skin deeper than a skin gives "
+                f"({tool.limit_depth * 1e3:g} mm), and further on through the link. Press with {tool.limit:.1f} N at "
+                "most, or give the tool more mass (the limit grows with it)"
+            )
 
     def _body_id(self, name: str) -> int:
         mujoco = _mujoco()
@@ -368,18 +413,19 @@ class Kit:
 
     def add(self, action: Action) -> Action:
         """Adds an action to the script, checked: a known tool, finite numbers, a force of 0 N
-        or more, a ramp up and down within the duration, a hand's fingers by name, no other
-        action of the same tool at the same time, nothing in the simulation's past."""
+        or more and within what the scene holds (`force_limit`; checked by `bind` for actions
+        added before it), a ramp up and down within the duration, a hand's fingers by name, no
+        other action of the same tool at the same time, nothing in the simulation's past."""
         a = action
         if a.tool not in self.tools:
             raise KeyError(f"no tool {a.tool!r} (tools: {sorted(self.tools)})")
         a.path = np.atleast_2d(np.asarray(a.path, dtype=np.float64))
         normal = np.atleast_2d(np.asarray(a.normal, dtype=np.float64))
         if a.path.ndim != 2 or a.path.shape[1] != 3 or normal.shape[1] != 3 or len(normal) not in (1, len(a.path)):
-            raise ValueError("path: (P, 3) world points; normal: (3,) or (P, 3)")
+            raise ArrayError("path: (P, 3) world points; normal: (3,) or (P, 3)")
         lengths = np.linalg.norm(normal, axis=1)
         if not (np.all(np.isfinite(a.path)) and np.all(np.isfinite(normal)) and np.all(lengths > 1e-9)):
-            raise ValueError(f"{a.tool}: the path and normals must be finite, each normal of non-zero length")
+            raise ArrayError(f"{a.tool}: the path and normals must be finite, each normal of non-zero length")
         a.normal = normal / lengths[:, None]
         for name, value, ok, expected in (
             ("force", a.force, a.force >= 0.0, "newtons, 0 or more"),
@@ -389,21 +435,23 @@ class Kit:
             ("yaw", a.yaw, True, "radians"),
         ):
             if not (np.isfinite(value) and ok):
-                raise ValueError(f"{a.tool}: {name} = {value}: {expected}")
+                raise ArrayError(f"{a.tool}: {name} = {value}: {expected}")
         if a.fingers is not None:
             if self.tools[a.tool].kind != "hand":
-                raise ValueError(f"{a.tool}: fingers are for a hand, this is a {self.tools[a.tool].kind}")
+                raise ArrayError(f"{a.tool}: fingers are for a hand, this is a {self.tools[a.tool].kind}")
             if isinstance(a.fingers, str) or not all(f in FINGERS for f in a.fingers):
-                raise ValueError(f"{a.tool}: fingers = {a.fingers!r}: a list of {', '.join(FINGERS)}")
+                raise ArrayError(f"{a.tool}: fingers = {a.fingers!r}: a list of {', '.join(FINGERS)}")
             a.fingers = list(a.fingers)
         for b in self.actions:
             if b.tool == a.tool and a.start < b.start + b.duration and b.start < a.start + a.duration:
-                raise ValueError(
+                raise ArrayError(
                     f"{a.tool}: {a.start:g}-{a.start + a.duration:g} s overlaps its action at "
                     f"{b.start:g}-{b.start + b.duration:g} s (one action at a time per tool)"
                 )
         if self.data is not None and a.start < self.data.time:
-            raise ValueError(f"{a.tool}: starts at {a.start:g} s, the simulation is at {self.data.time:g} s already")
+            raise ArrayError(f"{a.tool}: starts at {a.start:g} s, the simulation is at {self.data.time:g} s already")
+        if self.model is not None:
+            self._check_force(a)
         if a.body is not None and self.model is not None:
             self._bodies[a.body] = self._body_id(a.body)
         self.actions.append(a)
@@ -425,7 +473,7 @@ class Kit:
         n = n / np.linalg.norm(n)
         across = np.cross(n, np.asarray(axis, dtype=np.float64))
         if np.linalg.norm(across) < 1e-9:
-            raise ValueError("grasp: the axis lies along the normal; give the link's long axis")
+            raise ArrayError("grasp: the axis lies along the normal; give the link's long axis")
         across /= np.linalg.norm(across)
         # The yaw that turns the hand's fingers (its y at yaw 0) onto `across`.
         rot = np.zeros(9)
@@ -462,7 +510,7 @@ class Kit:
         points = np.asarray(points, dtype=np.float64)
         normals = np.asarray(normals, dtype=np.float64)
         if len(points) == 0 or points.shape != normals.shape:
-            raise ValueError("points and normals: (N, 3) each, N > 0")
+            raise ArrayError("points and normals: (N, 3) each, N > 0")
         names = sorted(self.tools, key=lambda n: ("hand", "bar", "sphere").index(self.tools[n].kind))
         out = []
         t = start

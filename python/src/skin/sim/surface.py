@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._errors import ArrayError
+
 #: The kernel is cut at this many cover thicknesses.
 KERNEL_REACH = 4.0
 
@@ -45,15 +47,15 @@ def sample_surface(positions: np.ndarray, faces: np.ndarray, spacing: float) -> 
     positions = np.asarray(positions, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
-        raise ValueError("the skin needs a triangulation: (K, 3) faces, K > 0")
+        raise ArrayError("the skin needs a triangulation: (K, 3) faces, K > 0")
     if faces.min() < 0 or faces.max() >= len(positions):
-        raise ValueError(f"faces index taxels 0 to {len(positions) - 1}; found {faces.min()} to {faces.max()}")
+        raise ArrayError(f"faces index taxels 0 to {len(positions) - 1}; found {faces.min()} to {faces.max()}")
     edges = np.linalg.norm(positions[faces] - positions[np.roll(faces, 1, axis=1)], axis=2)
     # Cut by the longest edge of the typical triangle (the 90th percentile), so that few are
     # sampled coarser than `spacing`.
     n = max(1, int(np.ceil(np.percentile(edges.max(axis=1), 90) / spacing)))
     if len(faces) * (n + 1) * (n + 2) // 2 > MAX_POINTS:
-        raise ValueError(
+        raise ArrayError(
             f"spacing {spacing * 1e3:g} mm cuts each of the {len(faces)} triangles into {n * n}: "
             f"more than {MAX_POINTS} points; take a coarser spacing"
         )
