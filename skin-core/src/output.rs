@@ -981,12 +981,6 @@ impl OutputDir {
     /// Opens `dir` as the output folder of `command` (e.g. "skin run", or a robot stack's sink
     /// name); `force` allows writing its files into a folder that holds other files.
     pub fn create(dir: &Path, command: &str, force: bool, inputs: &Inputs) -> Result<OutputDir> {
-        if dir.as_os_str().is_empty() {
-            return Err(OutputError::NotAFolder { path: dir.to_owned() });
-        }
-        if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
-            return Err(OutputError::NotAFolder { path: dir.to_owned() });
-        }
         // Refuse before touching anything (checked again once the lock is held).
         Self::precheck(dir, command, force)?;
         // No folder appears once an interrupted process has abandoned its outputs.
@@ -1053,6 +1047,9 @@ impl OutputDir {
 
     /// Refuses `dir` now, before any work, if [`OutputDir::create`] would (it checks again).
     pub fn precheck(dir: &Path, command: &str, force: bool) -> Result<()> {
+        if dir.as_os_str().is_empty() || std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+            return Err(OutputError::NotAFolder { path: dir.to_owned() });
+        }
         if dir.is_dir() {
             Self::contents(dir, command, force)?;
         }
@@ -1567,6 +1564,21 @@ mod tests {
             OutputDir::precheck(&out, "skin run", false),
             Err(OutputError::NotOurs { .. })
         ));
+    }
+
+    #[test]
+    fn a_file_or_no_path_is_refused_before_any_work() {
+        let d = tempfile::tempdir().unwrap();
+        let file = d.path().join("afile");
+        std::fs::write(&file, "the user's").unwrap();
+        for dir in [file.as_path(), Path::new("")] {
+            assert!(matches!(
+                OutputDir::precheck(dir, "skin run", true),
+                Err(OutputError::NotAFolder { .. })
+            ));
+        }
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "the user's");
+        OutputDir::precheck(&d.path().join("new"), "skin run", false).unwrap();
     }
 
     #[test]
