@@ -10,12 +10,16 @@
 //! holds by then in the steady state: no allocation per frame.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 /// Events kept for browsers that are behind or connect later.
 pub const MAX_EVENTS: usize = 4096;
+
+/// The play speeds a replay takes, times real time (the page's control and `skin view
+/// --speed`).
+pub const SPEEDS: std::ops::RangeInclusive<f64> = 0.01..=100.0;
 
 /// A browser's request to a replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,6 +76,10 @@ pub(crate) struct Hub {
     pub sent: AtomicU64,
     pub skipped: AtomicU64,
     pub dropped: AtomicU64,
+    /// Browsers numbered as they connect, from 1.
+    pub next_browser: AtomicU64,
+    /// The browser whose control was passed on last (0: none yet).
+    pub last_by: AtomicU64,
     control: Mutex<Option<SyncSender<Control>>>,
 }
 
@@ -100,6 +108,8 @@ impl Hub {
             sent: AtomicU64::new(0),
             skipped: AtomicU64::new(0),
             dropped: AtomicU64::new(0),
+            next_browser: AtomicU64::new(0),
+            last_by: AtomicU64::new(0),
             control: Mutex::new(None),
         }
     }
@@ -200,14 +210,16 @@ impl Hub {
             .is_some()
     }
 
-    /// Passes a browser's control on; a full queue drops it (a browser sending faster than a
+    /// Passes browser `by`'s control on; a full queue drops it (a browser sending faster than a
     /// replay reads is not waited for).
-    pub fn send_control(&self, c: Control) {
+    pub fn send_control(&self, c: Control, by: u64) {
         if let Some(tx) = &*self
             .control
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
         {
+            // Before the replay can take it and tell its new state.
+            self.last_by.store(by, Ordering::Relaxed);
             let _ = tx.try_send(c);
         }
     }

@@ -20,6 +20,11 @@
 //!   memory does not grow with one.
 //! - `server`: `GET /` and `GET /stream`, nothing else (404; no file is read for a request);
 //!   loopback unless another address is asked for; a browser sending garbage is dropped.
+//! - `limits`: idle sockets cannot lock browsers out. A request head must arrive within
+//!   [`HEAD_TIMEOUT`]; connections still waiting for theirs are given up first, each address's
+//!   oldest once it holds [`MAX_WAITING_PER_ADDRESS`], the busiest address's past
+//!   [`MAX_WAITING`]; at most [`MAX_STREAMS`] browsers watch, [`MAX_STREAMS_PER_ADDRESS`] from
+//!   one address, and the page is served when no stream is left.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -42,6 +47,7 @@
 //! ```
 
 mod hub;
+mod limits;
 pub mod scene;
 mod server;
 mod sink;
@@ -50,9 +56,12 @@ pub mod wire;
 #[cfg(feature = "mcap")]
 pub mod replay;
 
-pub use hub::Control;
+pub use hub::{Control, SPEEDS};
+pub use limits::{
+    MAX_CONNECTIONS, MAX_STREAMS, MAX_STREAMS_PER_ADDRESS, MAX_WAITING, MAX_WAITING_PER_ADDRESS,
+};
 pub use scene::Scene;
-pub use server::{MAX_CONNECTIONS, MAX_STREAMS, ViewError, ViewStats};
+pub use server::{HEAD_TIMEOUT, ViewError, ViewStats};
 pub use sink::ViewSink;
 
 use std::net::SocketAddr;

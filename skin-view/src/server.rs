@@ -5,14 +5,24 @@
 //!
 //! A browser's thread waits on the [hub](crate::hub) for something new, sends it, and checks
 //! whether the browser said something (only a replay listens: pause, play, seek, speed). A
+//! control with a value out of range is refused with a message and the stream goes on; a
 //! browser that sends anything else, or more than 4 KiB at once, is dropped; the others go on.
+//!
+//! Idle and slow clients cannot lock browsers out: accepting never waits on a connection, a
+//! request head must arrive whole within [`HEAD_TIMEOUT`], and connections still waiting for
+//! their head are given up first, their own address's oldest before anyone else's
+//! ([`limits`](crate::limits)). An answer refusing a request (400, 408, 431, 503) is read to its
+//! end by the client: the server stops writing, then reads what the client still sends for a
+//! moment before closing, so the client is not cut off by a reset before it has read why.
 
-use crate::hub::{Control, Hub};
+use crate::hub::{Control, Hub, SPEEDS};
+use crate::limits::{Admit, Limits, MAX_STREAMS, MAX_STREAMS_PER_ADDRESS, StreamRefused, client_of};
 use crate::wire::SKIPPED_AT;
+use std::collections::HashMap;
 use std::io::{Read, Write};
-use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream};
-use std::sync::Arc;
+use std::net::{IpAddr, Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use tungstenite::protocol::frame::CloseFrame;
@@ -23,11 +33,6 @@ use tungstenite::{Message, WebSocket};
 /// The page, with its script and style inline.
 const PAGE: &str = include_str!("page/index.html");
 
-/// Connections served at once (browsers and page loads); more are answered 503.
-pub const MAX_CONNECTIONS: usize = 64;
-/// Streams (browsers) served at once, fewer than [`MAX_CONNECTIONS`]: the page itself can still
-/// be loaded when every stream is taken, and says so.
-pub const MAX_STREAMS: usize = 48;
 /// How often a browser is pinged; one that has answered nothing for [`SILENT_LIMIT`] is dropped
 /// (a browser reads its stream and answers pings by itself; a client that stopped reading does
 /// not, and gives its place back).
@@ -38,8 +43,14 @@ const SILENT_LIMIT: Duration = Duration::from_secs(30);
 const MAX_HEAD: usize = 8 * 1024;
 /// The longest message a browser may send.
 const MAX_MESSAGE: usize = 4 * 1024;
-/// How long a request head may take to arrive.
-const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
+/// How long a whole request head may take to arrive from the moment its connection is accepted
+/// (a browser sends it at once; an idle socket is closed then, if not pushed out before).
+pub const HEAD_TIMEOUT: Duration = Duration::from_secs(2);
+/// After a refusal, how long and how much of what the client still sends is read (and thrown
+/// away) before closing, so that it gets the answer instead of a reset.
+const LINGER: Duration = Duration::from_secs(1);
+/// See [`LINGER`].
+const LINGER_BYTES: usize = 1024 * 1024;
 /// A browser that takes no bytes for this long is dropped (it skips frames until then).
 const WRITE_TIMEOUT: Duration = Duration::from_secs(20);
 /// How often a browser's thread looks for what the browser sent, when nothing new is to be sent.
@@ -56,6 +67,9 @@ pub enum ViewError {
         /// What the system said, in plain words.
         why: String,
     },
+    /// A play speed out of [`SPEEDS`](crate::SPEEDS).
+    #[error("a speed of {0} times real time: must be from 0.01 to 100")]
+    Speed(f64),
     /// A replay's file cannot be read or is not one skin wrote.
     #[error("{path}: {why}")]
     Replay {
@@ -145,34 +159,82 @@ impl Drop for Server {
     }
 }
 
+/// The limits, and the sockets of the connections still waiting for their head (to close one
+/// given up for a newer one).
+#[derive(Default)]
+struct Gate {
+    limits: Limits,
+    waiting: HashMap<u64, TcpStream>,
+}
+
+/// One connection as the limits know it.
+#[derive(Clone, Copy)]
+struct Conn {
+    ticket: u64,
+    client: IpAddr,
+}
+
+type SharedGate = Arc<Mutex<Gate>>;
+
+fn lock(gate: &Mutex<Gate>) -> MutexGuard<'_, Gate> {
+    gate.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 fn accept(listener: &TcpListener, hub: &Arc<Hub>, local: SocketAddr) {
-    let connections = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let gate = SharedGate::default();
     while !hub.closing.load(Ordering::Relaxed) {
         match listener.accept() {
-            Ok((stream, _)) => {
-                if connections.load(Ordering::Relaxed) >= MAX_CONNECTIONS {
-                    let _ = stream.set_write_timeout(Some(HEAD_TIMEOUT));
-                    let _ = respond(&stream, 503, "text/plain", b"too many connections\n", &[]);
-                    continue;
-                }
-                connections.fetch_add(1, Ordering::Relaxed);
-                let (hub, count) = (hub.clone(), connections.clone());
-                let spawned = std::thread::Builder::new()
-                    .name("skin-view browser".into())
-                    .spawn(move || {
-                        serve(stream, &hub, local);
-                        count.fetch_sub(1, Ordering::Relaxed);
-                    });
-                if spawned.is_err() {
-                    connections.fetch_sub(1, Ordering::Relaxed);
-                }
-            }
+            Ok((stream, peer)) => admit(stream, peer, hub, &gate, local),
             Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                 std::thread::sleep(Duration::from_millis(10))
             }
             // A connection reset before it was accepted, or out of descriptors for a moment.
             Err(_) => std::thread::sleep(Duration::from_millis(10)),
         }
+    }
+}
+
+/// Gives a connection just accepted its thread, closing the waiting connection it replaces;
+/// never blocks (the accept loop goes on at once).
+fn admit(stream: TcpStream, peer: SocketAddr, hub: &Arc<Hub>, gate: &SharedGate, local: SocketAddr) {
+    let client = client_of(peer.ip());
+    let mut g = lock(gate);
+    let ticket = match g.limits.accept(client) {
+        Admit::Wait { ticket, evict } => {
+            if let Some(old) = evict.and_then(|t| g.waiting.remove(&t)) {
+                // Its thread's read ends at once; it answers nothing.
+                let _ = old.shutdown(Shutdown::Both);
+            }
+            ticket
+        }
+        Admit::Full => {
+            drop(g);
+            // Every connection is being answered or streaming: the one answer that cannot
+            // block this thread (a fresh socket's buffer takes it).
+            let _ = stream.set_nonblocking(true);
+            let _ = respond(&stream, 503, "text/plain", b"too many connections\n", &[]);
+            let _ = stream.shutdown(Shutdown::Write);
+            return;
+        }
+    };
+    if let Ok(clone) = stream.try_clone() {
+        g.waiting.insert(ticket, clone);
+    }
+    drop(g);
+    let conn = Conn { ticket, client };
+    let (hub, gate2) = (hub.clone(), gate.clone());
+    let spawned = std::thread::Builder::new()
+        .name("skin-view browser".into())
+        .spawn(move || {
+            serve(stream, conn, &hub, &gate2, local);
+            let mut g = lock(&gate2);
+            g.limits.closed(ticket);
+            g.waiting.remove(&ticket);
+        });
+    if spawned.is_err() {
+        let mut g = lock(gate);
+        g.limits.closed(ticket);
+        g.waiting.remove(&ticket);
     }
 }
 
@@ -355,31 +417,73 @@ fn allowed(head: &Head, local: SocketAddr) -> bool {
             .is_none_or(|o| authority_of(o).eq_ignore_ascii_case(authority_of(host_value)))
 }
 
-fn serve(mut stream: TcpStream, hub: &Arc<Hub>, local: SocketAddr) {
+/// Answers a refusal, then reads what the client still sends (at most [`LINGER_BYTES`], for at
+/// most [`LINGER`]) before closing: closing with unread bytes would reset the connection, and
+/// the client could lose the answer before reading it.
+fn refuse_request(mut stream: TcpStream, status: u16, body: &[u8], extra: &[(&str, &str)]) {
+    let _ = respond(&stream, status, "text/plain", body, extra);
+    linger(&mut stream);
+}
+
+/// Stops writing, then reads what the client still sends (at most [`LINGER_BYTES`], for at
+/// most [`LINGER`]): what was written reaches it before the connection closes.
+fn linger(stream: &mut TcpStream) {
+    let _ = stream.shutdown(Shutdown::Write);
+    let deadline = Instant::now() + LINGER;
+    let mut sink = [0u8; 4096];
+    let mut read = 0usize;
+    while read < LINGER_BYTES {
+        let Some(left) = deadline
+            .checked_duration_since(Instant::now())
+            .filter(|d| !d.is_zero())
+        else {
+            break;
+        };
+        if stream.set_read_timeout(Some(left)).is_err() {
+            break;
+        }
+        match stream.read(&mut sink) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => read += n,
+        }
+    }
+}
+
+/// Why a WebSocket key is refused: it must be 16 bytes in base64 (RFC 6455, 4.1 and 4.2.1).
+fn key_ok(key: &str) -> bool {
+    data_encoding::BASE64
+        .decode(key.trim().as_bytes())
+        .is_ok_and(|k| k.len() == 16)
+}
+
+fn serve(mut stream: TcpStream, conn: Conn, hub: &Arc<Hub>, gate: &SharedGate, local: SocketAddr) {
     let _ = stream.set_nonblocking(false);
     let _ = stream.set_read_timeout(Some(HEAD_TIMEOUT));
     let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-    let (head, rest) = match read_head(&mut stream) {
-        Ok(h) => h,
-        Err(status) => {
-            let _ = respond(&stream, status, "text/plain", b"bad request\n", &[]);
+    let read = read_head(&mut stream);
+    {
+        let mut g = lock(gate);
+        g.waiting.remove(&conn.ticket);
+        if !g.limits.head_arrived(conn.ticket) {
+            // Given up for a newer connection: closed already, nothing to answer.
             return;
         }
+    }
+    let (head, rest) = match read {
+        Ok(h) => h,
+        // Too slow: answered, and closed without waiting for more of it.
+        Err(408) => {
+            let _ = respond(&stream, 408, "text/plain", b"the request took too long\n", &[]);
+            return;
+        }
+        Err(status) => return refuse_request(stream, status, reason(status).as_bytes(), &[]),
     };
     let path = head.path.split(['?', '#']).next().unwrap_or("");
     if head.method != "GET" && head.method != "HEAD" {
-        let _ = respond(
-            &stream,
-            405,
-            "text/plain",
-            b"only GET\n",
-            &[("Allow", "GET, HEAD")],
-        );
-        return;
+        return refuse_request(stream, 405, b"only GET\n", &[("Allow", "GET, HEAD")]);
     }
     if !allowed(&head, local) {
-        let _ = respond(&stream, 403, "text/plain", b"forbidden host or origin\n", &[]);
-        return;
+        return refuse_request(stream, 403, b"forbidden host or origin\n", &[]);
     }
     match path {
         "/" | "/index.html" => {
@@ -397,41 +501,58 @@ fn serve(mut stream: TcpStream, hub: &Arc<Hub>, local: SocketAddr) {
                 &[("Content-Security-Policy", CSP.as_str())],
             );
         }
-        "/stream" => match (&head.key, head.upgrade && head.version_13 && head.method == "GET") {
-            (Some(_), true) if hub.clients.load(Ordering::Relaxed) >= MAX_STREAMS => {
-                let _ = respond(&stream, 503, "text/plain", b"too many browsers watching\n", &[]);
+        "/stream" => open_stream(stream, &head, rest, conn, hub, gate),
+        _ => refuse_request(stream, 404, b"not found\n", &[]),
+    }
+}
+
+/// `GET /stream`: the WebSocket handshake, then the stream, within the limits on streams.
+fn open_stream(stream: TcpStream, head: &Head, rest: Vec<u8>, conn: Conn, hub: &Arc<Hub>, gate: &SharedGate) {
+    let Some(key) = head
+        .key
+        .as_deref()
+        .filter(|_| head.upgrade && head.version_13 && head.method == "GET")
+    else {
+        return refuse_request(stream, 426, b"a WebSocket stream\n", &[("Upgrade", "websocket")]);
+    };
+    if !key_ok(key) {
+        return refuse_request(
+            stream,
+            400,
+            b"Sec-WebSocket-Key must be 16 bytes in base64\n",
+            &[],
+        );
+    }
+    if let Err(why) = lock(gate).limits.open_stream(conn.client) {
+        let body = match why {
+            StreamRefused::Full => format!("too many browsers watching ({MAX_STREAMS})\n"),
+            StreamRefused::FromThisAddress => {
+                format!("too many browsers watching from this address ({MAX_STREAMS_PER_ADDRESS})\n")
             }
-            (Some(key), true) => {
-                let accept = tungstenite::handshake::derive_accept_key(key.trim().as_bytes());
-                let answer = format!(
-                    "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: {accept}\r\n\r\n"
-                );
-                if stream.write_all(answer.as_bytes()).is_ok() {
-                    let config = WebSocketConfig::default()
-                        .max_message_size(Some(MAX_MESSAGE))
-                        .max_frame_size(Some(MAX_MESSAGE));
-                    let ws = WebSocket::from_partially_read(stream, rest, Role::Server, Some(config));
-                    hub.clients.fetch_add(1, Ordering::Relaxed);
-                    let ended = stream_to(ws, hub);
-                    hub.clients.fetch_sub(1, Ordering::Relaxed);
-                    if ended == Ended::Dropped {
-                        hub.dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-            }
-            _ => {
-                let _ = respond(
-                    &stream,
-                    426,
-                    "text/plain",
-                    b"a WebSocket stream\n",
-                    &[("Upgrade", "websocket")],
-                );
-            }
-        },
-        _ => {
-            let _ = respond(&stream, 404, "text/plain", b"not found\n", &[]);
-        }
+        };
+        return refuse_request(stream, 503, body.as_bytes(), &[]);
+    }
+    handshake_and_stream(stream, key, rest, hub);
+    lock(gate).limits.stream_closed(conn.client);
+}
+
+fn handshake_and_stream(mut stream: TcpStream, key: &str, rest: Vec<u8>, hub: &Arc<Hub>) {
+    let accept = tungstenite::handshake::derive_accept_key(key.trim().as_bytes());
+    let answer = format!(
+        "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: {accept}\r\n\r\n"
+    );
+    if stream.write_all(answer.as_bytes()).is_err() {
+        return;
+    }
+    let config = WebSocketConfig::default()
+        .max_message_size(Some(MAX_MESSAGE))
+        .max_frame_size(Some(MAX_MESSAGE));
+    let ws = WebSocket::from_partially_read(stream, rest, Role::Server, Some(config));
+    hub.clients.fetch_add(1, Ordering::Relaxed);
+    let ended = stream_to(ws, hub);
+    hub.clients.fetch_sub(1, Ordering::Relaxed);
+    if ended == Ended::Dropped {
+        hub.dropped.fetch_add(1, Ordering::Relaxed);
     }
 }
 
@@ -467,6 +588,9 @@ struct Outbox {
 
 fn stream_to(mut ws: WebSocket<TcpStream>, hub: &Arc<Hub>) -> Ended {
     let _ = ws.get_mut().set_read_timeout(Some(Duration::from_millis(1)));
+    // This browser's number: a replay's state names the browser whose control changed it.
+    let me = hub.next_browser.fetch_add(1, Ordering::Relaxed) + 1;
+    let mut told = false;
     let mut seen = Seen {
         epoch: None,
         status: 0,
@@ -486,7 +610,17 @@ fn stream_to(mut ws: WebSocket<TcpStream>, hub: &Arc<Hub>) -> Ended {
         if let Err(ended) = send(&mut ws, hub, out) {
             return ended;
         }
-        match listen(&mut ws, hub) {
+        if !told {
+            // After the scene, which always comes first.
+            told = true;
+            if ws
+                .send(Message::Text(format!("{{\"you\":{me}}}").into()))
+                .is_err()
+            {
+                return Ended::Dropped;
+            }
+        }
+        match listen(&mut ws, hub, me) {
             Ok(true) => heard = Instant::now(),
             Ok(false) => {}
             Err(ended) => return ended,
@@ -602,19 +736,27 @@ fn send(ws: &mut WebSocket<TcpStream>, hub: &Hub, out: Outbox) -> Result<(), End
 /// still gets its frames.
 const READS_PER_TURN: usize = 16;
 
-/// Reads what the browser sent, if anything: a replay's controls and pongs; anything else
-/// drops it. Says whether the browser was heard from.
-fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub) -> Result<bool, Ended> {
+/// Reads what the browser sent, if anything: a replay's controls and pongs. A control whose
+/// value is out of range is answered `{"refused": why}` and the stream goes on; anything else
+/// drops the browser. Says whether the browser was heard from.
+fn listen(ws: &mut WebSocket<TcpStream>, hub: &Hub, me: u64) -> Result<bool, Ended> {
     let mut heard = false;
     for _ in 0..READS_PER_TURN {
         match ws.read() {
-            Ok(Message::Text(t)) => match control(t.as_str()) {
-                Some(c) if hub.controllable() => {
+            Ok(Message::Text(t)) if hub.controllable() => match control(t.as_str()) {
+                Ok(c) => {
                     heard = true;
-                    hub.send_control(c);
+                    hub.send_control(c, me);
                 }
-                _ => return Err(refuse(ws, "not a request this viewer takes")),
+                Err(Some(why)) => {
+                    heard = true;
+                    let answer = serde_json::json!({ "refused": why }).to_string();
+                    ws.send(Message::Text(answer.into()))
+                        .map_err(|_| Ended::Dropped)?;
+                }
+                Err(None) => return Err(refuse(ws, "not a request this viewer takes")),
             },
+            Ok(Message::Text(_)) => return Err(refuse(ws, "not a request this viewer takes")),
             Ok(Message::Binary(_)) => return Err(refuse(ws, "binary messages are not taken")),
             Ok(Message::Close(_)) => {
                 let _ = ws.flush();
@@ -650,22 +792,49 @@ fn refuse(ws: &mut WebSocket<TcpStream>, why: &'static str) -> Ended {
         reason: why.into(),
     }));
     let _ = ws.flush();
+    // What it sent beyond what was read (an oversized message's rest) must not reset the
+    // connection before it reads the close.
+    linger(ws.get_mut());
     Ended::Dropped
 }
 
-/// A replay control: `{"cmd":"pause"}`, `{"cmd":"play"}`, `{"cmd":"seek","time":S}`,
-/// `{"cmd":"speed","value":X}` (X in 0.01..=100).
-fn control(text: &str) -> Option<Control> {
-    let v: serde_json::Value = serde_json::from_str(text).ok()?;
-    let number = |k: &str| v.get(k)?.as_f64().filter(|x| x.is_finite());
-    match v.get("cmd")?.as_str()? {
-        "pause" => Some(Control::Pause),
-        "play" => Some(Control::Play),
-        "seek" => number("time").filter(|t| *t >= 0.0).map(Control::Seek),
+/// A replay control: `{"cmd":"pause"}`, `{"cmd":"play"}`, `{"cmd":"seek","time":S}` (S from
+/// 0 s; past the end shows the last frame), `{"cmd":"speed","value":X}` (X in [`SPEEDS`]).
+/// `Err(Some(why))`: a control with a value missing or out of range, refused with `why`;
+/// `Err(None)`: not a control at all.
+fn control(text: &str) -> Result<Control, Option<String>> {
+    let v: serde_json::Value = serde_json::from_str(text).map_err(|_| None)?;
+    let cmd = v.get("cmd").and_then(serde_json::Value::as_str).ok_or(None)?;
+    let number = |k: &str| {
+        v.get(k)
+            .and_then(serde_json::Value::as_f64)
+            .filter(|x| x.is_finite())
+    };
+    let shown = |k: &str| v.get(k).map_or_else(|| "nothing".to_owned(), ToString::to_string);
+    match cmd {
+        "pause" => Ok(Control::Pause),
+        "play" => Ok(Control::Play),
+        "seek" => number("time")
+            .filter(|t| *t >= 0.0)
+            .map(Control::Seek)
+            .ok_or_else(|| {
+                Some(format!(
+                    "seek: the time must be a number of seconds from 0 (got {})",
+                    shown("time")
+                ))
+            }),
         "speed" => number("value")
-            .filter(|x| (0.01..=100.0).contains(x))
-            .map(Control::Speed),
-        _ => None,
+            .filter(|x| SPEEDS.contains(x))
+            .map(Control::Speed)
+            .ok_or_else(|| {
+                Some(format!(
+                    "speed: must be from {} to {} times real time (got {})",
+                    SPEEDS.start(),
+                    SPEEDS.end(),
+                    shown("value")
+                ))
+            }),
+        _ => Err(None),
     }
 }
 
@@ -675,20 +844,39 @@ mod tests {
 
     #[test]
     fn controls_are_read_and_anything_else_is_not() {
-        assert_eq!(control(r#"{"cmd":"pause"}"#), Some(Control::Pause));
-        assert_eq!(control(r#"{"cmd":"seek","time":1.5}"#), Some(Control::Seek(1.5)));
-        assert_eq!(control(r#"{"cmd":"speed","value":2}"#), Some(Control::Speed(2.0)));
+        assert_eq!(control(r#"{"cmd":"pause"}"#), Ok(Control::Pause));
+        assert_eq!(control(r#"{"cmd":"seek","time":1.5}"#), Ok(Control::Seek(1.5)));
+        assert_eq!(control(r#"{"cmd":"speed","value":2}"#), Ok(Control::Speed(2.0)));
+        for bad in ["", "pause", r#"{"cmd":"rm -rf"}"#, r#"[1,2]"#, r#"{"seek":1}"#] {
+            assert_eq!(control(bad), Err(None), "{bad}");
+        }
+        // A control with a bad value is refused with a reason naming it, not dropped.
+        for (bad, names) in [
+            (r#"{"cmd":"seek"}"#, "got nothing"),
+            (r#"{"cmd":"seek","time":-1}"#, "got -1"),
+            (r#"{"cmd":"seek","time":"5"}"#, r#"got "5""#),
+            (r#"{"cmd":"speed","value":0}"#, "got 0"),
+            (r#"{"cmd":"speed","value":1e9}"#, "got 1000000000"),
+        ] {
+            let got = control(bad);
+            assert!(
+                matches!(&got, Err(Some(why)) if why.contains(names)),
+                "{bad}: {got:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_websocket_key_must_be_16_bytes_in_base64() {
+        assert!(key_ok("dGhlIHNhbXBsZSBub25jZQ=="));
+        assert!(key_ok(" dGhlIHNhbXBsZSBub25jZQ== "));
         for bad in [
             "",
-            "pause",
-            r#"{"cmd":"seek"}"#,
-            r#"{"cmd":"seek","time":-1}"#,
-            r#"{"cmd":"speed","value":0}"#,
-            r#"{"cmd":"speed","value":1e9}"#,
-            r#"{"cmd":"rm -rf"}"#,
-            r#"[1,2]"#,
+            "not base64 at all!",
+            "dGhlIHNhbXBsZQ==",
+            "dGhlIHNhbXBsZSBub25jZSBsb25n",
         ] {
-            assert_eq!(control(bad), None, "{bad}");
+            assert!(!key_ok(bad), "{bad}");
         }
     }
 

@@ -94,11 +94,76 @@ fn only_the_page_and_its_stream_are_served() {
     assert!(status(&viewer, &foreign).contains("403"));
     // Garbage and a head too large are refused, not served.
     assert!(status(&viewer, "\x00\x01garbage\r\n\r\n").contains("400"));
-    let huge = format!(
+    for size in [20_000, 64 * 1024] {
+        let answer = head_in_pieces(&viewer, size);
+        assert!(
+            answer.contains("431 Request Header Fields Too Large"),
+            "{size}: {answer:?}"
+        );
+    }
+}
+
+/// Sends a request whose head is `size` bytes long in 4 KiB pieces, as a client over a network
+/// does (the server answers before it has all of it), and returns the status line of the answer:
+/// the client reads why it was refused, not a reset.
+fn head_in_pieces(viewer: &Viewer, size: usize) -> String {
+    let host = viewer.addr();
+    let head = format!(
         "GET / HTTP/1.1\r\nHost: {host}\r\nX: {}\r\n\r\n",
-        "a".repeat(20_000)
+        "a".repeat(size)
     );
-    assert!(status(&viewer, &huge).contains("431"));
+    let mut s = TcpStream::connect(host).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    for piece in head.as_bytes().chunks(4096) {
+        if let Err(e) = s.write_all(piece) {
+            return format!("cut off while sending: {e}");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let mut answer = Vec::new();
+    if let Err(e) = s.read_to_end(&mut answer) {
+        return format!("cut off while reading: {e}");
+    }
+    String::from_utf8_lossy(&answer)
+        .lines()
+        .next()
+        .unwrap_or("")
+        .to_owned()
+}
+
+/// A WebSocket handshake with `key`, and the status line of the answer (read alone: a stream
+/// that opens stays open).
+fn handshake(viewer: &Viewer, key: &str) -> String {
+    let host = viewer.addr();
+    let mut s = TcpStream::connect(host).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(
+        s,
+        "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    )
+    .unwrap();
+    let mut line = Vec::new();
+    let mut byte = [0u8; 1];
+    while !line.ends_with(b"\r\n") && s.read(&mut byte).unwrap_or(0) == 1 {
+        line.push(byte[0]);
+    }
+    String::from_utf8_lossy(&line).trim_end().to_owned()
+}
+
+#[test]
+fn a_websocket_key_that_is_not_16_bytes_in_base64_is_refused() {
+    let (session, ..) = arm();
+    let viewer = serve(&session);
+    for bad in [
+        "x",
+        "not base64!!",
+        "dGhlIHNhbXBsZQ==",
+        "AAAAAAAAAAAAAAAAAAAAAAAAAAAA",
+    ] {
+        let answer = handshake(&viewer, bad);
+        assert!(answer.contains("400"), "{bad}: {answer}");
+    }
+    assert!(handshake(&viewer, "dGhlIHNhbXBsZSBub25jZQ==").contains("101"));
 }
 
 #[test]
@@ -220,19 +285,71 @@ fn on_the_network_a_foreign_name_or_origin_is_refused() {
 fn browsers_beyond_the_limit_are_refused_and_the_page_still_loads() {
     let (session, ..) = arm();
     let viewer = serve(&session);
-    let streams: Vec<_> = (0..skin_view::MAX_STREAMS).map(|_| browser(&viewer)).collect();
+    // All from this machine's one address: the limit per address is reached first (the limit
+    // over all addresses is the limits' own unit test).
+    let streams: Vec<_> = (0..skin_view::MAX_STREAMS_PER_ADDRESS)
+        .map(|_| browser(&viewer))
+        .collect();
     let deadline = Instant::now() + Duration::from_secs(10);
     while viewer.stats().browsers < streams.len() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
-    let host = viewer.addr();
-    let one_more = status(
-        &viewer,
-        &format!(
-            "GET /stream HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
-        ),
-    );
+    let one_more = handshake(&viewer, "dGhlIHNhbXBsZSBub25jZQ==");
     assert!(one_more.contains("503"), "{one_more}");
+    let host = viewer.addr();
     assert!(status(&viewer, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n")).contains("200"));
     drop(streams);
+}
+
+/// Loads the page as a browser does: the whole answer, within `within` (the client gives up
+/// then).
+fn load_page(viewer: &Viewer, within: Duration) -> Result<Vec<u8>, String> {
+    let host = viewer.addr();
+    let mut s = TcpStream::connect(host).map_err(|e| format!("connect: {e}"))?;
+    s.set_read_timeout(Some(within)).unwrap();
+    s.write_all(format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n").as_bytes())
+        .map_err(|e| format!("send: {e}"))?;
+    let mut answer = Vec::new();
+    s.read_to_end(&mut answer).map_err(|e| format!("read: {e}"))?;
+    Ok(answer)
+}
+
+#[test]
+fn idle_sockets_do_not_lock_browsers_out_of_the_page() {
+    let (session, ..) = arm();
+    let viewer = serve(&session);
+    let host = viewer.addr();
+    let page_length = |answer: &[u8]| {
+        let text = String::from_utf8_lossy(answer);
+        let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+        (head.lines().next().unwrap_or("").to_owned(), body.len())
+    };
+    let (_, full) = page_length(&load_page(&viewer, Duration::from_secs(10)).unwrap());
+    // 200 idle sockets, held open from this machine's one address, as the real client's: half
+    // send nothing, half the start of a head and then nothing (slowloris).
+    let idle: Vec<TcpStream> = (0..200)
+        .map(|k| {
+            let mut s = TcpStream::connect(host).unwrap();
+            if k % 2 == 1 {
+                s.write_all(format!("GET / HTTP/1.1\r\nHost: {host}\r\n").as_bytes())
+                    .unwrap();
+            }
+            s
+        })
+        .collect();
+    // The page loads every time while they are held. The client waits at most 5 s, a generous
+    // margin over the 1 s a browser must get it within; without the limits it got a 503 or a
+    // reset at once, or waited for the idle sockets to time out.
+    for k in 0..10 {
+        let started = Instant::now();
+        let answer = load_page(&viewer, Duration::from_secs(5));
+        let took = started.elapsed();
+        let (status, body) = page_length(&answer.unwrap_or_else(|e| panic!("load {k}: {e}")));
+        assert!(status.contains("200"), "load {k}: {status}");
+        assert_eq!(body, full, "load {k}: the page cut short");
+        eprintln!("load {k}: {} ms", took.as_millis());
+    }
+    // Held to the end: the loads above were made with all 200 open on this side.
+    assert_eq!(idle.len(), 200);
+    drop(idle);
 }
