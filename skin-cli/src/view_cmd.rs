@@ -23,17 +23,37 @@ pub struct ViewArgs {
     pub view: Option<SocketAddr>,
     /// With --view and a log or recording: play it at this many times its own pace (0: as fast
     /// as it can be processed).
-    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = speed)]
+    // A negative number is taken as the value it is, so that it is refused as a speed (not
+    // read as an unknown flag, with clap's tip to pass it after `--`).
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "view", value_parser = speed, allow_negative_numbers = true)]
     pub speed: f64,
 }
 
-/// A play speed: 0 (as fast as it goes), or 0.01 to 100 times the input's own pace (what the
-/// page's replay controls take too).
+/// A play speed: 0 (as fast as it goes), or one the page's replay controls take too
+/// (`skin_view::SPEEDS`, times the input's own pace).
 fn speed(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(x) if x == 0.0 || (0.01..=100.0).contains(&x) => Ok(x),
-        _ => Err("must be 0 (as fast as it goes) or from 0.01 to 100".to_owned()),
+        Ok(x) if x == 0.0 => Ok(x),
+        _ => in_speeds(text).ok_or_else(|| format!("must be 0 (as fast as it goes) or {}", speeds())),
     }
+}
+
+/// A replay's speed: what the page's replay controls take (`skin_view::SPEEDS`).
+fn replay_speed(text: &str) -> Result<f64, String> {
+    in_speeds(text).ok_or_else(|| format!("must be {}", speeds()))
+}
+
+fn in_speeds(text: &str) -> Option<f64> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|x| skin_view::SPEEDS.contains(x))
+}
+
+/// The speeds the page takes, in words.
+fn speeds() -> String {
+    let range = skin_view::SPEEDS;
+    format!("from {} to {} (times real time)", range.start(), range.end())
 }
 
 /// A viewer's address: `PORT` on loopback, or `HOST:PORT` (checked by clap, before any work).
@@ -208,8 +228,9 @@ pub use replay::{Args, run};
 
 #[cfg(feature = "mcap")]
 mod replay {
-    use super::{SocketAddr, parse_addr, serve};
+    use super::{SocketAddr, parse_addr, replay_speed, serve};
     use anyhow::Result;
+    use skin_view::replay::Replay;
     use std::path::PathBuf;
 
     /// Replay an MCAP file that skin wrote to a browser, with pause, seek and speed.
@@ -230,10 +251,47 @@ mod replay {
         /// `[touch] threshold`).
         #[arg(long, value_name = "COUNTS", default_value_t = 5.0, value_parser = crate::numbers::within(0.0, 1e6))]
         threshold: f64,
+        /// Play at this many times real time from the start (0.01 to 100; the page changes it
+        /// while playing).
+        #[arg(long, value_name = "X", default_value_t = 1.0, value_parser = replay_speed, allow_negative_numbers = true)]
+        speed: f64,
+    }
+
+    /// Damaged chunks named one a line, at most this many (then how many more).
+    const DAMAGED_LINES: usize = 10;
+
+    /// Names the file's damaged chunks, if any, before it is served.
+    fn say_damage(replay: &Replay, file: &std::path::Path) {
+        let damaged = replay.damaged();
+        if damaged.is_empty() {
+            return;
+        }
+        let spans: Vec<String> = replay
+            .scene()
+            .replay
+            .iter()
+            .flat_map(|r| &r.damaged)
+            .map(|d| format!("{:.2} s to {:.2} s", d.from, d.to))
+            .collect();
+        eprintln!(
+            "warning: {}: {} of {} chunks are damaged: what the page shows from {} cannot be trusted",
+            file.display(),
+            damaged.len(),
+            replay.chunks(),
+            spans.join(", ")
+        );
+        for d in damaged.iter().take(DAMAGED_LINES) {
+            eprintln!("  {d}");
+        }
+        if damaged.len() > DAMAGED_LINES {
+            eprintln!("  and {} more", damaged.len() - DAMAGED_LINES);
+        }
     }
 
     pub fn run(args: Args) -> Result<()> {
-        let mut replay = skin_view::replay::Replay::open(&args.file, args.threshold as f32)?;
+        let mut replay = Replay::open(&args.file, args.threshold as f32)?;
+        replay.set_speed(args.speed)?;
+        say_damage(&replay, &args.file);
         let viewer = serve(args.view, replay.scene().clone())?;
         eprintln!(
             "replaying {} ({:.1} s, {} link{}): Ctrl-C ends",

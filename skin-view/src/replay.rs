@@ -8,12 +8,18 @@
 //! estimated, triangulated and flattened as `skin flatten` does a layout without triangles),
 //! so the file needs nothing beside it. Seeking uses the file's chunk index (the mcap crate's
 //! indexed reader): a seek reads the chunks around the time asked for, not the file before it.
+//!
+//! Opening reads the whole file once to check every chunk against its CRC (the mcap crate's
+//! linear reader, chunk by chunk). A damaged chunk is named ([`Replay::damaged`]) and the page
+//! marks its time span as not to be trusted; its frames are still shown when its records can be
+//! read, and left out when they cannot. An intact file plays as if nothing was checked.
 
-use crate::hub::Control;
-use crate::scene::{ReplayInfo, Scene};
+use crate::hub::{Control, SPEEDS};
+use crate::scene::{Damage, ReplayInfo, Scene};
 use crate::sink::ViewSink;
 use crate::{MAX_TIMELINE, ViewError, Viewer};
 use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
 use nalgebra::{Point3, Unit, Vector3};
 use skin_core::{LinkSkin, Taxel, TaxelId};
@@ -47,6 +53,59 @@ pub struct Replay {
     origin_ns: u64,
     first_ns: u64,
     last_ns: u64,
+    /// Chunks that failed their check, in file order.
+    damaged: Vec<DamagedChunk>,
+    /// The speed playing starts at.
+    speed: f64,
+}
+
+/// A chunk of a replayed file that failed its check.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DamagedChunk {
+    /// Its number among the file's chunks, from 1, in file order.
+    pub number: usize,
+    /// Where its record starts in the file, bytes.
+    pub offset: u64,
+    /// Its record's length, bytes.
+    pub length: u64,
+    /// Where the time its messages span starts, s from the session's start (as the file's index
+    /// says).
+    pub from: f64,
+    /// Where it ends, s.
+    pub to: f64,
+    /// Its records can be read (only its CRC fails): its frames are shown, but may be wrong.
+    /// Otherwise they are left out of the replay.
+    pub readable: bool,
+    /// What is wrong.
+    pub why: String,
+}
+
+impl std::fmt::Display for DamagedChunk {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let fate = if self.readable {
+            "its frames are shown, but cannot be trusted"
+        } else {
+            "its frames are left out"
+        };
+        write!(
+            f,
+            "chunk {} (bytes {} to {}, {:.2} s to {:.2} s): {}; {fate}",
+            self.number,
+            self.offset,
+            self.offset.saturating_add(self.length),
+            self.from,
+            self.to,
+            self.why
+        )
+    }
+}
+
+/// A chunk that failed its check, before the session's origin is known.
+struct BadChunk {
+    number: usize,
+    index: mcap::records::ChunkIndex,
+    readable: bool,
+    why: String,
 }
 
 fn err(path: &Path, why: impl Into<String>) -> ViewError {
@@ -110,7 +169,14 @@ impl Replay {
     pub fn open(path: &Path, threshold: f32) -> Result<Replay, ViewError> {
         let mut file = open_skins(path)?;
         let size = file.metadata().map_err(|e| err(path, e.to_string()))?.len();
-        let summary = read_summary(&mut file, size, path)?;
+        let mut summary = read_summary(&mut file, size, path)?;
+        let chunks = summary.chunk_indexes.len();
+        let bad = check_chunks(&mut file, &summary, size, path)?;
+        // A chunk whose records cannot be read is left out of every read from here on.
+        summary.chunk_indexes.retain(|c| {
+            !bad.iter()
+                .any(|b| !b.readable && b.index.chunk_start_offset == c.chunk_start_offset)
+        });
         let (pressure, events, contacts) = channels_of(&summary);
         if pressure.is_empty() {
             return Err(err(
@@ -118,25 +184,13 @@ impl Replay {
                 "holds no pressure clouds (PREFIX/<link>/pressure): nothing to show",
             ));
         }
-        let topic = |id: u16| topic_of(&summary, id);
-
         let (maps, clouds, first_ns) = links_of(&mut file, &summary, &pressure, path)?;
         if maps.is_empty() {
             return Err(err(path, "its pressure topics hold no message: nothing to show"));
         }
-        let index = maps
-            .iter()
-            .map(|m| m.ids.iter().enumerate().map(|(i, id)| (id.0, i)).collect())
-            .collect();
-        let links_by_frame = maps
-            .iter()
-            .enumerate()
-            .map(|(k, m)| (m.name.clone(), k))
-            .collect();
-
         // The events, for the timeline; the first fixes the session's origin.
         let (lines, left_out, origin_ns) = match events {
-            Some(id) => read_events(&mut file, &summary, &topic(id), path)?,
+            Some(id) => read_events(&mut file, &summary, &topic_of(&summary, id), path)?,
             None => (Vec::new(), 0, None),
         };
         let last_ns = summary
@@ -146,16 +200,15 @@ impl Replay {
             .or_else(|| summary.chunk_indexes.iter().map(|c| c.message_end_time).max())
             .unwrap_or(first_ns);
         let origin_ns = origin_ns.unwrap_or(first_ns).min(first_ns);
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        let mut scene = Scene::from_maps(&maps, &name);
+        let damaged: Vec<DamagedChunk> = bad.into_iter().map(|b| b.placed(origin_ns)).collect();
+        let mut scene = Scene::from_maps(&maps, &file_name(path));
         scene.threshold = threshold;
         scene.replay = Some(ReplayInfo {
             duration: last_ns.saturating_sub(origin_ns) as f64 / 1e9,
             events: lines,
             events_left_out: left_out,
+            chunks,
+            damaged: stretches(&damaged),
         });
         Ok(Replay {
             path: path.to_owned(),
@@ -164,12 +217,42 @@ impl Replay {
             scene,
             clouds,
             contacts,
-            index,
-            links_by_frame,
+            index: maps
+                .iter()
+                .map(|m| m.ids.iter().enumerate().map(|(i, id)| (id.0, i)).collect())
+                .collect(),
+            links_by_frame: maps
+                .iter()
+                .enumerate()
+                .map(|(k, m)| (m.name.clone(), k))
+                .collect(),
             origin_ns,
             first_ns,
             last_ns,
+            damaged,
+            speed: 1.0,
         })
+    }
+
+    /// The chunks of the file that failed their check, in file order (empty: the file is
+    /// intact).
+    pub fn damaged(&self) -> &[DamagedChunk] {
+        &self.damaged
+    }
+
+    /// How many chunks the file has.
+    pub fn chunks(&self) -> usize {
+        self.scene.replay.as_ref().map_or(0, |r| r.chunks)
+    }
+
+    /// Plays at `speed` times real time from the start ([`SPEEDS`]; 1 unless set), until a
+    /// browser changes it.
+    pub fn set_speed(&mut self, speed: f64) -> Result<(), ViewError> {
+        if !SPEEDS.contains(&speed) {
+            return Err(ViewError::Speed(speed));
+        }
+        self.speed = speed;
+        Ok(())
     }
 
     /// What the page draws.
@@ -193,13 +276,25 @@ impl Replay {
     ) -> Result<(), ViewError> {
         let mut sink = viewer.sink();
         let mut state = PlayState {
-            speed: 1.0,
+            speed: self.speed,
             paused: false,
             frames: 0,
+            by_browser: false,
         };
         let hub = &viewer.server.hub;
-        let tell =
-            |st: &PlayState| hub.put_status(format!(r#"{{"paused":{},"speed":{}}}"#, st.paused, st.speed));
+        // Every browser is told the state, and which browser changed it last: the controls are
+        // shared by all who watch.
+        let tell = |st: &PlayState| {
+            let by = if st.by_browser {
+                hub.last_by.load(Ordering::Relaxed).to_string()
+            } else {
+                "null".to_owned()
+            };
+            hub.put_status(format!(
+                r#"{{"paused":{},"speed":{},"by":{by}}}"#,
+                st.paused, st.speed
+            ));
+        };
         tell(&state);
         let mut from = self.first_ns;
         while !stop.load(Ordering::Relaxed) {
@@ -217,6 +312,7 @@ impl Replay {
                 // The end: paused on the last frame until a seek, or play (from the start).
                 None => {
                     state.paused = true;
+                    state.by_browser = false;
                     tell(&state);
                     match wait_for_seek(controls, stop, &mut state, &tell) {
                         Some(t) => from = self.seek_ns(t),
@@ -241,6 +337,8 @@ struct PlayState {
     paused: bool,
     /// Frames shown since the replay began (the frames' cycle numbers).
     frames: u64,
+    /// The last change came from a browser's control (not from the replay reaching its end).
+    by_browser: bool,
 }
 
 /// Waits at the end of a replay for a seek, or play (from the start: 0 s); speed changes are
@@ -252,7 +350,11 @@ fn wait_for_seek(
     tell: &dyn Fn(&PlayState),
 ) -> Option<f64> {
     while !stop.load(Ordering::Relaxed) {
-        match controls.recv_timeout(Duration::from_millis(50)) {
+        let got = controls.recv_timeout(Duration::from_millis(50));
+        if got.is_ok() {
+            state.by_browser = true;
+        }
+        match got {
             Ok(Control::Seek(t)) => return Some(t),
             Ok(Control::Speed(s)) => state.speed = s,
             Ok(Control::Pause) => state.paused = true,
@@ -318,7 +420,13 @@ impl Player<'_> {
         let path = r.path.clone();
         let mut file = r.file.try_clone().map_err(|e| err(&path, e.to_string()))?;
         let summary = std::mem::take(&mut r.summary);
+        let span = r.origin_ns..=r.last_ns;
         let result = each_message(&mut file, &summary, options, &path, &mut |h, data| {
+            // A stamp outside the file's own span (a damaged chunk's) would stall the pacing
+            // for as long as it claims: left out.
+            if !span.contains(&h.log_time) {
+                return Ok(true);
+            }
             if g.stamp.is_some_and(|s| s != h.log_time) && !self.show(&mut g, &mut anchor)? {
                 return Ok(false);
             }
@@ -368,6 +476,7 @@ impl Player<'_> {
                 return Ok(false);
             }
             while let Ok(c) = self.controls.try_recv() {
+                self.state.by_browser = true;
                 match c {
                     Control::Pause => self.state.paused = true,
                     Control::Play => {
@@ -414,6 +523,176 @@ impl Player<'_> {
         g.contacts.clear();
         Ok(true)
     }
+}
+
+/// A path as the page names its source: the file's name.
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+impl BadChunk {
+    /// The damaged chunk, its times counted from the session's start.
+    fn placed(self, origin_ns: u64) -> DamagedChunk {
+        let s = |ns: u64| ns.saturating_sub(origin_ns) as f64 / 1e9;
+        DamagedChunk {
+            number: self.number,
+            offset: self.index.chunk_start_offset,
+            length: self.index.chunk_length,
+            from: s(self.index.message_start_time),
+            to: s(self.index.message_end_time),
+            readable: self.readable,
+            why: self.why,
+        }
+    }
+}
+
+/// The damaged chunks as stretches of the session: consecutive chunks alike (shown, or left
+/// out) make one stretch.
+fn stretches(damaged: &[DamagedChunk]) -> Vec<Damage> {
+    let mut out: Vec<Damage> = Vec::new();
+    for d in damaged {
+        match out.last_mut() {
+            Some(last)
+                if last.left_out != d.readable && last.chunks.last().is_some_and(|&n| n + 1 == d.number) =>
+            {
+                last.chunks.push(d.number);
+                last.from = last.from.min(d.from);
+                last.to = last.to.max(d.to);
+            }
+            _ => out.push(Damage {
+                from: d.from,
+                to: d.to,
+                chunks: vec![d.number],
+                left_out: !d.readable,
+            }),
+        }
+    }
+    out.sort_by(|a, b| a.from.total_cmp(&b.from));
+    out
+}
+
+/// Opcode of a chunk record (MCAP specification).
+const CHUNK_OPCODE: u8 = 0x06;
+/// A chunk record's header before its compression's name: opcode, record length, start and
+/// end time, uncompressed size, CRC, the name's length.
+const CHUNK_HEAD: usize = 1 + 8 + 8 + 8 + 8 + 4 + 4;
+
+/// Every chunk checked against its CRC (and its records read through), in file order: those
+/// that fail. Reads the whole file once, a record at a time.
+fn check_chunks(
+    file: &mut File,
+    summary: &mcap::Summary,
+    size: u64,
+    path: &Path,
+) -> Result<Vec<BadChunk>, ViewError> {
+    let mut chunks: Vec<&mcap::records::ChunkIndex> = summary.chunk_indexes.iter().collect();
+    chunks.sort_by_key(|c| c.chunk_start_offset);
+    let limit = usize::try_from(size).unwrap_or(usize::MAX).min(MAX_RECORD);
+    let mut bad = Vec::new();
+    for (k, index) in chunks.into_iter().enumerate() {
+        if let Some((readable, why)) = check_chunk(file, index, size, limit, path)? {
+            bad.push(BadChunk {
+                number: k + 1,
+                index: index.clone(),
+                readable,
+                why,
+            });
+        }
+    }
+    Ok(bad)
+}
+
+/// What is wrong with one chunk, if anything: whether its records can still be read, and why
+/// it cannot be trusted.
+fn check_chunk(
+    file: &mut File,
+    index: &mcap::records::ChunkIndex,
+    size: u64,
+    limit: usize,
+    path: &Path,
+) -> Result<Option<(bool, String)>, ViewError> {
+    let start = index.chunk_start_offset;
+    let Some(end) = start.checked_add(index.chunk_length).filter(|&e| e <= size) else {
+        return Ok(Some((
+            false,
+            "the index places it past the end of the file".into(),
+        )));
+    };
+    if let Some(why) = chunk_head_disagrees(file, index, path)? {
+        return Ok(Some((false, why)));
+    }
+    // The mcap crate's linear reader over the chunk's bytes alone: it reads every record and
+    // compares the chunk's CRC with what it holds.
+    let options = LinearReaderOptions::default()
+        .with_skip_start_magic(true)
+        .with_skip_end_magic(true)
+        .with_validate_chunk_crcs(true)
+        .with_record_length_limit(limit);
+    let mut reader = LinearReader::new_with_options(options);
+    file.seek(SeekFrom::Start(start))
+        .map_err(|e| err(path, e.to_string()))?;
+    let mut left = end - start;
+    while let Some(event) = reader.next_event() {
+        match event {
+            Ok(LinearReadEvent::ReadRequest(want)) => {
+                let n = usize::try_from(left).unwrap_or(usize::MAX).min(want);
+                let got = file
+                    .read(reader.insert(n))
+                    .map_err(|e| err(path, e.to_string()))?;
+                left -= got as u64;
+                reader.notify_read(got);
+            }
+            Ok(LinearReadEvent::Record { .. }) => {}
+            Err(mcap::McapError::BadChunkCrc { saved, calculated }) => {
+                let why = format!(
+                    "its bytes do not match its CRC (the file says {saved:08x}, they give {calculated:08x})"
+                );
+                return Ok(Some((true, why)));
+            }
+            Err(e) => return Ok(Some((false, format!("its records cannot be read ({e})")))),
+        }
+    }
+    Ok(None)
+}
+
+/// Whether the chunk record's own header disagrees with the index (another record there, or
+/// lengths that do not add up); the linear reader is given only a chunk whose lengths agree.
+fn chunk_head_disagrees(
+    file: &mut File,
+    index: &mcap::records::ChunkIndex,
+    path: &Path,
+) -> Result<Option<String>, ViewError> {
+    let mut head = [0u8; CHUNK_HEAD];
+    file.seek(SeekFrom::Start(index.chunk_start_offset))
+        .map_err(|e| err(path, e.to_string()))?;
+    if file.read_exact(&mut head).is_err() {
+        return Ok(Some("cut short".into()));
+    }
+    let u64_at = |at: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&head[at..at + 8]);
+        u64::from_le_bytes(b)
+    };
+    let record = u64_at(1);
+    let mut name_len = [0u8; 4];
+    name_len.copy_from_slice(&head[CHUNK_HEAD - 4..]);
+    let name_len = u64::from(u32::from_le_bytes(name_len));
+    let mut compressed = [0u8; 8];
+    file.seek(SeekFrom::Current(i64::try_from(name_len).unwrap_or(i64::MAX)))
+        .map_err(|e| err(path, e.to_string()))?;
+    if file.read_exact(&mut compressed).is_err() {
+        return Ok(Some("cut short".into()));
+    }
+    let compressed = u64::from_le_bytes(compressed);
+    // Record = the header after opcode and length, the compression's name, its size, the data.
+    let header = (CHUNK_HEAD as u64 - 9) + name_len + 8;
+    let agrees = head[0] == CHUNK_OPCODE
+        && record.checked_add(9) == Some(index.chunk_length)
+        && record.checked_sub(header) == Some(compressed);
+    Ok((!agrees).then(|| "its header does not agree with the file's index".to_owned()))
 }
 
 /// Each link's map from its first cloud, how its clouds lay their pressures out (by channel),

@@ -72,6 +72,25 @@ pub struct ReplayInfo {
     pub events: Vec<serde_json::Value>,
     /// Events the file holds beyond those listed (a timeline keeps at most [`crate::MAX_TIMELINE`]).
     pub events_left_out: usize,
+    /// The file's chunks (the pieces it is written in, each with its own CRC).
+    pub chunks: usize,
+    /// The parts of the file that cannot be trusted, in time order (empty for an intact file).
+    pub damaged: Vec<Damage>,
+}
+
+/// A stretch of a replayed file that cannot be trusted: consecutive chunks whose bytes do not
+/// match their CRC (shown, but what they show may be wrong), or whose records cannot be read at
+/// all (left out of the replay).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Damage {
+    /// Where the stretch starts, s from the session's start (as the file's index says).
+    pub from: f64,
+    /// Where it ends, s.
+    pub to: f64,
+    /// Its chunks, numbered from 1 in file order.
+    pub chunks: Vec<usize>,
+    /// Its frames are left out (their records cannot be read), rather than shown.
+    pub left_out: bool,
 }
 
 impl Scene {

@@ -223,6 +223,60 @@ def test_the_mcap_replay_seeks_to_a_time_and_shows_that_frame(browser, tmp_path)
         served.stop()
 
 
+def test_a_damaged_mcap_is_said_on_the_page_and_a_bad_seek_is_refused(browser, tmp_path):
+    mcap = tmp_path / "session.mcap"
+    done = subprocess.run(
+        [str(skin_binary()), "run", str(RUN), "--log", str(LOG), "-o", str(tmp_path / "out"), "-q", "--mcap", str(mcap)],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    data = bytearray(mcap.read_bytes())
+    # Bytes flipped in the middle of the file: the chunks there fail their CRC.
+    mid = len(data) // 2
+    for k in range(50):
+        data[mid - 25_000 + k * 1000] ^= 0x10
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    # Slowly (a frame every 2 s): the page shows the first frame long before the next.
+    served = Served("view", bad, "--view", "0", "--speed", "0.01")
+    try:
+        browser.get(served.url)
+        sc = scene(browser)
+        damaged = sc["replay"]["damaged"]
+        assert damaged and all(not d["left_out"] for d in damaged), damaged
+        banner = wait_for(browser, "const e = document.getElementById('damage'); return e.classList.contains('on') && e.textContent",
+                          what="the damage banner")
+        assert "damaged" in banner and "cannot be trusted" in banner, banner
+        assert f"{damaged[0]['from']:.2f} s" in banner, banner
+        # The first frame drawn: no latency measured yet, and none shown (not "NaN").
+        wait_for(browser, "return window.skinView.frames > 0", what="a frame")
+        latency = browser.find_element(By.ID, "latency").text
+        assert latency == "–", latency
+        # A frame inside a damaged stretch is marked as such.
+        browser.execute_script("window.skinView.send({cmd: 'pause'})")
+        inside = (damaged[0]["from"] + damaged[0]["to"]) / 2
+        browser.execute_script(f"window.skinView.send({{cmd: 'seek', time: {inside}}})")
+        wait_for(browser, f"const f = window.skinView.frame; return f && Math.abs(f.time - {inside}) < 0.06", what="the damaged frame")
+        wait_for(browser, "return document.getElementById('untrusted').classList.contains('on')", what="the frame marked untrusted")
+        # The controls are shared, and the page says so; this page paused it, so no one else did.
+        assert browser.find_element(By.ID, "shared").is_displayed()
+        state = wait_for(browser, "const t = document.getElementById('state').textContent; return t.startsWith('replay, paused') && t",
+                         what="paused")
+        assert "another viewer" not in state, state
+        # A seek to -1 s is refused with a message; the stream goes on.
+        browser.execute_script("window.skinView.send({cmd: 'seek', time: -1})")
+        notice = wait_for(browser, "return window.skinView.refused.length && document.getElementById('notice').textContent",
+                          what="the refusal")
+        assert "seek" in notice and "-1" in notice, notice
+        assert browser.execute_script("return window.skinView.ws.readyState") == 1
+        browser.execute_script("window.skinView.send({cmd: 'seek', time: 2.75})")
+        wait_for(browser, "const f = window.skinView.frame; return f && Math.abs(f.time - 2.75) < 0.06", what="2.75 s after the refusal")
+    finally:
+        said = served.stop()
+    assert "chunks are damaged" in said, said
+
+
 ST_W, ST_H = 860, 360  # index.html: the stitched arm's canvas
 
 # Every link's pressed taxels and the placements of the frame the page shows now.
