@@ -268,6 +268,11 @@ impl Replay {
     /// Plays the file to `viewer` (whose scene is [`Replay::scene`]) from its first frame at
     /// real time, following the browsers' controls, until `stop` is set. At the end it pauses on
     /// the last frame (a seek plays again).
+    ///
+    /// One replay plays to every browser, so their controls are shared: a pause, seek or speed
+    /// from any browser is what all of them see, and each is told which browser changed it. A
+    /// replay per browser would read and decode the file once per browser watching, where the
+    /// viewer keeps one latest frame for all of them.
     pub fn play(
         &mut self,
         viewer: &Viewer,
