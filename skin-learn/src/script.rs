@@ -204,7 +204,11 @@ impl Tally {
         self.found += 1;
         for (t, best) in self.script.touches.iter().zip(&mut self.best) {
             let overlap = found.end_s.min(t.end_s) - found.start_s.max(t.start_s);
-            if !(overlap >= 0.0) || best.as_ref().is_some_and(|b| overlap.total_cmp(&b.overlap).is_lt()) {
+            if !(overlap >= 0.0)
+                || best
+                    .as_ref()
+                    .is_some_and(|b| overlap.total_cmp(&b.overlap).is_lt())
+            {
                 continue;
             }
             *best = Some(Best {
@@ -234,7 +238,10 @@ impl Tally {
             .touches
             .iter()
             .zip(&self.best)
-            .map(|(t, b)| b.as_ref().is_some_and(|b| b.class.as_deref() == Some(t.class.as_str())))
+            .map(|(t, b)| {
+                b.as_ref()
+                    .is_some_and(|b| b.class.as_deref() == Some(t.class.as_str()))
+            })
             .collect();
         Score { matches, correct }
     }
@@ -258,7 +265,13 @@ impl Score {
 
     /// Of `found` touches found (numbered from 0), those that no scripted touch took.
     pub fn extra_among(&self, found: usize) -> usize {
-        let mut taken: Vec<usize> = self.matches.iter().flatten().copied().filter(|&j| j < found).collect();
+        let mut taken: Vec<usize> = self
+            .matches
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&j| j < found)
+            .collect();
         taken.sort_unstable();
         taken.dedup();
         found - taken.len()

@@ -36,7 +36,11 @@ fn a_million_frames_with_25000_touches_keep_resident_memory_flat() {
     let stats = session.stats();
     assert_eq!(stats.touches, touches);
     assert_eq!(sink.released, touches as u64);
-    assert!(stats.frames >= (touches * FRAMES_PER_TOUCH) as u64, "{}", stats.frames);
+    assert!(
+        stats.frames >= (touches * FRAMES_PER_TOUCH) as u64,
+        "{}",
+        stats.frames
+    );
     assert_eq!(session.touches().len(), TOUCH_HISTORY);
     let grown = highest.saturating_sub(at_warm);
     eprintln!(

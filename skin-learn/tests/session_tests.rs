@@ -510,8 +510,14 @@ fn a_long_session_keeps_its_last_touches_and_scores_them_all() {
     assert_eq!(score.extra, touches - 2);
     let text = summary.to_string();
     assert!(text.contains(&format!("{touches} touch(es):")), "{text}");
-    assert!(text.contains(&format!("the last {TOUCH_HISTORY} listed")), "{text}");
-    assert!(text.contains("scripted touch 0 (hand poke) taken for -"), "{text}");
+    assert!(
+        text.contains(&format!("the last {TOUCH_HISTORY} listed")),
+        "{text}"
+    );
+    assert!(
+        text.contains("scripted touch 0 (hand poke) taken for -"),
+        "{text}"
+    );
     let rows = text.lines().filter(|l| l.contains("(not scripted)")).count();
     assert_eq!(rows, TOUCH_HISTORY - 1, "one kept row is scripted touch 2's");
     // Started again: the same script, nothing found yet.

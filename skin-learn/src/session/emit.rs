@@ -34,12 +34,10 @@ impl Session {
                     image,
                 }
             }
-            TouchEvent::Released(touch) => {
-                Event::Released {
-                    link: name(touch.link),
-                    touch: touch.clone(),
-                }
-            }
+            TouchEvent::Released(touch) => Event::Released {
+                link: name(touch.link),
+                touch: touch.clone(),
+            },
         };
         send(&mut self.stopped, sink, |s| s.event(&event))?;
         match e {

@@ -10,7 +10,10 @@ impl Session {
     /// input meets the same layout and models even if their files change meanwhile.
     pub fn restarted(self) -> Result<Session, SessionError> {
         let Session {
-            setup, pipeline, tally, ..
+            setup,
+            pipeline,
+            tally,
+            ..
         } = self;
         let mut fresh = Session::new(setup.links, pipeline.restarted()?, setup.options)?;
         fresh.setup.can = setup.can;

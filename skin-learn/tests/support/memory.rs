@@ -33,6 +33,8 @@ pub fn forearm_session(dir: &Path, models: bool) -> Session {
 pub struct Count {
     /// Classified events (first decisions and revisions).
     pub classified: u64,
+    /// Of them, of the hand class.
+    pub hands: u64,
     /// Released events.
     pub released: u64,
 }
@@ -42,7 +44,10 @@ impl Sink for Count {
 
     fn event(&mut self, e: &Event) -> Result<Flow, Self::Error> {
         match e {
-            Event::Classified { .. } => self.classified += 1,
+            Event::Classified { touch, .. } => {
+                self.classified += 1;
+                self.hands += u64::from(touch.decision.class.is_hand());
+            }
             Event::Released { .. } => self.released += 1,
             _ => {}
         }
@@ -75,7 +80,11 @@ impl Presses {
             .map(|k| synth.sample(54, k % 12, k).pressures)
             .filter(|p| p.iter().filter(|&&v| v > 20.0).count() >= 3)
             .collect();
-        assert!(samples.len() as u32 > pool / 2, "{} of {pool} samples press", samples.len());
+        assert!(
+            samples.len() as u32 > pool / 2,
+            "{} of {pool} samples press",
+            samples.len()
+        );
         let n = link.taxels.len();
         // A rest level with a fixed pattern, as real taxels have.
         let rest: Vec<f32> = (0..n).map(|i| 200.0 + (i % 7) as f32).collect();
