@@ -151,11 +151,24 @@ impl Input {
             .ok()
             .filter(std::fs::Metadata::is_file)
             .map(|m| m.len());
+        Input::from_reader(file, path, len, gzip)
+    }
+
+    /// An input over a reader the caller opened its own way (`path` names it in errors, `len`
+    /// is its length when it has one): a pipe it waits on without blocking, a file whose reads
+    /// it can interrupt. Decompressed or refused when gzip-compressed, as [`Input::open`] does;
+    /// the first bytes are read now to tell.
+    pub fn from_reader<R: Read + Send + 'static>(
+        reader: R,
+        path: &Path,
+        len: Option<u64>,
+        gzip: Gzip,
+    ) -> Result<Input> {
         let read = Arc::new(AtomicU64::new(0));
         let mut raw = BufReader::with_capacity(
             BUFFER_BYTES,
             Counted {
-                inner: file,
+                inner: reader,
                 read: Arc::clone(&read),
             },
         );
@@ -207,8 +220,10 @@ impl BufRead for Input {
     }
 }
 
-/// Opens `path` for reading, refusing a folder by name, and a pipe read before.
-fn open_file(path: &Path) -> Result<File> {
+/// Opens `path` for reading as every reader here does, refusing a folder by name, and a pipe
+/// this process read before ([`Input::open`] reads through it; a caller that opens its inputs
+/// its own way, [`Input::from_reader`], starts from it for anything but a pipe).
+pub fn open_file(path: &Path) -> Result<File> {
     once_per_pipe(path)?;
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     if file.metadata().is_ok_and(|m| m.is_dir()) {
