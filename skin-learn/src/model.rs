@@ -84,6 +84,16 @@ pub enum ModelError {
         /// The classes the card lists.
         classes: Vec<String>,
     },
+    /// Two outputs named alike: their scores would read as one class.
+    #[error("class {name:?} names outputs {first} and {again}: each output needs a name of its own")]
+    DuplicateClass {
+        /// The name given twice.
+        name: String,
+        /// The first output it names.
+        first: usize,
+        /// The next output it names.
+        again: usize,
+    },
 }
 
 /// Hand or not, from one tactile image (thesis Ch. 4.3).
@@ -173,6 +183,27 @@ impl Classes {
         Classes { classes }
     }
 
+    /// [`Classes::new`], refusing a name given to two outputs: a decision of either would read
+    /// as the same class, and a gate or a script could not tell them apart. What model cards
+    /// and a user's own classifier are named through.
+    pub fn named<S: Into<String>>(
+        names: impl IntoIterator<Item = S>,
+        hand: Option<usize>,
+    ) -> Result<Classes, ModelError> {
+        let names: Vec<String> = names.into_iter().map(Into::into).collect();
+        let mut seen = std::collections::HashMap::new();
+        for (again, name) in names.iter().enumerate() {
+            if let Some(first) = seen.insert(name.as_str(), again) {
+                return Err(ModelError::DuplicateClass {
+                    name: name.clone(),
+                    first,
+                    again,
+                });
+            }
+        }
+        Ok(Classes::new(names, hand))
+    }
+
     /// A two-output classifier without a card, as HandsNet is: output 0 the hand, output 1
     /// anything else.
     pub fn hand_or_not() -> Classes {
@@ -183,6 +214,7 @@ impl Classes {
     /// `hand_class:` field names, or else the first listed (as HandsNet's output 0 is the hand).
     /// A `hand_class:` that names none of them is an error: a misspelt name would otherwise
     /// leave the skin with no hand class, never segmenting and gating every touch as non-hand.
+    /// So is a class listed twice ([`Classes::named`]).
     pub fn from_card(card: &ModelCard) -> Result<Option<Classes>, ModelError> {
         if card.classes.is_empty() {
             return Ok(None);
@@ -199,7 +231,7 @@ impl Classes {
             },
             None => 0,
         };
-        Ok(Some(Classes::new(card.classes.iter().cloned(), Some(hand))))
+        Classes::named(card.classes.iter().cloned(), Some(hand)).map(Some)
     }
 
     /// The classes of a classifier of `outputs` outputs: its card's when they are as many,
@@ -358,5 +390,25 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("hand, non_hand"), "{err}");
+    }
+
+    #[test]
+    fn a_class_named_twice_is_refused() {
+        let err = Classes::from_card(&card(
+            "classes: hand, object, hand
+",
+        ))
+        .unwrap_err();
+        assert!(
+            matches!(&err, ModelError::DuplicateClass { name, first: 0, again: 2 } if name == "hand"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("outputs 0 and 2"), "{err}");
+        let err = Classes::named(["a", "b", "b"], None).unwrap_err();
+        assert!(err.to_string().contains("\"b\" names outputs 1 and 2"), "{err}");
+        assert_eq!(
+            Classes::named(["a", "b"], Some(1)).unwrap(),
+            Classes::new(["a", "b"], Some(1))
+        );
     }
 }
