@@ -14,6 +14,11 @@
 //! (`ball`, `torso`, ...); `subject` the subject number (split train and test on it);
 //! `partial` 1 when less than 85% of the contact lies on the skin; `fingertips` 1 for a hand
 //! touching with its fingertips only.
+//!
+//! `file` names a file in `images/` (and `masks/`), subfolders allowed; a name that leaves the
+//! folder (absolute, or through `..`) is refused as labels.csv is read, and a file that is a
+//! symbolic link out of the dataset's folder when it is opened: a dataset from elsewhere cannot
+//! make its reader open any file of the machine.
 
 use crate::synth::Sample;
 use skin_core::image::{ImageSize, ImageView};
@@ -56,8 +61,10 @@ pub enum DatasetError {
 /// One row of labels.csv.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
-    /// File name under images/ (and masks/).
+    /// File name under images/ (and masks/), inside them.
     pub file: String,
+    /// The line of labels.csv it was read from (1-based).
+    pub line: usize,
     /// A hand.
     pub hand: bool,
     /// Interaction or contact name.
@@ -139,8 +146,15 @@ impl Dataset {
                 "1" => Ok(true),
                 _ => Err(bad(format!("{name} must be 0 or 1, not `{s}`"))),
             };
+            if let Some(why) = leaves_folder(f[0]) {
+                return Err(bad(format!(
+                    "file `{}` {why}: name a file in images/",
+                    skin_core::format::excerpt(f[0])
+                )));
+            }
             entries.push(Entry {
                 file: f[0].to_string(),
+                line: line.number(),
                 hand: match f[1] {
                     "hand" => true,
                     "non_hand" => false,
@@ -162,19 +176,40 @@ impl Dataset {
 
     /// The grey image of entry `i`: (pixels row-major, rows, cols).
     pub fn image(&self, i: usize) -> Result<(Vec<u8>, usize, usize), DatasetError> {
-        read_grey(&self.dir.join("images").join(&self.entry(i)?.file))
+        read_grey(&self.inside("images", self.entry(i)?)?)
     }
 
     /// The part mask of entry `i` (all background for a contact that is not a hand when the
     /// dataset has no mask for it).
     pub fn mask(&self, i: usize) -> Result<(Vec<u8>, usize, usize), DatasetError> {
         let e = self.entry(i)?;
-        let path = self.dir.join("masks").join(&e.file);
+        let path = self.inside("masks", e)?;
         if !e.hand && !path.exists() {
             let (img, r, c) = self.image(i)?;
             return Ok((vec![0; img.len()], r, c));
         }
         read_grey(&path)
+    }
+
+    /// `DIR/folder/FILE` of `entry`, refused if it resolves, through symbolic links, outside
+    /// the dataset's folder (a file that does not exist is left for the reader to name).
+    fn inside(&self, folder: &str, entry: &Entry) -> Result<PathBuf, DatasetError> {
+        let path = self.dir.join(folder).join(&entry.file);
+        if let (Ok(real), Ok(root)) = (path.canonicalize(), self.dir.canonicalize())
+            && !real.starts_with(&root)
+        {
+            return Err(DatasetError::Parse {
+                path: self.dir.join("labels.csv"),
+                line: entry.line,
+                message: format!(
+                    "file `{}`: {} is a link to {}, outside the dataset's folder: refused",
+                    skin_core::format::excerpt(&entry.file),
+                    path.display(),
+                    real.display()
+                ),
+            });
+        }
+        Ok(path)
     }
 
     fn entry(&self, i: usize) -> Result<&Entry, DatasetError> {
@@ -183,6 +218,27 @@ impl Dataset {
             message: format!("no sample {i} (the dataset has {})", self.entries.len()),
         })
     }
+}
+
+/// Why a file name of labels.csv leaves the dataset's folder, if it does: empty, absolute, or
+/// through `..` (a name joined to images/ must stay in it).
+fn leaves_folder(name: &str) -> Option<&'static str> {
+    use std::path::Component;
+    if name.is_empty() {
+        return Some("is empty");
+    }
+    let path = Path::new(name);
+    // A backslash is a separator on Windows: `..\x` would leave the folder there.
+    if path.is_absolute() || name.starts_with(['/', '\\']) {
+        return Some("is an absolute path, outside the dataset's folder");
+    }
+    let up = path.components().any(|c| {
+        matches!(
+            c,
+            Component::ParentDir | Component::RootDir | Component::Prefix(_)
+        )
+    }) || name.split(['/', '\\']).any(|part| part == "..");
+    up.then_some("leaves the dataset's folder (..)")
 }
 
 /// A text input's error (it names its file and line) as a dataset error.
@@ -330,6 +386,7 @@ mod tests {
         let entries = (0..8)
             .map(|k| Entry {
                 file: format!("{k}.png"),
+                line: 2 + k as usize,
                 hand: k % 2 == 1,
                 kind: String::new(),
                 subject: 1 + k / 2,
@@ -348,5 +405,15 @@ mod tests {
         assert_eq!(data.test_set(0.0, false).len(), 8);
         assert_eq!(data.test_set(f64::NAN, true), [1, 3, 5, 7]);
         assert_eq!(data.test_set(1.0, false).len(), 8);
+    }
+
+    #[test]
+    fn a_file_name_that_leaves_the_folder_is_refused() {
+        for name in ["../x.png", "a/../../x.png", "/etc/passwd", "..\\x.png", ""] {
+            assert!(leaves_folder(name).is_some(), "{name:?}");
+        }
+        for name in ["x.png", "sub/x.png", "x..png", "..x.png"] {
+            assert_eq!(leaves_folder(name), None, "{name:?}");
+        }
     }
 }
