@@ -401,3 +401,81 @@ def test_outward_is_any_sequence():
     np.testing.assert_array_equal(a.normals, b.normals)
     with pytest.raises(skin.ArrayError, match="outward: 2 values"):
         skin.calibrate(probes["centroids"], probes["ids"], probes["responses"], outward=[0, 1])
+
+
+def test_messages_say_the_bounds_and_units():
+    layout = skin.read_layout(LAYOUT)
+    # Every way out of range names the range and what it counts, not "0 or more" for a -1.
+    for given in (-1, 0, 1, 100_001, 10**30, 2.5):
+        with pytest.raises(skin.ArrayError, match=r"^baseline_frames: .*expected a whole number from 2 to 100000 \(untouched frames"):
+            skin.Session.from_layout(layout, baseline_frames=given)
+    with pytest.raises(skin.ArrayError, match=r"^decide_frames: -3: expected a whole number from 1 to 1000000"):
+        skin.Session.from_layout(layout, decide_frames=-3)
+    with pytest.raises(skin.ArrayError, match=r"^threshold: -1: expected counts from 0 to 1e9"):
+        skin.Session.from_layout(layout, threshold=-1.0)
+    with pytest.raises(skin.ArrayError, match=r"^max_edge: -1: .*in taxel pitches .*not mm or m"):
+        skin.flatten(layout[0], max_edge=-1)
+    session = skin.Session.from_config(CONFIG)
+    ok = np.zeros(715, dtype=np.float32)
+    # A 301-digit time: the number in exponent form and the range allowed.
+    for huge in (10**300, 1e300):
+        with pytest.raises(skin.ArrayError, match=r"^time: 1e300: expected seconds from 0 to 1.8e13") as e:
+            session.push([ok], huge)
+        assert len(str(e.value)) < 200
+    with pytest.raises(skin.ArrayError, match=r"^time: -1: expected seconds from 0 to 1.8e13"):
+        session.push([ok], -1.0)
+    with pytest.raises(skin.ArrayError, match=r"^step_mm: 1e300: expected 0.01 to 1000 mm"):
+        skin.Imager(skin.read_map(LAYOUT), step_mm=1e300)
+
+
+def test_class_names_given_twice_are_refused():
+    with pytest.raises(skin.ArrayError, match=r'^classes: class "hand" names outputs 0 and 2: each output needs a name of its own'):
+        skin.Session.from_config(CONFIG, classifier=lambda image: [0.5, 0.2, 0.3], classes=["hand", "object", "hand"])
+
+
+def test_ctrl_c_inside_numpy_conversion_is_not_a_bad_argument(imager):
+    # An exception that is no Exception (KeyboardInterrupt) while an argument is converted
+    # reaches the caller as itself, not as an ArrayError that `except ValueError` would swallow.
+    class Interrupting:
+        def __array__(self, *args, **kwargs):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        imager.image(Interrupting())
+
+    class Broken:
+        def __array__(self, *args, **kwargs):
+            raise RuntimeError("no")
+
+    with pytest.raises(skin.ArrayError, match="frame: not an array of numbers"):
+        imager.image(Broken())
+
+
+def test_images_copy_the_frames_before_checking_them(tmap):
+    # A thread writes NaN into rows not yet imaged while `images` runs without the GIL: each
+    # image is of the frame as checked, or the NaN is named; never a NaN imaged as no pressure.
+    import threading
+
+    imager = skin.Imager(tmap, size=(68, 100))
+    rng = np.random.default_rng(9)
+    original = rng.uniform(0, 60, (3000, len(tmap))).astype(np.float32)
+    expected = imager.images(original)
+    for attempt in range(3):
+        frames = original.copy()
+        started = threading.Event()
+
+        def spoil():
+            started.set()
+            for t in range(len(frames) - 1, 0, -7):
+                frames[t, :] = np.nan
+
+        writer = threading.Thread(target=spoil)
+        writer.start()
+        started.wait()
+        try:
+            got = imager.images(frames)
+        except skin.ArrayError as e:
+            assert "frames: nan at index" in str(e).lower()
+        else:
+            np.testing.assert_array_equal(got, expected)
+        writer.join()

@@ -262,3 +262,75 @@ def test_memory_is_stable_over_100k_pushes():
     assert kinds["classified"] >= 3000, kinds
     warm, end = samples[10_000], samples[100_000]
     assert end <= warm * 1.10, f"resident memory {warm} kB after 10,000 pushes, {end} kB after 100,000"
+
+
+def test_contacts_name_their_taxels_by_index_and_by_id():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    ids = layout[0].ids
+    session = skin.Session.from_config(CONFIG)
+    for f in log_frames():
+        session.push_can(f)
+        contacts = session.contacts(0)
+        if contacts:
+            break
+    assert contacts
+    for c in contacts:
+        # Indices into the link's taxels (a frame's order), and the ids those taxels have.
+        assert c.taxel_ids == [int(ids[i]) for i in c.taxels]
+    # The fixture's ids are not its indices: the two cannot be mistaken for each other here.
+    assert any(c.taxel_ids != c.taxels for c in contacts)
+
+
+def test_events_and_contacts_pickle_as_values_and_a_session_says_what_to_pickle(builtin_session_events):
+    import copy
+    import pickle
+
+    classified = next(e for e in builtin_session_events if e.kind == "classified")
+    for event in (builtin_session_events[0], classified):
+        again = pickle.loads(pickle.dumps(event))
+        assert again == event and again.to_dict() == event.to_dict() and again.kind == event.kind
+        assert repr(again) == repr(event)
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(classified)).image, classified.image)
+    assert copy.deepcopy(classified).probability == classified.probability
+    session = skin.Session.from_config(CONFIG)
+    for f in log_frames():
+        session.push_can(f)
+        if session.contacts(0):
+            break
+    contact = session.contacts(0)[0]
+    assert pickle.loads(pickle.dumps(contact)) == contact and copy.copy(contact) == contact
+    with pytest.raises(TypeError, match=r"a Session cannot be pickled: .*to_dict\(\)"):
+        pickle.dumps(session)
+    with pytest.raises(TypeError, match="a Session cannot be pickled"):
+        copy.deepcopy(session)
+
+
+def test_finishing_before_the_baseline_is_learned_warns_and_releases_nothing():
+    session = skin.Session.from_config(CONFIG)
+    for f in log_frames()[:5]:
+        assert session.push_can(f) == []
+    with pytest.warns(skin.SkinWarning, match=r"finish\(\): the input ended after 5 frame\(s\), before the 20 complete untouched frames the baseline needs"):
+        assert session.finish() == []
+    # Ended: it takes no more frames, and finishing again says nothing.
+    assert session.finish() == []
+    with pytest.raises(skin.SessionError, match="has ended"):
+        session.push_can(log_frames()[5])
+    # A whole log that short is still an error, as it is for `skin run`.
+
+
+def test_taxels_on_no_bus_are_warned_of_and_listed(tmp_path):
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    assert skin.Session.from_layout(layout, busmap=busmap).uncovered == []
+    # The bus map without its last module: that module's taxels are on no bus.
+    text = (FIXTURES / "forearm" / "busmap.toml").read_text()
+    cut = text.rindex("[[")
+    short = tmp_path / "busmap.toml"
+    short.write_text(text[:cut])
+    partial = skin.BusMap.read(short)
+    lost = sorted(set(busmap.ids.tolist()) - set(partial.ids.tolist()))
+    assert lost
+    with pytest.warns(skin.SkinWarning, match=rf"{len(lost)} layout taxel\(s\) are on no bus of the bus map \(first: taxel \d+ of link \"forearm\"\)"):
+        session = skin.Session.from_layout(layout, busmap=partial)
+    assert sorted(id for link, id in session.uncovered) == lost
+    assert {link for link, _ in session.uncovered} == {"forearm"}

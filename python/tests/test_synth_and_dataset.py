@@ -90,5 +90,39 @@ def test_not_a_dataset_folder_is_named(tmp_path):
     with pytest.raises(skin.InputError, match="labels.csv"):
         skin.SynthDataset(tmp_path)
     (tmp_path / "labels.csv").write_text("name,label\n")
-    with pytest.raises(skin.InputError, match="line 1: expected the header"):
+    with pytest.raises(skin.InputError, match="labels.csv:1: expected the header"):
         skin.SynthDataset(tmp_path)
+
+
+def test_a_file_name_that_leaves_the_dataset_folder_is_refused(tmp_path, synth_dir):
+    import shutil
+
+    ds = tmp_path / "ds"
+    shutil.copytree(synth_dir, ds)
+    labels = (ds / "labels.csv").read_text().splitlines()
+    first = labels[1].split(",")
+    for name in ["../../../../etc/passwd", "/etc/passwd", "images/../../labels.csv"]:
+        (ds / "labels.csv").write_text("\n".join([labels[0], labels[1], ",".join([name, *first[1:]])]) + "\n")
+        with pytest.raises(skin.InputError, match=rf"labels.csv:3: file `{name}` .*(absolute|\.\.)"):
+            skin.SynthDataset(ds)
+    # A name that stays inside (a subfolder) is read.
+    (ds / "images" / "sub").mkdir()
+    shutil.copy(ds / "images" / first[0], ds / "images" / "sub" / first[0])
+    (ds / "masks" / "sub").mkdir()
+    if (ds / "masks" / first[0]).exists():
+        shutil.copy(ds / "masks" / first[0], ds / "masks" / "sub" / first[0])
+    (ds / "labels.csv").write_text("\n".join([labels[0], ",".join(["sub/" + first[0], *first[1:]])]) + "\n")
+    np.testing.assert_array_equal(skin.SynthDataset(ds)[0]["image"], skin.SynthDataset(synth_dir)[0]["image"])
+    # A file that is a link out of the folder is refused when it is read, naming its line.
+    outside = tmp_path / "secret.png"
+    shutil.copy(ds / "images" / first[0], outside)
+    (ds / "images" / "link.png").symlink_to(outside)
+    (ds / "labels.csv").write_text("\n".join([labels[0], labels[1], ",".join(["link.png", "non_hand", *first[2:]])]) + "\n")
+    data = skin.SynthDataset(ds)
+    assert data[0]["image"].shape == (68, 100)
+    with pytest.raises(skin.InputError, match=r"labels.csv:3: file `link.png`: .* is a link to .*secret.png, outside the dataset's folder"):
+        data[1]
+    # A link inside the folder is followed.
+    (ds / "images" / "inside.png").symlink_to(ds / "images" / first[0])
+    (ds / "labels.csv").write_text("\n".join([labels[0], ",".join(["inside.png", "non_hand", *first[2:]])]) + "\n")
+    np.testing.assert_array_equal(skin.SynthDataset(ds)[0]["image"], skin.SynthDataset(synth_dir)[0]["image"])

@@ -21,9 +21,13 @@ pub(crate) fn array<'py, T: Element>(
         Ok(a) if a.is_c_contiguous() => a.clone(),
         _ => {
             let np = py.import("numpy")?;
-            let given = np
-                .call_method1("asarray", (obj,))
-                .map_err(|e| arg(name, format!("not an array of numbers ({e})")))?;
+            let given = np.call_method1("asarray", (obj,)).map_err(|e| {
+                if passes(py, &e) {
+                    e
+                } else {
+                    arg(name, format!("not an array of numbers ({e})"))
+                }
+            })?;
             let kind: String = given.getattr("dtype")?.getattr("kind")?.extract()?;
             if !matches!(kind.as_str(), "i" | "u" | "f") {
                 let dtype_name: String = given.getattr("dtype")?.str()?.extract()?;
@@ -116,13 +120,18 @@ pub(crate) fn all_finite(values: &[f32]) -> bool {
 
 /// Fails on the first value of `values` that is not finite, naming its index.
 pub(crate) fn finite(name: &str, values: &[f32], shape: &[usize]) -> PyResult<()> {
+    finite_from(name, values, shape, 0)
+}
+
+/// The same for `values` that start at flat index `offset` of an array of `shape`.
+pub(crate) fn finite_from(name: &str, values: &[f32], shape: &[usize], offset: usize) -> PyResult<()> {
     if all_finite(values) {
         return Ok(());
     }
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(arg(
             name,
-            format!("{} at index {:?}", values[i], unravel(i, shape)),
+            format!("{} at index {:?}", values[i], unravel(offset + i, shape)),
         ));
     }
     Ok(())
@@ -174,6 +183,37 @@ pub(crate) fn points<'py>(
 /// Triangles as an (M, 3) array of indices.
 pub(crate) fn faces<'py>(py: Python<'py>, f: &[[usize; 3]]) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
     out(py, f.iter().flatten().map(|&i| i as i64).collect(), &[f.len(), 3])
+}
+
+/// A number for a message: as written when it is of a usual size, in exponent form otherwise,
+/// so that a huge argument (`10**300`) is not quoted as a 301-digit number.
+pub(crate) fn num(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-6..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A whole number from `lo` to `hi` (a Python or numpy integer), named with what it counts
+/// (`what`) and the range whenever it is not one: a float, a negative, a huge number.
+pub(crate) fn bounded(name: &str, v: &Bound<'_, PyAny>, lo: usize, hi: usize, what: &str) -> PyResult<usize> {
+    v.extract::<i64>()
+        .ok()
+        .and_then(|n| usize::try_from(n).ok())
+        .filter(|n| (lo..=hi).contains(n))
+        .ok_or_else(|| {
+            arg(
+                name,
+                format!("{}: expected a whole number from {lo} to {hi} ({what})", short(v)),
+            )
+        })
+}
+
+/// Whether `e` passes through as itself rather than as a bad argument: an exception that is not
+/// an `Exception` (`KeyboardInterrupt` from Ctrl-C, `SystemExit`) says nothing of the argument.
+pub(crate) fn passes(py: Python<'_>, e: &PyErr) -> bool {
+    !e.is_instance_of::<pyo3::exceptions::PyException>(py)
 }
 
 /// A shape as Python writes it: `(2, 3)`, `(5,)`.

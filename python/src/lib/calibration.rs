@@ -138,6 +138,25 @@ impl Calibration {
     }
 }
 
+/// `outward`: a direction (x, y, z), finite and not zero.
+fn direction(o: &Bound<'_, PyAny>) -> PyResult<Vector3<f64>> {
+    let a = array::<f64>("outward", o, "float64", 1)?;
+    let &[x, y, z] = slice("outward", &a)? else {
+        return Err(arg(
+            "outward",
+            format!("{} values: expected a direction (x, y, z)", a.len()),
+        ));
+    };
+    let v = Vector3::new(x, y, z);
+    if !(v.iter().all(|c| c.is_finite()) && v.norm() > 0.0) {
+        return Err(arg(
+            "outward",
+            format!("({x}, {y}, {z}): expected a direction (finite, not zero)"),
+        ));
+    }
+    Ok(v)
+}
+
 /// Fits every taxel's position and normal from probe contacts (thesis Ch. 7.2.4): `centroids`
 /// (K, 3) metres where the probe pressed, `ids` (N,) taxel ids, `responses` (K, N) what each
 /// taxel answered to each contact (0: no answer). The options are `skin calibrate`'s
@@ -172,29 +191,10 @@ pub(crate) fn calibrate(
     if max_open_angle_deg > 360.0 {
         return Err(arg(
             "max_open_angle_deg",
-            format!("{max_open_angle_deg}: at most 360 degrees"),
+            format!("{}: at most 360 degrees", crate::arrays::num(max_open_angle_deg)),
         ));
     }
-    let outward = match outward {
-        Some(o) => {
-            let a = array::<f64>("outward", o, "float64", 1)?;
-            let &[x, y, z] = slice("outward", &a)? else {
-                return Err(arg(
-                    "outward",
-                    format!("{} values: expected a direction (x, y, z)", a.len()),
-                ));
-            };
-            let v = Vector3::new(x, y, z);
-            if !(v.iter().all(|c| c.is_finite()) && v.norm() > 0.0) {
-                return Err(arg(
-                    "outward",
-                    format!("({x}, {y}, {z}): expected a direction (finite, not zero)"),
-                ));
-            }
-            Some(v)
-        }
-        None => None,
-    };
+    let outward = outward.map(direction).transpose()?;
     if min_responses < 5 {
         return Err(arg(
             "min_responses",
@@ -207,7 +207,10 @@ pub(crate) fn calibrate(
         ("max_open_angle_deg", max_open_angle_deg),
     ] {
         if !(v.is_finite() && v > 0.0) {
-            return Err(arg(name, format!("{v}: expected a positive number")));
+            return Err(arg(
+                name,
+                format!("{}: expected a positive number", crate::arrays::num(v)),
+            ));
         }
     }
     let (data, taxels) = probe_dataset(centroids, ids, responses)?;

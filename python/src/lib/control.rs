@@ -41,7 +41,10 @@ impl TaskStack {
             ("tolerance", tolerance),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(arg(name, format!("{v}: expected a number, 0 or more")));
+                return Err(arg(
+                    name,
+                    format!("{}: expected a number, 0 or more", arrays::num(v)),
+                ));
             }
         }
         let r = match regularisation {
@@ -108,7 +111,7 @@ impl TaskStack {
             if !(0.0..=1.0).contains(&a) {
                 return Err(arg(
                     &format!("tasks[{k}] activation"),
-                    format!("{a}: expected 0 to 1"),
+                    format!("{}: expected 0 to 1", arrays::num(a)),
                 ));
             }
             stack.push(Task {

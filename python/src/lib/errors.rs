@@ -57,6 +57,14 @@ pub(crate) fn error(kind: Kind, message: impl Display) -> PyErr {
     })
 }
 
+/// Warns with `message` as a `skin.SkinWarning` (`warnings.warn`), where the command line says
+/// it on its error stream: what the user should know that is no fault.
+pub(crate) fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+    let category = py.import("skin._errors")?.getattr("SkinWarning")?;
+    let text = std::ffi::CString::new(message.replace('\0', " "))?;
+    PyErr::warn(py, &category, &text, 1)
+}
+
 /// The state behind `lock`, unless another thread (or a callable the object is running) holds
 /// it: waiting would hold the GIL that thread needs, so `what` is named as in use instead.
 pub(crate) fn claim<'a, T>(

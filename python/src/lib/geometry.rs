@@ -1,8 +1,9 @@
 //! Layouts, tactile maps and tactile images: `read_layout`, `Link`, `flatten`, `read_map`,
 //! `TactileMap`, `Imager`.
 
-use crate::arrays::{self, array, finite, finite64, slice};
+use crate::arrays::{self, array, finite, finite_from, finite64, slice};
 use crate::errors::{self, Kind, arg};
+use crate::interrupt::Watch;
 use nalgebra::{Point3, Unit, Vector3};
 use numpy::{PyArrayDyn, PyArrayMethods, PyReadwriteArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -359,7 +360,10 @@ pub(crate) fn flatten(py: Python<'_>, link: &Link, triangulate: bool, max_edge: 
     if !(max_edge > 0.0 && max_edge <= 1e3) {
         return Err(arg(
             "max_edge",
-            format!("{max_edge}: expected more than 0, at most 1000 taxel pitches"),
+            format!(
+                "{}: expected more than 0, at most 1000, in taxel pitches (multiples of the distance between neighbouring taxels; not mm or m)",
+                arrays::num(max_edge)
+            ),
         ));
     }
     let options = FlattenOptions {
@@ -492,7 +496,10 @@ impl Imager {
             (None, step) => {
                 let step = step.unwrap_or(1.0);
                 if !(0.01..=1000.0).contains(&step) {
-                    return Err(arg("step_mm", format!("{step}: expected 0.01 to 1000 mm")));
+                    return Err(arg(
+                        "step_mm",
+                        format!("{}: expected 0.01 to 1000 mm", arrays::num(step)),
+                    ));
                 }
                 Grid::StepMm(step)
             }
@@ -510,7 +517,11 @@ impl Imager {
             ("full_scale", Some(k)) => {
                 return Err(arg(
                     "full_scale",
-                    format!("{k}: expected a positive number of counts"),
+                    format!(
+                        "{}: expected a positive number of counts, at most {:e}",
+                        arrays::num(k),
+                        f32::MAX
+                    ),
                 ));
             }
             ("full_scale", None) => {
@@ -527,7 +538,7 @@ impl Imager {
         if !threshold.is_finite() {
             return Err(arg(
                 "threshold",
-                format!("{threshold}: expected a number of counts"),
+                format!("{}: expected a number of counts", arrays::num(threshold)),
             ));
         }
         let size = size
@@ -565,12 +576,16 @@ impl Imager {
         let a = array::<f32>("frame", frame, "float32", 1)?;
         let values = self.check_frames("frame", &a)?;
         let mut out = vec![0u8; self.size.pixels()];
-        self.lock()?.run(values, &mut out)?;
+        self.lock()?.run(values, &mut out, None)?;
         arrays::out(py, out, &[self.size.rows, self.size.cols])
     }
 
     /// Frames (T, N) -> images (T, rows, cols) uint8, into `out` if given (a writable, C-ordered
-    /// uint8 array of that shape). The GIL is released while imaging.
+    /// uint8 array of that shape). Every frame is checked before any is imaged. The GIL is
+    /// released while imaging, a block of frames at a time, each block copied first: a thread
+    /// that writes `frames` meanwhile tears no image and cannot slip a NaN past the check.
+    /// Ctrl-C stops it within a frame and raises `KeyboardInterrupt` (`out`, if given, then holds
+    /// the images of the frames done so far, the rest as they were).
     #[pyo3(signature = (frames, out = None))]
     fn images<'py>(
         &self,
@@ -589,7 +604,7 @@ impl Imager {
             Some(target) => {
                 let mut w = writable(target, &shape)?;
                 let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
-                py.detach(|| state.run(values, dst))?;
+                state.run_blocks(py, values, a.shape(), dst)?;
                 drop(w);
                 Ok(target.clone())
             }
@@ -602,7 +617,7 @@ impl Imager {
                     .cast_into::<PyArrayDyn<u8>>()?;
                 let mut w = target.try_readwrite().map_err(|_| arg("out", "in use"))?;
                 let dst = w.as_slice_mut().map_err(|_| arg("out", "not C-contiguous"))?;
-                py.detach(|| state.run(values, dst))?;
+                state.run_blocks(py, values, a.shape(), dst)?;
                 drop(w);
                 Ok(target.into_any())
             }
@@ -620,7 +635,7 @@ impl Imager {
         let values = self.check_frames("frame", &a)?;
         let mut scratch = vec![0u8; self.size.pixels()];
         let mut state = self.lock()?;
-        state.run(values, &mut scratch)?;
+        state.run(values, &mut scratch, None)?;
         arrays::out(
             py,
             state.inner.pressure_image().to_vec(),
@@ -661,15 +676,57 @@ impl Imager {
     }
 }
 
+/// The frames `Imager.images` copies at a time, bytes: a copy that costs little next to imaging
+/// them, and memory that does not grow with the batch.
+const BLOCK_BYTES: usize = 1 << 20;
+
 impl ImagerState {
-    /// Images each frame of `values` into its slot of `out`.
-    fn run(&mut self, values: &[f32], out: &mut [u8]) -> PyResult<()> {
+    /// Images `values` (frames of `shape`, checked) into `out` a block of frames at a time: each
+    /// block copied and checked again with the GIL held (Python threads may write the caller's
+    /// array while the GIL is released), then imaged with it released, watching for Ctrl-C.
+    fn run_blocks(
+        &mut self,
+        py: Python<'_>,
+        values: &[f32],
+        shape: &[usize],
+        out: &mut [u8],
+    ) -> PyResult<()> {
+        let n = self.pressures.len();
+        let px = self.inner.output_size().pixels();
+        if n == 0 || px == 0 {
+            return Ok(());
+        }
+        let frames = (BLOCK_BYTES / (n * 4)).max(1);
+        let mut block = Vec::with_capacity(frames * n);
+        let watch = Watch::new();
+        for (k, (given, dst)) in values
+            .chunks(frames * n)
+            .zip(out.chunks_mut(frames * px))
+            .enumerate()
+        {
+            block.clear();
+            block.extend_from_slice(given);
+            finite_from("frames", &block, shape, k * frames * n)?;
+            let done = py.detach(|| self.run(&block, dst, Some(&watch)));
+            if let Some(e) = watch.raised() {
+                return Err(e);
+            }
+            done?;
+        }
+        Ok(())
+    }
+
+    /// Images each frame of `values` into its slot of `out`, until `watch` (if any) says stop.
+    fn run(&mut self, values: &[f32], out: &mut [u8], watch: Option<&Watch>) -> PyResult<()> {
         let n = self.pressures.len();
         let px = self.inner.output_size().pixels();
         if n == 0 {
             return Ok(());
         }
         for (frame, dst) in values.chunks_exact(n).zip(out.chunks_exact_mut(px)) {
+            if watch.is_some_and(Watch::stop) {
+                return Ok(());
+            }
             for (p, &v) in self.pressures.iter_mut().zip(frame) {
                 *p = if v > self.threshold { v } else { 0.0 };
             }

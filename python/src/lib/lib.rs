@@ -9,7 +9,7 @@
 //! | `read_recording`, `BusMap`, `read_log`, `CanFrame` | skin-core, skin-can ([`recordings`]) |
 //! | `Session`, `Event`, `Contact`, `read_sim_config`, Python models | skin-learn session ([`session`], [`models`]) |
 //! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
-//! | `synthesize`, `read_grey` | skin-learn synth, dataset ([`synth`]) |
+//! | `synthesize`, `read_grey`, `Dataset` | skin-learn synth, dataset ([`synth`]) |
 //! | `TaskStack` | skin-control ([`control`]) |
 
 mod arrays;
@@ -17,6 +17,7 @@ mod calibration;
 mod control;
 mod errors;
 mod geometry;
+mod interrupt;
 mod models;
 mod recordings;
 mod session;
@@ -27,6 +28,7 @@ use pyo3::prelude::*;
 /// The module.
 #[pymodule]
 fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    load_numpy(m.py())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<geometry::Link>()?;
     m.add_class::<geometry::Layout>()?;
@@ -44,12 +46,29 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<session::Session>()?;
     m.add_class::<session::Event>()?;
     m.add_class::<session::Contact>()?;
+    m.add_function(wrap_pyfunction!(session::_event, m)?)?;
+    m.add_function(wrap_pyfunction!(session::_contact, m)?)?;
     m.add_function(wrap_pyfunction!(session::read_sim_config, m)?)?;
     m.add_class::<calibration::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibration::read_probes, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(synth::synthesize, m)?)?;
     m.add_function(wrap_pyfunction!(synth::read_grey, m)?)?;
+    m.add_class::<synth::Dataset>()?;
     m.add_class::<control::TaskStack>()?;
+    Ok(())
+}
+
+/// Loads numpy's C API and rust-numpy's borrow checking now, with the module, rather than in
+/// the first call that makes or reads an array: loading them runs Python code, and a Ctrl-C
+/// pending then (at the end of a long first call) made the loader panic, a `PanicException`
+/// that `except Exception` does not catch. Here the only Python code runs first, in a call that
+/// fails with the interrupt's own exception; what follows reads modules already imported.
+fn load_numpy(py: Python<'_>) -> PyResult<()> {
+    use numpy::PyArrayMethods;
+    numpy::get_array_module(py)?;
+    let probe = numpy::PyArray1::<u8>::zeros(py, 1, false);
+    drop(probe.try_readwrite()?);
+    drop(probe.try_readonly()?);
     Ok(())
 }

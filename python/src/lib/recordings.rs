@@ -2,16 +2,19 @@
 //! per link, with their missing modules).
 
 use crate::arrays::{self, array, slice};
-use crate::errors::{self, arg};
+use crate::errors::{self, Kind, arg};
 use crate::geometry::Layout;
+use crate::interrupt::{self, Watch};
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use skin_can::candump::CandumpReader;
 use skin_can::{AssembledFrame, Assembler, BusMap as RustBusMap, LayoutFrames, Missing};
 use skin_core::TaxelId;
+use skin_core::format::recording::RecordingReader;
+use skin_core::text::Gzip;
 use std::collections::VecDeque;
-use std::path::PathBuf;
-use std::sync::Mutex;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 /// The largest array `for_taxels` makes, bytes.
 const MAX_ARRAY_BYTES: usize = 8 << 30;
@@ -72,7 +75,7 @@ impl Recording {
         if !threshold.is_finite() {
             return Err(arg(
                 "threshold",
-                format!("{threshold}: expected a number of counts"),
+                format!("{}: expected a number of counts", arrays::num(threshold)),
             ));
         }
         let a = array::<i64>("ids", ids, "int64", 1)?;
@@ -120,13 +123,16 @@ impl Recording {
 }
 
 /// Reads a Cyskin raw recording (line 1: taxel ids; then frame number, time in s, one reading
-/// per id); gzip-compressed files too. The GIL is released while reading.
+/// per id); gzip-compressed files too. The GIL is released while reading; Ctrl-C ends the read,
+/// a named pipe's wait for its writer too.
 #[pyfunction]
 pub(crate) fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<Recording> {
-    let inner = py
-        .detach(|| skin_core::format::recording::read(&path))
-        .map_err(errors::core)?;
-    Ok(Recording { inner, path })
+    let watch = Arc::new(Watch::new());
+    let read = py.detach(|| open_recording(&path, &watch)?.into_recording());
+    match read {
+        Ok(inner) => Ok(Recording { inner, path }),
+        Err(e) => Err(watch.raised().unwrap_or_else(|| errors::core(e))),
+    }
 }
 
 /// A bus map (`busmap.toml`): which module on which bus carries which taxels.
@@ -259,13 +265,18 @@ struct LogState {
     ended: bool,
 }
 
-/// The assembled frames of a candump log, read as they are asked for (any length of log).
+/// The assembled frames of a candump log, read as they are asked for (any length of log). The
+/// GIL is released while reading; Ctrl-C ends a read (a named pipe's wait for data too), and
+/// the log is not read further after that: read it again.
 #[pyclass(module = "skin._skin")]
 pub(crate) struct LogFrames {
     state: Mutex<LogState>,
     interfaces: Vec<String>,
     /// (link, taxel index) of the layout's taxels on no bus of the map.
     uncovered: Vec<(String, usize)>,
+    /// Ctrl-C during a read; the reader's place in the log is then unknown.
+    watch: Arc<Watch>,
+    path: PathBuf,
 }
 
 #[pymethods]
@@ -283,6 +294,15 @@ impl LogFrames {
     }
 
     fn __next__(&self, py: Python<'_>) -> PyResult<Option<CanFrame>> {
+        if self.watch.tripped() {
+            return Err(errors::error(
+                Kind::Input,
+                format!(
+                    "{}: its reading was interrupted (Ctrl-C) part-way through a frame: read the log again",
+                    self.path.display()
+                ),
+            ));
+        }
         let next = py.detach(|| {
             let mut state = self
                 .state
@@ -290,11 +310,14 @@ impl LogFrames {
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
             state.next()
         });
-        Ok(next.map_err(errors::can)?.map(|(frame, values)| CanFrame {
-            frame,
-            values,
-            interfaces: self.interfaces.clone(),
-        }))
+        match next {
+            Ok(next) => Ok(next.map(|(frame, values)| CanFrame {
+                frame,
+                values,
+                interfaces: self.interfaces.clone(),
+            })),
+            Err(e) => Err(self.watch.raised().unwrap_or_else(|| errors::can(e))),
+        }
     }
 }
 
@@ -334,10 +357,20 @@ impl LogState {
 }
 
 /// Reads a candump log (`candump -l` or `-L`; gzip too) through `busmap` onto the links of
-/// `layout`: an iterator of `CanFrame`s, one per sync cycle.
+/// `layout`: an iterator of `CanFrame`s, one per sync cycle. The GIL is released while the file
+/// is opened (a named pipe waits for its writer, which may be a thread of this process) and
+/// read; Ctrl-C ends either wait.
 #[pyfunction]
-pub(crate) fn read_log(path: PathBuf, busmap: &BusMap, layout: &Layout) -> PyResult<LogFrames> {
-    let reader = CandumpReader::open(&path).map_err(errors::can)?;
+pub(crate) fn read_log(
+    py: Python<'_>,
+    path: PathBuf,
+    busmap: &BusMap,
+    layout: &Layout,
+) -> PyResult<LogFrames> {
+    let watch = Arc::new(Watch::new());
+    let reader = py
+        .detach(|| open_log(&path, &watch))
+        .map_err(|e| watch.raised().unwrap_or_else(|| errors::can(e)))?;
     let ids: Vec<Vec<TaxelId>> = layout.links.iter().map(skin_core::LinkSkin::ids).collect();
     let layout_frames = LayoutFrames::new(&busmap.inner, &ids, Missing::NotANumber).map_err(errors::can)?;
     let uncovered = layout_frames
@@ -355,5 +388,18 @@ pub(crate) fn read_log(path: PathBuf, busmap: &BusMap, layout: &Layout) -> PyRes
         }),
         interfaces: busmap.inner.buses.iter().map(|b| b.interface.clone()).collect(),
         uncovered,
+        watch,
+        path,
     })
+}
+
+/// A candump log opened for reading with its reads watched ([`interrupt::open`]).
+pub(crate) fn open_log(path: &Path, watch: &Arc<Watch>) -> Result<CandumpReader, skin_can::Error> {
+    let input = interrupt::open(path, Gzip::Read, watch)?;
+    Ok(CandumpReader::new(input, path))
+}
+
+/// A recording opened for reading frame by frame with its reads watched ([`interrupt::open`]).
+pub(crate) fn open_recording(path: &Path, watch: &Arc<Watch>) -> skin_core::Result<RecordingReader> {
+    RecordingReader::new(interrupt::open(path, Gzip::Read, watch)?, path)
 }

@@ -5,8 +5,9 @@
 use crate::arrays::{array, slice};
 use crate::errors::{self, Kind, arg};
 use crate::geometry::Layout;
+use crate::interrupt::Watch;
 use crate::models::{Callable, Raised, reraise};
-use crate::recordings::{BusMap, CanFrame};
+use crate::recordings::{BusMap, CanFrame, open_log, open_recording};
 use numpy::{PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -16,7 +17,8 @@ use skin_core::{LinkSkin, Polarity};
 use skin_learn::card::ModelCard;
 use skin_learn::model::{Classes, Models};
 use skin_learn::session::{
-    Event as RustEvent, Session as RustSession, SessionConfig, SessionOptions, SimConfig,
+    Event as RustEvent, Flow, InputError, ProcessedFrame, Session as RustSession, SessionConfig,
+    SessionError, SessionOptions, SimConfig, Sink,
 };
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::{Path, PathBuf};
@@ -93,6 +95,35 @@ impl Event {
         parts.extend(self.fields.iter().map(|(k, v)| format!("{k}={v}")));
         format!("Event({})", parts.join(", "))
     }
+
+    /// Pickles as its kind, its fields as JSON text (numbers exactly) and its image.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, EventState)> {
+        let restore = py.import("skin._skin")?.getattr("_event")?;
+        let fields = serde_json::to_string(&self.fields).map_err(|e| errors::error(Kind::Session, e))?;
+        Ok((restore, (self.kind.clone(), fields, self.image(py))))
+    }
+}
+
+/// What an [`Event`] pickles as: kind, fields as JSON text, image.
+type EventState = (String, String, Option<Py<PyAny>>);
+
+/// An unpickled [`Event`].
+#[pyfunction]
+pub(crate) fn _event(kind: String, fields: &str, image: Option<Bound<'_, PyAny>>) -> PyResult<Event> {
+    let fields = match serde_json::from_str(fields) {
+        Ok(serde_json::Value::Object(fields)) => fields,
+        _ => return Err(arg("fields", "not the JSON object of a pickled Event")),
+    };
+    if let Some(image) = &image {
+        image
+            .cast::<numpy::PyArray2<u8>>()
+            .map_err(|_| arg("image", "not the (rows, cols) uint8 image of a pickled Event"))?;
+    }
+    Ok(Event {
+        kind,
+        fields,
+        image: image.map(Bound::unbind),
+    })
 }
 
 impl Event {
@@ -168,12 +199,15 @@ fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
     })
 }
 
-/// One contact of the last frame on a link.
+/// One contact of the last frame on a link. A value: compared, copied and pickled by its fields.
 #[pyclass(module = "skin._skin", frozen, get_all, eq)]
 #[derive(PartialEq)]
 pub(crate) struct Contact {
-    /// Layout indices of its taxels, ascending.
+    /// Its taxels as indices into the link's taxels (layout order, as `Link.ids` and a frame's
+    /// readings are), ascending: not taxel ids ([`Contact::taxel_ids`] has those).
     taxels: Vec<usize>,
+    /// Its taxels' ids, in the order of `taxels`.
+    taxel_ids: Vec<u32>,
     /// Pressure-weighted centroid, metres in the link's frame.
     centroid: (f64, f64, f64),
     /// Pressure-weighted outward normal (unit), when the contact search carries normals (the
@@ -199,6 +233,50 @@ impl Contact {
             self.peak_pressure
         )
     }
+
+    /// Pickles as its fields.
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, pyo3::types::PyTuple>)> {
+        use pyo3::IntoPyObjectExt;
+        let restore = py.import("skin._skin")?.getattr("_contact")?;
+        let args = pyo3::types::PyTuple::new(
+            py,
+            [
+                self.taxels.clone().into_py_any(py)?,
+                self.taxel_ids.clone().into_py_any(py)?,
+                self.centroid.into_py_any(py)?,
+                self.normal.into_py_any(py)?,
+                self.mean_pressure.into_py_any(py)?,
+                self.peak_pressure.into_py_any(py)?,
+            ],
+        )?;
+        Ok((restore, args))
+    }
+}
+
+/// An unpickled [`Contact`].
+#[pyfunction]
+pub(crate) fn _contact(
+    taxels: Vec<usize>,
+    taxel_ids: Vec<u32>,
+    centroid: (f64, f64, f64),
+    normal: Option<(f64, f64, f64)>,
+    mean_pressure: f32,
+    peak_pressure: f32,
+) -> PyResult<Contact> {
+    if taxels.len() != taxel_ids.len() {
+        return Err(arg("taxel_ids", "not one id per taxel: not a pickled Contact"));
+    }
+    Ok(Contact {
+        taxels,
+        taxel_ids,
+        centroid,
+        normal,
+        mean_pressure,
+        peak_pressure,
+    })
 }
 
 /// What the Python session holds.
@@ -366,7 +444,7 @@ impl<'py> ModelChoice<'py> {
             if names.is_empty() {
                 return Err(arg("classes", "no class"));
             }
-            return Ok(Classes::new(names.clone(), hand));
+            return Classes::named(names.clone(), hand).map_err(|e| arg("classes", e));
         }
         let mut classes = Classes::hand_or_not();
         if let Some(card) = card_of.and_then(ModelCard::for_model) {
@@ -485,6 +563,7 @@ impl Session {
             let models = choice.models(Some(&config), size, &raised)?;
             RustSession::from_config_with_models(&config, models).map_err(errors::session)?
         };
+        say_setup(py, &session)?;
         Ok(Session::wrap(session, raised))
     }
 
@@ -518,21 +597,29 @@ impl Session {
         let (rows, cols) = image_size.map_or(Ok((68, 100)), |s| crate::arrays::pair("image_size", s))?;
         let size = ImageSize::new(rows, cols).map_err(|e| arg("image_size", e))?;
         // run.toml's bounds for the same fields.
-        let whole = |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, range: (usize, usize)| {
-            let n = v.map_or(Ok(default), |v| crate::arrays::count(name, v))?;
-            if !(range.0..=range.1).contains(&n) {
-                return Err(arg(name, format!("{n}: expected {} to {}", range.0, range.1)));
-            }
-            Ok(n)
-        };
-        let baseline_frames = whole("baseline_frames", baseline_frames, 20, (2, 100_000))?;
-        let min_taxels = whole("min_taxels", min_taxels, 2, (1, 1_000_000))?;
-        let decide_frames = whole("decide_frames", decide_frames, 3, (1, 1_000_000))?;
-        let release_frames = whole("release_frames", release_frames, 2, (1, 1_000_000))?;
+        let whole =
+            |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, range: (usize, usize), what: &str| {
+                v.map_or(Ok(default), |v| {
+                    crate::arrays::bounded(name, v, range.0, range.1, what)
+                })
+            };
+        let baseline_frames = whole(
+            "baseline_frames",
+            baseline_frames,
+            20,
+            (2, 100_000),
+            "untouched frames the baseline learns from; 2 at least to measure noise",
+        )?;
+        let min_taxels = whole("min_taxels", min_taxels, 2, (1, 1_000_000), "taxels")?;
+        let decide_frames = whole("decide_frames", decide_frames, 3, (1, 1_000_000), "frames")?;
+        let release_frames = whole("release_frames", release_frames, 2, (1, 1_000_000), "frames")?;
         if !(0.0..=1e9).contains(&threshold) {
             return Err(arg(
                 "threshold",
-                format!("{threshold}: expected counts, 0 or more"),
+                format!(
+                    "{}: expected counts from 0 to 1e9",
+                    crate::arrays::num(f64::from(threshold))
+                ),
             ));
         }
         let polarity = match polarity {
@@ -576,6 +663,7 @@ impl Session {
         if let Some(b) = busmap {
             session = session.with_can(&b.inner).map_err(errors::session)?;
         }
+        say_setup(py, &session)?;
         Ok(Session::wrap(session, raised))
     }
 
@@ -699,7 +787,9 @@ impl Session {
         take(py, inner, result.map(|_| ()), "")
     }
 
-    /// Ends the session: touches still open are released. Returns those events.
+    /// Ends the session: touches still open are released. Returns those events. A session that
+    /// ended before its baseline was learned had no touch to release: it returns none and warns
+    /// (`SkinWarning`), where a whole log or recording that short (`run_log`) is an error.
     fn finish(&self, py: Python<'_>) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
@@ -708,11 +798,22 @@ impl Session {
         }
         inner.ended = Some("finish()");
         let result = inner.session.finish(&mut inner.events);
+        // The Rust session says the input was too short for its baseline; frames pushed one at a
+        // time end where their caller stops, and a stop that early is no fault to raise.
+        if let Err(e @ SessionError::Input(input)) = &result
+            && matches!(**input, InputError::TooShort { .. })
+        {
+            inner.events.clear();
+            errors::warn(py, &format!("finish(): {e}: no touch was tracked"))?;
+            return Ok(Vec::new());
+        }
         take(py, inner, result.map(|_| ()), "")
     }
 
     /// A whole candump log (gzip too) through the session, as `skin run --log` does; open touches
-    /// are released at its end. Returns every event. The GIL is released while it runs.
+    /// are released at its end. Returns every event. The GIL is released while it runs; Ctrl-C
+    /// stops it within a frame (a named pipe's wait too) and raises `KeyboardInterrupt`, the
+    /// events so far dropped and the session ended.
     fn run_log(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
@@ -720,26 +821,40 @@ impl Session {
             return Err(no_busmap());
         }
         fresh(inner, "run_log()")?;
+        let watch = Arc::new(Watch::new());
         // A file that cannot be opened leaves the session as it was.
-        let log = skin_can::candump::CandumpReader::open(&path).map_err(errors::can)?;
+        let log = py
+            .detach(|| open_log(&path, &watch))
+            .map_err(|e| watch.raised().unwrap_or_else(|| errors::can(e)))?;
         inner.ended = Some("run_log()");
         let session = &mut inner.session;
-        let events = &mut inner.events;
-        let result = py.detach(|| session.run_log(log, &path, events, &mut |_, _| {}).map(|_| ()));
+        let mut sink = Collect {
+            events: &mut inner.events,
+            watch: &watch,
+        };
+        let result = py.detach(|| session.run_log(log, &path, &mut sink, &mut |_, _| {}).map(|_| ()));
+        interrupted(inner, &watch, "run_log(), interrupted")?;
         take(py, inner, result, &path.display().to_string())
     }
 
     /// A whole Cyskin recording through the session, as `skin run --recording` does. Returns
-    /// every event. The GIL is released while it runs.
+    /// every event. The GIL is released while it runs; Ctrl-C stops it as it does `run_log`.
     fn run_recording(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<Event>> {
         let mut guard = self.lock()?;
         let inner = &mut *guard;
         fresh(inner, "run_recording()")?;
-        let rec = skin_core::format::recording::RecordingReader::open(&path).map_err(errors::core)?;
+        let watch = Arc::new(Watch::new());
+        let rec = py
+            .detach(|| open_recording(&path, &watch))
+            .map_err(|e| watch.raised().unwrap_or_else(|| errors::core(e)))?;
         inner.ended = Some("run_recording()");
         let session = &mut inner.session;
-        let events = &mut inner.events;
-        let result = py.detach(|| session.run_recording(rec, &path, events).map(|_| ()));
+        let mut sink = Collect {
+            events: &mut inner.events,
+            watch: &watch,
+        };
+        let result = py.detach(|| session.run_recording(rec, &path, &mut sink).map(|_| ()));
+        interrupted(inner, &watch, "run_recording(), interrupted")?;
         take(py, inner, result, &path.display().to_string())
     }
 
@@ -747,6 +862,7 @@ impl Session {
     fn contacts(&self, link: &Bound<'_, PyAny>) -> PyResult<Vec<Contact>> {
         let k = self.link_index(link)?;
         let guard = self.lock()?;
+        let taxels = &guard.session.links()[k].taxels;
         Ok(guard
             .session
             .pipeline()
@@ -754,6 +870,11 @@ impl Session {
             .iter()
             .map(|c| Contact {
                 taxels: c.taxels.clone(),
+                taxel_ids: c
+                    .taxels
+                    .iter()
+                    .filter_map(|&i| taxels.get(i).map(|t| t.id.0))
+                    .collect(),
                 centroid: (c.centroid.x, c.centroid.y, c.centroid.z),
                 normal: c.normal.map(|n| (n.x, n.y, n.z)),
                 mean_pressure: c.mean_pressure,
@@ -805,9 +926,87 @@ impl Session {
         Ok(d)
     }
 
+    /// The layout's taxels that no slot of the bus map carries, as (link name, taxel id), in
+    /// layout order: they never read, and contacts and images bridge them as dead. Empty without
+    /// a bus map. Building such a session warns (`SkinWarning`), as `skin run` does.
+    #[getter]
+    fn uncovered(&self) -> PyResult<Vec<(String, u32)>> {
+        Ok(self
+            .lock()?
+            .session
+            .uncovered()
+            .into_iter()
+            .map(|(link, id)| (link.to_owned(), id.0))
+            .collect())
+    }
+
     fn __repr__(&self) -> String {
         format!("Session(links {:?}, taxels {:?})", self.names, self.sizes)
     }
+
+    /// A session is not a value: it holds its models and the state of a run (baselines, open
+    /// touches), which a copy could not share.
+    fn __reduce__(&self) -> PyResult<()> {
+        Err(pyo3::exceptions::PyTypeError::new_err(
+            "a Session cannot be pickled: it holds its models and the state of a run; pickle its events (Event pickles, and event.to_dict() is the events.jsonl line), or build a new Session from the same run.toml",
+        ))
+    }
+}
+
+/// The session's events collected, and a look for Ctrl-C after each frame: a whole log stops
+/// within a frame of it.
+struct Collect<'a> {
+    events: &'a mut Vec<RustEvent>,
+    watch: &'a Watch,
+}
+
+impl Sink for Collect<'_> {
+    type Error = std::convert::Infallible;
+
+    fn event(&mut self, event: &RustEvent) -> Result<Flow, Self::Error> {
+        self.events.push(event.clone());
+        Ok(Flow::Continue(()))
+    }
+
+    fn frame(&mut self, _: &ProcessedFrame<'_>) -> Result<Flow, Self::Error> {
+        Ok(if self.watch.stop() {
+            Flow::Break(())
+        } else {
+            Flow::Continue(())
+        })
+    }
+}
+
+/// The exception a signal handler raised during a whole run, if one did: the run's events are
+/// dropped (a run cut short is not returned as if whole) and the session is ended as `by`.
+fn interrupted(inner: &mut Inner, watch: &Watch, by: &'static str) -> PyResult<()> {
+    match watch.raised() {
+        Some(e) => {
+            inner.events.clear();
+            inner.ended = Some(by);
+            Err(e)
+        }
+        None => Ok(()),
+    }
+}
+
+/// Warns of what `skin run` says about a new session: layout taxels on no bus (the session's
+/// own list of them), what reading its layout did.
+fn say_setup(py: Python<'_>, session: &RustSession) -> PyResult<()> {
+    let uncovered = session.uncovered();
+    if let Some((link, id)) = uncovered.first() {
+        errors::warn(
+            py,
+            &format!(
+                "{} layout taxel(s) are on no bus of the bus map (first: taxel {id} of link \"{link}\"): dead, they never read (Session.uncovered lists them)",
+                uncovered.len()
+            ),
+        )?;
+    }
+    for note in session.layout_notes() {
+        errors::warn(py, &note.to_string())?;
+    }
+    Ok(())
 }
 
 impl Session {
@@ -1010,10 +1209,19 @@ fn no_busmap() -> PyErr {
     )
 }
 
+/// The latest stamp a frame may have, seconds: microseconds in 64 bits.
+const MAX_SECONDS: f64 = 1.8e13;
+
 /// Seconds as whole microseconds.
 fn seconds(name: &str, t: f64) -> PyResult<u64> {
-    if !(0.0..1.8e13).contains(&t) {
-        return Err(arg(name, format!("{t}: expected seconds, 0 or more")));
+    if !(0.0..MAX_SECONDS).contains(&t) {
+        return Err(arg(
+            name,
+            format!(
+                "{}: expected seconds from 0 to {MAX_SECONDS:e} (stamps are whole microseconds in 64 bits)",
+                crate::arrays::num(t)
+            ),
+        ));
     }
     Ok((t * 1e6).round() as u64)
 }

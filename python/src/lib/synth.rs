@@ -4,12 +4,14 @@
 use crate::arrays;
 use crate::errors::{self, Kind, arg};
 use crate::geometry::TactileMap;
+use crate::interrupt::{self, Watch};
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
 use skin_learn::synth::{DeadSpots, MaskLabels, Removal, SynthOptions, Synthesizer};
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 
 /// The most memory the arrays of one call may take, bytes (as `skin synth`).
 const MAX_BYTES: usize = 8 << 30;
@@ -20,7 +22,8 @@ const MAX_BYTES: usize = 8 << 30;
 /// `partial` and `fingertips` (S,) bool, `pressures` (S, N) float32 and `taxel_parts` (S, N) uint8
 /// in map order, and `removed` and `dead` (S,) float64: the fraction of the taxels removed from,
 /// or dead in blind spots on, the map each image was made on (0 for the whole map). Made in
-/// parallel with the GIL released.
+/// parallel with the GIL released; Ctrl-C stops it within a sample and raises
+/// `KeyboardInterrupt`, nothing returned.
 ///
 /// The options are those of `skin synth`: `mask_labels` ("pressing" or "as-imaged"),
 /// `remove_up_to` with `thinned_share` (0.5), `blind_spots` with `blind_radius_mm` (40) and
@@ -71,7 +74,10 @@ pub(crate) fn synthesize<'py>(
         ));
     }
     if !(0.0..=1.0).contains(&hand_fraction) {
-        return Err(arg("hand_fraction", format!("{hand_fraction}: expected 0 to 1")));
+        return Err(arg(
+            "hand_fraction",
+            format!("{}: expected 0 to 1", arrays::num(hand_fraction)),
+        ));
     }
     let subjects = subjects.unwrap_or(count.div_ceil(40)).clamp(1, count);
     let labels = match mask_labels {
@@ -103,20 +109,44 @@ pub(crate) fn synthesize<'py>(
         &map.inner,
         seed,
     )?;
-    let samples: Vec<_> = py.detach(|| {
-        (0..count)
-            .into_par_iter()
-            .map_init(
-                || synth.clone(),
-                |s, i| {
-                    let subject = i * subjects / count;
-                    let first = (subject * count).div_ceil(subjects);
-                    s.sample(seed, subject as u32, (i - first) as u32)
-                },
-            )
-            .collect()
-    });
+    let samples = sample_all(py, &synth, seed, subjects, count)?;
     samples_dict(py, &samples, image, map.inner.ids.len())
+}
+
+/// The `count` samples of `subjects` subjects, made in parallel with the GIL released (sample i
+/// belongs to subject i * subjects / count); Ctrl-C stops it within a sample.
+fn sample_all(
+    py: Python<'_>,
+    synth: &Synthesizer,
+    seed: u64,
+    subjects: usize,
+    count: usize,
+) -> PyResult<Vec<skin_learn::synth::Sample>> {
+    let watch = Watch::new();
+    let samples: Option<Vec<_>> = py.detach(|| {
+        interrupt::on_worker(&watch, |stop| {
+            (0..count)
+                .into_par_iter()
+                .map_init(
+                    || synth.clone(),
+                    |s, i| {
+                        if stop.load(Ordering::Relaxed) {
+                            return None;
+                        }
+                        let subject = i * subjects / count;
+                        let first = (subject * count).div_ceil(subjects);
+                        Some(s.sample(seed, subject as u32, (i - first) as u32))
+                    },
+                )
+                .collect()
+        })
+    });
+    // Only a stop leaves a sample out.
+    samples.ok_or_else(|| {
+        watch
+            .raised()
+            .unwrap_or_else(|| errors::error(Kind::Other, "synthesize: stopped before every sample was made"))
+    })
 }
 
 /// `synthesize`'s degraded maps: taxels removed (Test B) and blind spots (Test A), as `skin synth
@@ -179,7 +209,7 @@ impl Degrade {
             if v.is_finite() && (lo..=hi).contains(&v) {
                 Ok(())
             } else {
-                Err(arg(name, format!("{v}: expected {lo} to {hi}")))
+                Err(arg(name, format!("{}: expected {lo} to {hi}", arrays::num(v))))
             }
         };
         within("thinned_share", self.thinned_share, 0.0, 1.0)?;
@@ -216,7 +246,10 @@ impl Degrade {
             {
                 return Err(arg(
                     "blind_radius_mm",
-                    format!("{}: expected above 0, at most 1000", self.blind_radius_mm),
+                    format!(
+                        "{}: expected above 0, at most 1000 mm",
+                        arrays::num(self.blind_radius_mm)
+                    ),
                 ));
             }
             let dead = DeadSpots {
@@ -290,4 +323,59 @@ pub(crate) fn read_grey<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'
     let (pixels, rows, cols) =
         skin_learn::dataset::read_grey(&path).map_err(|e| errors::raise(Kind::Input, &e))?;
     arrays::out(py, pixels, &[rows, cols])
+}
+
+/// The samples of a dataset folder (`labels.csv`, `images/`, `masks/`: what `skin synth` writes),
+/// read as `skin eval` reads them: what `skin.SynthDataset` stands on. A file name of
+/// labels.csv that leaves the folder is refused with its line, when the folder is read; a file
+/// that links out of it, when it is opened.
+#[pyclass(module = "skin._skin", frozen)]
+pub(crate) struct Dataset {
+    inner: skin_learn::dataset::Dataset,
+}
+
+#[pymethods]
+impl Dataset {
+    /// Reads `root/labels.csv`.
+    #[new]
+    fn new(root: PathBuf) -> PyResult<Dataset> {
+        let inner = skin_learn::dataset::Dataset::read(&root).map_err(|e| errors::raise(Kind::Input, &e))?;
+        Ok(Dataset { inner })
+    }
+
+    /// Each sample as (file, hand, kind, subject, partial, fingertips), in row order.
+    #[getter]
+    fn entries(&self) -> Vec<(String, bool, String, u32, bool, bool)> {
+        self.inner
+            .entries
+            .iter()
+            .map(|e| {
+                (
+                    e.file.clone(),
+                    e.hand,
+                    e.kind.clone(),
+                    e.subject,
+                    e.partial,
+                    e.fingertips,
+                )
+            })
+            .collect()
+    }
+
+    /// Sample `i`'s image, (rows, cols) uint8.
+    fn image<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+        let (pixels, rows, cols) = self.inner.image(i).map_err(|e| errors::raise(Kind::Input, &e))?;
+        arrays::out(py, pixels, &[rows, cols])
+    }
+
+    /// Sample `i`'s part mask, (rows, cols) uint8 (all background for a sample that is not a
+    /// hand and has no mask file).
+    fn mask<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+        let (pixels, rows, cols) = self.inner.mask(i).map_err(|e| errors::raise(Kind::Input, &e))?;
+        arrays::out(py, pixels, &[rows, cols])
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.entries.len()
+    }
 }

@@ -27,6 +27,7 @@ from ._errors import (
     ModelError,
     SessionError,
     SkinError,
+    SkinWarning,
 )
 from ._skin import (
     BusMap,
@@ -76,6 +77,7 @@ __all__ = [
     "Session",
     "SessionError",
     "SkinError",
+    "SkinWarning",
     "SynthDataset",
     "TactileMap",
     "TaskStack",

@@ -37,6 +37,12 @@ class ControlError(SkinError):
     """The task stack cannot be solved as given."""
 
 
+class SkinWarning(UserWarning):
+    """What `skin` warns of where the command line says it on its error stream: no fault, but
+    worth knowing (layout taxels on no bus of the bus map, a session ended before its baseline
+    was learned). Filter it with ``warnings.filterwarnings(..., category=skin.SkinWarning)``."""
+
+
 __all__ = [
     "SkinError",
     "InputError",
@@ -46,4 +52,5 @@ __all__ = [
     "GeometryError",
     "SessionError",
     "ControlError",
+    "SkinWarning",
 ]

@@ -75,7 +75,9 @@ class TactileMap:
     def to_svg(self) -> str: ...
     def __len__(self) -> int: ...
 
-def flatten(link: Link, *, triangulate: bool = False, max_edge: float = 3.0) -> TactileMap: ...
+def flatten(link: Link, *, triangulate: bool = False, max_edge: float = 3.0) -> TactileMap:
+    """LSCM, as `skin flatten`; a new triangulation (`triangulate`) drops edges longer than
+    `max_edge` taxel pitches (multiples of the distance between neighbouring taxels, not mm or m)."""
 def read_map(path: _Path, link: Optional[str] = None) -> TactileMap:
     """A map file, or a layout's link flattened (`link` names it when the layout has several)."""
 
@@ -102,7 +104,9 @@ class Imager:
     def image(self, frame: _Array) -> npt.NDArray[np.uint8]:
         """(N,) readings in map order -> (rows, cols)."""
     def images(self, frames: _Array, out: Optional[npt.NDArray[np.uint8]] = None) -> npt.NDArray[np.uint8]:
-        """(T, N) -> (T, rows, cols); the GIL is released."""
+        """(T, N) -> (T, rows, cols); every frame checked first, then imaged a copied block at a
+        time with the GIL released. Ctrl-C raises KeyboardInterrupt within a frame (`out` then
+        holds the frames done so far)."""
     def pressure_image(self, frame: _Array) -> npt.NDArray[np.float32]: ...
 
 class Recording:
@@ -120,7 +124,8 @@ class Recording:
     def for_taxels(self, ids: _Array, threshold: float = 0.0) -> npt.NDArray[np.float32]: ...
     def __len__(self) -> int: ...
 
-def read_recording(path: _Path) -> Recording: ...
+def read_recording(path: _Path) -> Recording:
+    """The GIL is released while reading; Ctrl-C ends it (a named pipe's wait for a writer too)."""
 
 class BusMap:
     @staticmethod
@@ -149,16 +154,20 @@ class CanFrame:
     def complete(self) -> bool: ...
 
 class LogFrames(Iterator[CanFrame]):
+    """Frames read as asked for, the GIL released; after Ctrl-C ended a read, the next raises
+    InputError (read the log again)."""
+
     @property
     def uncovered(self) -> List[Tuple[str, int]]:
         """(link, taxel index) of the layout's taxels on no bus: NaN in every frame."""
     def __iter__(self) -> "LogFrames": ...
     def __next__(self) -> CanFrame: ...
 
-def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames: ...
+def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames:
+    """A named pipe's wait for its writer (a thread of this process too) releases the GIL and ends on Ctrl-C."""
 
 class Event:
-    """A session event: `kind` and the fields events.jsonl documents, as attributes."""
+    """A session event: `kind` and the fields events.jsonl documents, as attributes. Pickles."""
 
     @property
     def kind(self) -> str: ...
@@ -168,18 +177,37 @@ class Event:
     def __getitem__(self, name: str) -> Any: ...
     def to_dict(self) -> Dict[str, Any]: ...
 
+def _event(kind: str, fields: str, image: Optional[npt.NDArray[np.uint8]]) -> Event:
+    """An unpickled Event."""
+
 class Contact:
+    """One contact of the last frame on a link; a value (compared, pickled by its fields)."""
+
     taxels: List[int]
+    """Indices into the link's taxels (layout order), ascending: not ids (`taxel_ids`)."""
+    taxel_ids: List[int]
+    """The same taxels' ids, in the order of `taxels`."""
     centroid: Tuple[float, float, float]
     normal: Optional[Tuple[float, float, float]]
     mean_pressure: float
     peak_pressure: float
 
+def _contact(
+    taxels: Sequence[int],
+    taxel_ids: Sequence[int],
+    centroid: Tuple[float, float, float],
+    normal: Optional[Tuple[float, float, float]],
+    mean_pressure: float,
+    peak_pressure: float,
+) -> Contact:
+    """An unpickled Contact."""
+
 # image (rows, cols) uint8 -> class probabilities (0 to 1), or part labels (rows, cols) 0..6.
 _Model = Callable[[npt.NDArray[np.uint8]], Any]
 
 class Session:
-    """The per-frame pipeline of a skin: frames in, events out."""
+    """The per-frame pipeline of a skin: frames in, events out. Not picklable (TypeError): pickle
+    its events. Building one whose bus map leaves layout taxels on no bus warns (SkinWarning)."""
 
     @staticmethod
     def from_config(
@@ -214,10 +242,13 @@ class Session:
     def push_bus(self, values: _Array, time: float, missing: Sequence[Tuple[str, int]] = ()) -> List[Event]:
         """(S,) counts in bus-map slot order, and the modules lost (interface, address): a CAN frame."""
     def finish(self) -> List[Event]:
-        """Releases open touches; the session then takes no more frames."""
+        """Releases open touches; the session then takes no more frames. Before the baseline
+        was learned: no events, and a SkinWarning."""
     def run_log(self, path: _Path) -> List[Event]:
-        """A whole log, on a new session (which it ends)."""
-    def run_recording(self, path: _Path) -> List[Event]: ...
+        """A whole log, on a new session (which it ends); the GIL is released, and Ctrl-C raises
+        KeyboardInterrupt within a frame, the events dropped."""
+    def run_recording(self, path: _Path) -> List[Event]:
+        """As run_log, for a Cyskin recording."""
     def contacts(self, link: Union[int, str]) -> List[Contact]: ...
     @property
     def links(self) -> List[str]: ...
@@ -229,6 +260,9 @@ class Session:
     def gate(self) -> Optional[str]: ...
     @property
     def stats(self) -> Dict[str, int]: ...
+    @property
+    def uncovered(self) -> List[Tuple[str, int]]:
+        """(link, taxel id) of the layout's taxels on no bus of the bus map: dead."""
 
 class Calibration:
     @property
@@ -279,8 +313,21 @@ def synthesize(
     blind_spots: Optional[int] = None,  # 1 to 64: Test A's blind spots, up to this many
     blind_radius_mm: Optional[float] = None,  # 40.0; only with blind_spots
     blind_share: Optional[float] = None,  # 0.3; only with blind_spots
-) -> Dict[str, Any]: ...
+) -> Dict[str, Any]:
+    """In parallel, the GIL released; Ctrl-C raises KeyboardInterrupt within a sample."""
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
+
+class Dataset:
+    """A dataset folder (labels.csv, images/, masks/) as `skin eval` reads it; what SynthDataset
+    stands on. File names that leave the folder (absolute, .., links out) are refused."""
+
+    def __init__(self, root: _Path) -> None: ...
+    @property
+    def entries(self) -> List[Tuple[str, bool, str, int, bool, bool]]:
+        """(file, hand, kind, subject, partial, fingertips) per sample, in row order."""
+    def image(self, i: int) -> npt.NDArray[np.uint8]: ...
+    def mask(self, i: int) -> npt.NDArray[np.uint8]: ...
+    def __len__(self) -> int: ...
 
 class TaskStack:
     def __init__(

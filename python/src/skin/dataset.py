@@ -1,16 +1,10 @@
 """`SynthDataset`: the output folder of `skin synth` as a map-style dataset that a PyTorch
 `DataLoader` takes (torch is not needed to use it)."""
 
-import csv
 import os
 from typing import Any, Callable, Dict, List, Optional
 
-import numpy as np
-
-from ._errors import InputError
-from ._skin import read_grey
-
-_HEADER = ["file", "class", "kind", "subject", "partial", "fingertips"]
+from ._skin import Dataset as _Dataset
 
 
 class SynthDataset:
@@ -21,6 +15,10 @@ class SynthDataset:
     middle, ring, pinkie, palm), ``subject``, ``kind``. ``transform``, if given, is applied to
     that dict (to make tensors, normalise, augment). ``subjects`` keeps only the samples of
     those subjects (to split train and test by subject, as the thesis does).
+
+    The folder is read as ``skin eval`` reads it: a file name in ``labels.csv`` that leaves the
+    folder (an absolute path, ``..``) is an ``InputError`` naming the line, and so is, when the
+    sample is read, a file that is a symbolic link out of the folder.
     """
 
     def __init__(
@@ -31,39 +29,23 @@ class SynthDataset:
     ) -> None:
         self.root = os.fspath(root)
         self.transform = transform
-        labels = os.path.join(self.root, "labels.csv")
-        try:
-            with open(labels, newline="", encoding="utf-8-sig") as f:
-                rows = list(csv.reader(f))
-        except OSError as e:
-            raise InputError(f"{labels}: cannot read ({e.strerror}): is {self.root} a `skin synth` folder?") from None
-        if not rows or [c.strip() for c in rows[0]] != _HEADER:
-            found = ",".join(rows[0]) if rows else ""
-            raise InputError(f"{labels}: line 1: expected the header `{','.join(_HEADER)}`, found `{found}`")
+        self._data = _Dataset(self.root)
         keep = None if subjects is None else set(subjects)
         self.entries: List[Dict[str, Any]] = []
-        for line, row in enumerate(rows[1:], start=2):
-            if not row:
+        # Row of labels.csv (among its samples) of each entry kept.
+        self._rows: List[int] = []
+        for row, (file, hand, kind, subject, partial, tips) in enumerate(self._data.entries):
+            if keep is not None and subject not in keep:
                 continue
-            if len(row) != len(_HEADER):
-                raise InputError(f"{labels}: line {line}: {len(row)} fields, expected {len(_HEADER)}")
-            file, cls, kind, subject, partial, tips = row
-            if cls not in ("hand", "non_hand"):
-                raise InputError(f"{labels}: line {line}: class {cls!r}: expected hand or non_hand")
-            try:
-                subject_number = int(subject)
-            except ValueError:
-                raise InputError(f"{labels}: line {line}: subject {subject!r} is not a number") from None
-            if keep is not None and subject_number not in keep:
-                continue
+            self._rows.append(row)
             self.entries.append(
                 {
                     "file": file,
-                    "label": 1 if cls == "hand" else 0,
+                    "label": 1 if hand else 0,
                     "kind": kind,
-                    "subject": subject_number,
-                    "partial": partial == "1",
-                    "fingertips": tips == "1",
+                    "subject": subject,
+                    "partial": partial,
+                    "fingertips": tips,
                 }
             )
 
@@ -74,9 +56,9 @@ class SynthDataset:
         if not -len(self) <= i < len(self):
             raise IndexError(f"sample {i}: the dataset has {len(self)}")
         e = self.entries[i]
-        image = read_grey(os.path.join(self.root, "images", e["file"]))
+        row = self._rows[i]
         # Masks are written for hands only: anything else presses no hand part.
-        mask = read_grey(os.path.join(self.root, "masks", e["file"])) if e["label"] else np.zeros_like(image)
+        image, mask = self._data.image(row), self._data.mask(row)
         sample = {
             "image": image,
             "mask": mask,
