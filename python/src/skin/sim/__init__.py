@@ -26,6 +26,11 @@ probe) carries them to the taxels; `Response` makes counts of that stress as the
 configuration's `[sim]` says. MuJoCo's other option, the `touch_grid` plugin, images forces on a
 grid of a site's frame, not at given points on a link. See `bridge`, `surface`, `response`.
 
+What a scene holds. MuJoCo's contacts are soft: pressed too hard, a tool sinks deeper than a skin
+gives and then through the link. `Kit` refuses a press beyond its tool's `Kit.force_limit` (it
+grows with the tool's mass); `SkinLoop` warns of anything pressed deeper at any step
+(`skin.SkinWarning`) and keeps it (`SkinLoop.overpresses`, `Overpress`).
+
 Needs `pip install mujoco` (MuJoCo 4, Python 3.11 or later). Units: metres, newtons, seconds,
 pascals for stress, raw counts for readings.
 """
@@ -37,7 +42,7 @@ if sys.version_info < (3, 11):  # pragma: no cover - said to the user
 
 from .arm import PathFollower, two_joint_arm
 from .bridge import SimFrame, SkinBridge, robot_from_urdf
-from .loop import SkinLoop, touches
+from .loop import Overpress, SkinLoop, touches
 from .response import Response
 from .scenes import FINGERS, Action, Kit, Tool, bare_robot
 from .surface import Kernel, Surface, boussinesq, sample_surface
@@ -47,6 +52,7 @@ __all__ = [
     "Action",
     "Kernel",
     "Kit",
+    "Overpress",
     "PathFollower",
     "Response",
     "SimFrame",

@@ -1,17 +1,42 @@
 """`skin` in the loop: MuJoCo steps, the skin's frames through the session, the events and the
-gate's action at every control step."""
+gate's action at every control step; and, at every step, whatever presses into a link's skin
+deeper than a skin gives (`Overpress`: a warning and a record the loop keeps)."""
 
 from __future__ import annotations
 
-from typing import Callable, List, Optional
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .._errors import ArrayError, SessionError
+from .._errors import ArrayError, SessionError, SkinWarning
 from .bridge import SimFrame, SkinBridge, _mujoco
 
 #: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
 Control = Callable[["SkinLoop"], None]
+
+
+@dataclass
+class Overpress:
+    """A geom pressed into a link's skin deeper than a skin gives (`bridge.allowed_depth`): a
+    force beyond what the scene holds. From its start the touch MuJoCo images is wider than any
+    cover makes it, and a little deeper the geom goes through the link; the frames go on to the
+    session all the same. `through`: MuJoCo's contact normal turned over while the geom was in
+    (it passed the middle of what it pressed and is on its way out of the other side)."""
+
+    #: The link pressed.
+    link: str
+    #: The geom that pressed (its name, else "geom N").
+    geom: str
+    #: Seconds: the start of the first step deeper than allowed, and of the first step back
+    #: within it (None while it lasts).
+    start: float
+    end: Optional[float]
+    #: Metres: the deepest it went, and how deep it was allowed.
+    depth: float
+    allowed: float
+    through: bool = False
 
 
 class SkinLoop:
@@ -19,7 +44,11 @@ class SkinLoop:
     steps the skin delivers a frame (the step that starts it computes its sensor), the session
     takes it and its events are kept. A controller (`control`) is called before every step with
     this loop: `loop.gate` is the gate's action now ("stop", "comply", "slow", "resume", or None
-    with no gate or no touch), `loop.new_events()` the events since it last asked."""
+    with no gate or no touch), `loop.new_events()` the events since it last asked.
+
+    At every step the loop also looks for geoms pressed into a link's skin deeper than a skin
+    gives: each such press warns (`skin.SkinWarning`) when it starts and if it goes through the
+    link, and is kept in `loop.overpresses` (`Overpress`)."""
 
     def __init__(self, model, data, bridge: SkinBridge, session, *, control: Optional[Control] = None) -> None:
         self.model = model
@@ -33,6 +62,10 @@ class SkinLoop:
         self.frame: Optional[SimFrame] = None
         #: The last step made a skin frame.
         self.framed = False
+        #: Every press deeper than a skin gives, in order of their start (`Overpress`).
+        self.overpresses: List[Overpress] = []
+        # The presses under way: per (link, geom), its record and its first normal.
+        self._deep: Dict[Tuple[int, int], Tuple[Overpress, np.ndarray]] = {}
         self._unread = 0
         self._mj = _mujoco()
         bridge.bind(model)
@@ -61,6 +94,10 @@ class SkinLoop:
     def step(self) -> List:
         """One control step and one MuJoCo step; returns the events of the skin frame it made
         (none between frames)."""
+        return self._step()
+
+    def _step(self) -> List:
+        # (`step` and `run` both call it, so a warning points at their caller: 4 frames up.)
         if self.control is not None:
             self.control(self)
         # Frames on the simulation's clock, as the sensor's interval counts them: whatever time
@@ -88,6 +125,7 @@ class SkinLoop:
                 f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it "
                 "(see its warning): smaller timestep, softer gains or lighter contacts"
             )
+        self._watch(before)
         if not frame_step:
             return []
         self.frame = self.bridge.frame(self.data)
@@ -95,6 +133,41 @@ class SkinLoop:
         self.events.extend(events)
         self._unread += len(events)
         return events
+
+    def _watch(self, t: float) -> None:
+        """Presses deeper than a skin gives at the step that started at `t`: new ones warned of
+        and recorded, those back within it closed."""
+        found = self.bridge.too_deep(self.data) if self.data.ncon else []
+        if not found and not self._deep:
+            return
+        seen = set()
+        for k, geom, depth, allowed, normal in found:
+            key = (k, geom)
+            seen.add(key)
+            if key not in self._deep:
+                name = self.model.geom(geom).name or f"geom {geom}"
+                press = Overpress(self.bridge.links[k], name, t, None, depth, allowed)
+                self._deep[key] = (press, normal)
+                self.overpresses.append(press)
+                warnings.warn(
+                    f"t = {t:.3f} s: {name} is {depth * 1e3:.1f} mm into link {press.link!r}, deeper than a skin "
+                    f"gives there ({allowed * 1e3:g} mm): a press beyond what the scene holds, its readings "
+                    "no skin's (Kit.force_limit; loop.overpresses keeps it)",
+                    SkinWarning,
+                    stacklevel=4,
+                )
+                continue
+            press, first = self._deep[key]
+            press.depth = max(press.depth, depth)
+            if not press.through and float(normal @ first) < 0.0:
+                press.through = True
+                warnings.warn(
+                    f"t = {t:.3f} s: {press.geom} went through link {press.link!r} (pressed in at {press.start:.3f} s)",
+                    SkinWarning,
+                    stacklevel=4,
+                )
+        for key in [key for key in self._deep if key not in seen]:
+            self._deep.pop(key)[0].end = t
 
     def run(self, seconds: float, until: Optional[Callable[["SkinLoop"], bool]] = None) -> List:
         """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns the
@@ -104,7 +177,7 @@ class SkinLoop:
         first = len(self.events)
         end = self.data.time + seconds - 0.5 * self.model.opt.timestep
         while self.data.time < end:
-            self.step()
+            self._step()
             if until is not None and until(self):
                 break
         return self.events[first:]

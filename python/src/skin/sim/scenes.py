@@ -6,7 +6,9 @@ Every tool is a free body with no gravity, driven each step by a wrench (`xfrc_a
 stiff spring to the script's pose across the surface and about its axes, and along the surface's
 normal either the same spring (moving, lifting) or a given force (pressing). A tool presses with
 its -z side: a press at point p with normal n puts the tool's z axis on n. Between actions a
-tool waits parked far from the skin.
+tool waits parked far from the skin. A press may not be harder than the scene holds: past
+`Kit.force_limit` its tool would sink deeper into the skin than a skin gives (it grows with the
+tool's mass: 22 N for the 0.2 kg ball, whatever its size).
 
 The hand (right by default, `left=True` mirrors it): in its frame y points to the fingertips, x
 to the thumb, z to the back of the hand, and its origin is halfway from wrist to fingertip. Its palm is four pads side by side and the thenar, each
