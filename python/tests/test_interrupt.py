@@ -4,11 +4,14 @@ a named pipe's writer thread in the same process must not deadlock its reader.""
 
 import json
 import os
+import queue
 import random
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
+import threading
 import time
 
 import numpy as np
@@ -54,6 +57,31 @@ for trial in range({trials}):
 """
 
 
+# How long the child may take to answer: a call that Ctrl-C does not stop (a wait in open(2))
+# fails the test instead of hanging it.
+ANSWER_S = 60
+
+
+def lines_of(stream):
+    """A queue of `stream`'s lines, read by a thread of its own (None at its end)."""
+    lines = queue.Queue()
+
+    def read():
+        for line in stream:
+            lines.put(line)
+        lines.put(None)
+
+    threading.Thread(target=read, daemon=True).start()
+    return lines
+
+
+def answer(lines, trial):
+    try:
+        return lines.get(timeout=ANSWER_S) or ""
+    except queue.Empty:
+        pytest.fail(f"trial {trial}: no word from the child in {ANSWER_S} s: the call did not stop")
+
+
 def interrupt_trials(seed, setup, call, *, prepare="pass", cleanup="pass", trials=TRIALS):
     """Runs the child and interrupts each trial's call at a random time; returns the latencies."""
     code = CHILD.format(
@@ -63,33 +91,44 @@ def interrupt_trials(seed, setup, call, *, prepare="pass", cleanup="pass", trial
         call=call,
         cleanup=cleanup,
     )
+    # Its errors go to a file: read at any time, and never a full pipe that stops the child.
+    errors = tempfile.TemporaryFile(mode="w+")
     child = subprocess.Popen(
         [sys.executable, "-c", code],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=errors,
         text=True,
     )
+
+    def said():
+        errors.seek(0)
+        return errors.read()
+
     rng = random.Random(seed)
     latencies = []
+    lines = lines_of(child.stdout)
     try:
         for trial in range(trials):
-            line = child.stdout.readline()
-            assert line == "go\n", f"trial {trial}: the child said {line!r}:\n{child.stderr.read()}"
+            line = answer(lines, trial)
+            assert line == "go\n", f"trial {trial}: the child said {line!r}:\n{said()}"
             time.sleep(rng.uniform(0.0, LATEST_S))
             sent = time.monotonic()
             child.send_signal(signal.SIGINT)
-            line = child.stdout.readline()
-            assert line, f"trial {trial}: the child ended:\n{child.stderr.read()}"
+            line = answer(lines, trial)
+            assert line, f"trial {trial}: the child ended:\n{said()}"
             ended = json.loads(line)
             assert "interrupted" in ended, f"trial {trial}: the call ended before the signal (make it longer)"
             latencies.append(ended["interrupted"] - sent)
             child.stdin.write("\n")
             child.stdin.flush()
-        _, err = child.communicate(timeout=60)
+        child.stdin.close()
+        child.wait(timeout=ANSWER_S)
+        err = said()
     finally:
         child.kill()
         child.wait()
+        errors.close()
     assert child.returncode == 0, err
     assert "PanicException" not in err and "panicked" not in err, err
     # Shown with `pytest -s`: the figures behind the bound.
@@ -235,8 +274,9 @@ FIFO_CLEANUP = "release.set(); writer.join() if trial % 3 == 1 else None; os.unl
 
 
 def test_ctrl_c_stops_reading_a_named_pipe(tmp_path, monkeypatch):
+    # 20 trials of read_log (two in three), 10 of read_recording.
     monkeypatch.setenv("FIFO_DIR", str(tmp_path))
-    interrupt_trials(544, FIFO_SETUP, "read(trial)", prepare=FIFO_PREPARE, cleanup=FIFO_CLEANUP)
+    interrupt_trials(544, FIFO_SETUP, "read(trial)", prepare=FIFO_PREPARE, cleanup=FIFO_CLEANUP, trials=30)
 
 
 # A writer thread in the reader's own process: the reader releases the GIL while it waits.
