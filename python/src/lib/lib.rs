@@ -25,6 +25,13 @@ mod synth;
 
 use pyo3::prelude::*;
 
+/// Rust's allocations in the module (the session, tract's tensors) are mimalloc's: glibc's
+/// malloc let the Python objects a loop keeps settle in the blocks tract frees at each decision,
+/// so those blocks were made anew elsewhere and memory grew with every kept event (see
+/// python/Cargo.toml).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The module.
 #[pymodule]
 fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
