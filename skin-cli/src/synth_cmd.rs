@@ -19,6 +19,12 @@ use std::path::PathBuf;
 /// Readings get sensor noise, spikes and a dead band, then go through the real image pipeline:
 /// map, 1 mm grid, contact-max grey (eq. 3.1), erosion r=2 and dilation r=4, resize.
 ///
+/// --small-objects S makes a share S of the non-hand samples small rigid prints, as a rigid
+/// object prints on a curved, soft link: a knob or ball (a dome 0.8-2.8 cm across) or a bar
+/// pressed across the link (a stroke 2-7 cm long), anywhere on the skin and over its edge,
+/// where the edge cuts them smaller still. Without it (the default) none are drawn and a seed
+/// gives the dataset it always gave.
+///
 /// Writes DIR/images/*.png (grey, 68 x 100 by default), DIR/masks/*.png (hand parts: 0
 /// background, 1 thumb, 2 index, 3 middle, 4 ring, 5 pinkie, 6 palm), DIR/labels.csv (file,
 /// class, kind, subject, partial, fingertips), DIR/frames.txt (raw readings, one frame per
@@ -89,6 +95,9 @@ pub struct Args {
     /// With --blind-spots: the share of samples imaged through a map with blind spots, 0 to 1.
     #[arg(long, value_name = "S", default_value_t = 0.3, requires = "blind_spots", value_parser = crate::numbers::within(0.0, 1.0))]
     blind_share: f64,
+    /// Share of the non-hand samples that are small rigid prints (a knob or a rod), 0 to 1.
+    #[arg(long, value_name = "S", default_value_t = 0.0, value_parser = crate::numbers::within(0.0, 1.0))]
+    small_objects: f64,
     /// Hand-part masks: `pressing` (the part that pressed each pixel's taxels) or `as-imaged`
     /// (each part's region as it shows on the image, as the thesis labelled by hand).
     #[arg(long, value_enum, default_value_t = Labels::Pressing)]
@@ -107,6 +116,7 @@ fn synthesizer(args: &Args, map: &skin_geom::TactileMap) -> Result<Synthesizer> 
     let options = SynthOptions {
         image_size: args.size,
         hand_fraction: args.hand_fraction,
+        small_objects: args.small_objects,
         labels: match args.mask_labels {
             Labels::Pressing => MaskLabels::Pressing,
             Labels::AsImaged => MaskLabels::AsImaged,

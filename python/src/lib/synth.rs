@@ -27,12 +27,13 @@ const MAX_BYTES: usize = 8 << 30;
 ///
 /// The options are those of `skin synth`: `mask_labels` ("pressing" or "as-imaged"),
 /// `remove_up_to` with `thinned_share` (0.5), `blind_spots` with `blind_radius_mm` (40) and
-/// `blind_share` (0.3); a share or radius given without the option it belongs to is refused.
+/// `blind_share` (0.3), `small_objects` (0: the share of non-hand samples that are small rigid
+/// prints, a knob or a rod); a share or radius given without the option it belongs to is refused.
 #[pyfunction]
 #[pyo3(signature = (
     map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5,
     mask_labels = "pressing", remove_up_to = None, thinned_share = None, blind_spots = None,
-    blind_radius_mm = None, blind_share = None
+    blind_radius_mm = None, blind_share = None, small_objects = 0.0
 ))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin synth` has options
 pub(crate) fn synthesize<'py>(
@@ -49,6 +50,7 @@ pub(crate) fn synthesize<'py>(
     blind_spots: Option<&Bound<'py, PyAny>>,
     blind_radius_mm: Option<f64>,
     blind_share: Option<f64>,
+    small_objects: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let count = arrays::count("count", count)?;
     let seed = seed.map_or(Ok(1), |s| arrays::count("seed", s))? as u64;
@@ -79,6 +81,9 @@ pub(crate) fn synthesize<'py>(
             format!("{}: expected 0 to 1", arrays::num(hand_fraction)),
         ));
     }
+    if !(0.0..=1.0).contains(&small_objects) {
+        return Err(arg("small_objects", format!("{small_objects}: expected 0 to 1")));
+    }
     let subjects = subjects.unwrap_or(count.div_ceil(40)).clamp(1, count);
     let labels = match mask_labels {
         "pressing" => MaskLabels::Pressing,
@@ -94,6 +99,7 @@ pub(crate) fn synthesize<'py>(
         image_size: (image.rows, image.cols),
         hand_fraction,
         labels,
+        small_objects,
         ..SynthOptions::default()
     };
     let blind_spots = blind_spots.map(|b| arrays::count("blind_spots", b)).transpose()?;

@@ -313,6 +313,7 @@ def synthesize(
     blind_spots: Optional[int] = None,  # 1 to 64: Test A's blind spots, up to this many
     blind_radius_mm: Optional[float] = None,  # 40.0; only with blind_spots
     blind_share: Optional[float] = None,  # 0.3; only with blind_spots
+    small_objects: float = 0.0,  # share of non-hand samples that are small rigid prints (knob, rod)
 ) -> Dict[str, Any]:
     """In parallel, the GIL released; Ctrl-C raises KeyboardInterrupt within a sample."""
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...

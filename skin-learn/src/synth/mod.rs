@@ -110,6 +110,11 @@ pub struct SynthOptions {
     pub dead_band: f32,
     /// How a hand sample's mask labels its pixels.
     pub labels: MaskLabels,
+    /// Share of the non-hand samples that are small rigid prints, a knob or a rod as a rigid
+    /// object prints on a curved, soft link ([`ObjectKind::SMALL`]), placed anywhere on the skin
+    /// and over its edge, 0 to 1. 0 (the default) draws none: the samples are those of earlier
+    /// datasets of the same seed.
+    pub small_objects: f64,
 }
 
 /// How a hand sample's part mask labels its pixels. Both label the pixels the image lights, and
@@ -138,6 +143,7 @@ impl Default for SynthOptions {
             noise: 1.5,
             dead_band: 4.0,
             labels: MaskLabels::Pressing,
+            small_objects: 0.0,
         }
     }
 }
@@ -259,7 +265,7 @@ impl Synthesizer {
         let kind = if rng.random_bool(self.options.hand_fraction.clamp(0.0, 1.0)) {
             Kind::Hand(Interaction::ALL[rng.random_range(0..Interaction::ALL.len())])
         } else {
-            Kind::Other(ObjectKind::sample(&mut rng))
+            Kind::Other(ObjectKind::sample(&mut rng, self.options.small_objects))
         };
         let mut sample = self.sample_kind(&who, subject, kind, &mut rng);
         self.degraded
@@ -274,9 +280,12 @@ impl Synthesizer {
             Kind::Other(_) => 0.3,
         };
         // Place the contact on the skin, or (30% of the time) partly beyond its edge (Ch. 4.2);
-        // draw again if fewer than three taxels feel it.
+        // draw again if fewer than three taxels feel it. The map's own outline cuts what lies
+        // beyond it, so an overhanging contact is imaged as the skin's edge clips it.
         let size = match kind {
             Kind::Hand(_) => who.hand_length,
+            // A small print (at most 2.8 cm across) overhangs by up to 8 mm.
+            Kind::Other(c) if c.is_small() => 0.04,
             Kind::Other(_) => 0.1,
         };
         let margin = if rng.random_bool(0.3) {

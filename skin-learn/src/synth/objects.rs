@@ -1,6 +1,14 @@
 //! Contacts that are not a hand (thesis Ch. 4.5, Fig. 4.3): objects of different shape, size and
 //! softness, and other body parts (large, diffuse areas). About 35% of the thesis' non-hand
 //! images came from body parts, the rest from objects; the same mix is drawn here.
+//!
+//! Those prints are drawn flat on the map, as large as the object. A rigid object pressed on a
+//! curved, soft link prints much less of itself: a ball of 15-30 mm radius pressed with 3-20 N
+//! leaves a dome 1-2.5 cm across (Hertz: the contact radius grows as the cube root of force
+//! times radius), and a bar across a link of 6-8 cm radius a stroke 2-7 cm long, its length
+//! bounded by the link's curvature, not the bar's. [`ObjectKind::SMALL`] draws those prints
+//! (a knob and a rod), the smallest contacts a skin feels and the ones an edge cuts smaller
+//! still; [`SynthOptions::small_objects`](super::SynthOptions::small_objects) mixes them in.
 
 use super::Placement;
 use super::shapes::{Patch, Shape};
@@ -32,11 +40,17 @@ pub enum ObjectKind {
     Torso,
     /// A back.
     Back,
+    /// A small rigid ball or knob as it prints on a curved, soft link: a dome 0.8-2.8 cm across.
+    Knob,
+    /// A rigid bar or rod pressed across a curved link: a stroke 2-7 cm long and 0.6-2 cm wide
+    /// (the link's curvature, not the bar, bounds its length).
+    Rod,
 }
 
 impl ObjectKind {
-    /// Objects, then body parts.
-    pub const ALL: [ObjectKind; 11] = [
+    /// Objects, then body parts, then the small rigid prints of [`ObjectKind::SMALL`] (drawn only
+    /// when asked for, so a dataset without them is what it always was).
+    pub const ALL: [ObjectKind; 13] = [
         ObjectKind::Ball,
         ObjectKind::Edge,
         ObjectKind::Bar,
@@ -48,7 +62,12 @@ impl ObjectKind {
         ObjectKind::Shoulder,
         ObjectKind::Torso,
         ObjectKind::Back,
+        ObjectKind::Knob,
+        ObjectKind::Rod,
     ];
+
+    /// The small rigid prints: a knob and a rod.
+    pub const SMALL: [ObjectKind; 2] = [ObjectKind::Knob, ObjectKind::Rod];
 
     /// The name used in dataset files.
     pub fn name(self) -> &'static str {
@@ -64,6 +83,8 @@ impl ObjectKind {
             ObjectKind::Shoulder => "shoulder",
             ObjectKind::Torso => "torso",
             ObjectKind::Back => "back",
+            ObjectKind::Knob => "knob",
+            ObjectKind::Rod => "rod",
         }
     }
 
@@ -79,9 +100,18 @@ impl ObjectKind {
         )
     }
 
-    /// 65% objects, 35% body parts, uniform within each.
-    pub(crate) fn sample<R: Rng>(rng: &mut R) -> ObjectKind {
-        if rng.random_bool(0.35) {
+    /// A small rigid print ([`ObjectKind::SMALL`]).
+    pub fn is_small(self) -> bool {
+        matches!(self, ObjectKind::Knob | ObjectKind::Rod)
+    }
+
+    /// A share `small` of the small rigid prints (a knob or a rod, even odds), the rest 65%
+    /// objects and 35% body parts, uniform within each. With `small` 0 no extra number is drawn,
+    /// so the samples are those of a generator without small prints.
+    pub(crate) fn sample<R: Rng>(rng: &mut R, small: f64) -> ObjectKind {
+        if small > 0.0 && rng.random_bool(small.min(1.0)) {
+            ObjectKind::SMALL[rng.random_range(0..ObjectKind::SMALL.len())]
+        } else if rng.random_bool(0.35) {
             ObjectKind::ALL[6 + rng.random_range(0..5)]
         } else {
             ObjectKind::ALL[rng.random_range(0..6)]
@@ -99,6 +129,11 @@ pub(crate) fn object<R: Rng>(
 ) -> Vec<Patch> {
     let mut patches = match contact {
         ObjectKind::Ball => vec![ball(rng)],
+        ObjectKind::Knob => vec![knob(rng)],
+        ObjectKind::Rod => {
+            let half = rng.random_range(0.8..3.0) * CM;
+            vec![capsule(rng, half, 0.25..0.8, (0.3, 0.6))]
+        }
         ObjectKind::Edge => {
             let half = rng.random_range(5.0..25.0) * CM;
             vec![capsule(rng, half, 0.4..1.2, (0.3, 0.8))]
@@ -148,6 +183,24 @@ fn ball<R: Rng>(rng: &mut R) -> Patch {
         },
         1.0,
         gamma(rng, 0.3, 1.0),
+        0,
+    )
+}
+
+/// A knob's or small ball's print on a curved link: a rigid dome (Hertz's profile, gamma 0.5)
+/// of 0.4-1.4 cm radius, a little squashed by the link's curvature.
+fn knob<R: Rng>(rng: &mut R) -> Patch {
+    let r = rng.random_range(0.25..1.0) * CM;
+    let squash = rng.random_range(0.7..1.0);
+    Patch::new(
+        Shape::Ellipse {
+            c: Point2::origin(),
+            dir: Vector2::x(),
+            u: r,
+            v: r * squash,
+        },
+        1.0,
+        gamma(rng, 0.3, 0.6),
         0,
     )
 }
