@@ -71,25 +71,107 @@ pub enum TouchClass {
 /// What the robot does for each class of touch in progress (a configuration's `[gate]`: e.g.
 /// hand -> comply, non_hand -> stop). A class without an action leaves the decision to the others.
 ///
-/// ```
-/// use skin_control::hri::{ClassGate, GateAction, TouchClass};
+/// A touch near the skin's border is seen only in part (an object overhanging the edge prints
+/// only its inner side), so its class is less certain there. With a [`BorderRule`], a touch
+/// decided `hand` with a probability under the rule's bar whose taxels come within its distance
+/// of the border gets the rule's action (by default `stop`) instead of the hand's.
 ///
-/// let gate = ClassGate { hand: Some(GateAction::Comply), non_hand: Some(GateAction::Stop) };
+/// ```
+/// use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch, TouchClass};
+///
+/// let gate = ClassGate { hand: Some(GateAction::Comply), non_hand: Some(GateAction::Stop), border: None };
 /// assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Comply);
 /// // A bump while a hand guides the arm: stop wins over anything.
 /// assert_eq!(gate.decide([TouchClass::NonHand, TouchClass::Hand]), GateAction::Stop);
-/// assert_eq!(gate.decide([]), GateAction::Resume);
+/// assert_eq!(gate.decide([] as [TouchClass; 0]), GateAction::Resume);
 /// // Interaction tasks may follow the contacts only while the gate complies.
 /// use skin_control::hri::ContactGate;
 /// assert!(!gate.decide([TouchClass::NonHand]).allows("forearm", &[]));
+///
+/// // A hand at 70% 5 mm from the border: stopped, where a sure one complies.
+/// let gate = ClassGate { border: Some(BorderRule::default()), ..gate };
+/// let unsure = GateTouch { class: TouchClass::Hand, probability: 0.7, border_mm: 5.0 };
+/// assert_eq!(gate.decide([unsure]), GateAction::Stop);
+/// assert_eq!(gate.decide([GateTouch { probability: 0.999, ..unsure }]), GateAction::Comply);
+/// assert_eq!(gate.decide([GateTouch { border_mm: 40.0, ..unsure }]), GateAction::Comply);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Deserialize), serde(deny_unknown_fields))]
 pub struct ClassGate {
     /// While a hand touches.
     pub hand: Option<GateAction>,
     /// While anything else touches.
     pub non_hand: Option<GateAction>,
+    /// What a hand decided with little confidence near the skin's border gets instead (none:
+    /// a hand is a hand wherever it touches).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub border: Option<BorderRule>,
+}
+
+/// The gate's rule for a touch at the skin's border (`[gate] border = { ... }`): a touch decided
+/// `hand` with a probability under `hand_below`, some of whose taxels lie within `within_mm` of
+/// the skin's border, gets `action` instead of the hand's action.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize),
+    serde(default, deny_unknown_fields)
+)]
+pub struct BorderRule {
+    /// How close to the border a touch's taxels come, millimetres on the tactile map (15).
+    pub within_mm: f64,
+    /// A hand decision at least this probable keeps the hand's action (0.95).
+    pub hand_below: f64,
+    /// The action for the others (stop).
+    pub action: GateAction,
+}
+
+impl Default for BorderRule {
+    fn default() -> Self {
+        BorderRule {
+            within_mm: 15.0,
+            hand_below: 0.95,
+            action: GateAction::Stop,
+        }
+    }
+}
+
+impl BorderRule {
+    /// The rule's numbers against their bounds (a distance from 0 to 1000 mm, a probability from
+    /// 0 to 1): the first out of them as (its key as a run configuration spells it, its value,
+    /// what it takes).
+    pub fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
+        if !(0.0..=1000.0).contains(&self.within_mm) {
+            return Err(("[gate] border.within_mm", self.within_mm, "millimetres from 0 to 1000"));
+        }
+        if !(0.0..=1.0).contains(&self.hand_below) {
+            return Err(("[gate] border.hand_below", self.hand_below, "a probability from 0 to 1"));
+        }
+        Ok(())
+    }
+}
+
+/// What the gate knows of a decided touch in progress: its class, the class's probability and
+/// how far its taxels come to the skin's border (millimetres on the tactile map; infinite when
+/// unknown). A bare [`TouchClass`] is a sure touch away from the border.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GateTouch {
+    /// The class.
+    pub class: TouchClass,
+    /// Its probability, 0 to 1.
+    pub probability: f64,
+    /// The least distance of the touch's taxels from the skin's border, millimetres.
+    pub border_mm: f64,
+}
+
+impl From<TouchClass> for GateTouch {
+    fn from(class: TouchClass) -> GateTouch {
+        GateTouch {
+            class,
+            probability: 1.0,
+            border_mm: f64::INFINITY,
+        }
+    }
 }
 
 impl ClassGate {
@@ -101,14 +183,31 @@ impl ClassGate {
         }
     }
 
+    /// The action for one touch: its class's, or the border rule's for an unsure hand at the
+    /// border.
+    pub fn action_for(&self, touch: &GateTouch) -> Option<GateAction> {
+        match self.border {
+            Some(rule)
+                if touch.class == TouchClass::Hand
+                    && touch.border_mm <= rule.within_mm
+                    && !(touch.probability >= rule.hand_below) =>
+            {
+                Some(rule.action)
+            }
+            _ => self.action(touch.class),
+        }
+    }
+
     /// The action for the touches in progress (oldest first): stop if any asks to stop, else
     /// the action of the latest touch that has one; resume when none has.
-    pub fn decide(&self, open: impl IntoIterator<Item = TouchClass>) -> GateAction {
+    pub fn decide<T: Into<GateTouch>>(&self, open: impl IntoIterator<Item = T>) -> GateAction {
         open.into_iter()
-            .fold(None::<GateAction>, |acc, class| match (acc, self.action(class)) {
-                (Some(GateAction::Stop), _) => Some(GateAction::Stop),
-                (_, Some(a)) => Some(a),
-                (acc, None) => acc,
+            .fold(None::<GateAction>, |acc, touch| {
+                match (acc, self.action_for(&touch.into())) {
+                    (Some(GateAction::Stop), _) => Some(GateAction::Stop),
+                    (_, Some(a)) => Some(a),
+                    (acc, None) => acc,
+                }
             })
             .unwrap_or(GateAction::Resume)
     }

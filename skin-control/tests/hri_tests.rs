@@ -147,6 +147,7 @@ fn the_class_gate_keeps_the_latest_action_and_stop_wins() {
     let gate = ClassGate {
         hand: None,
         non_hand: Some(GateAction::Slow),
+        border: None,
     };
     // A class without an action leaves the decision to the others.
     assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Resume);
@@ -157,6 +158,7 @@ fn the_class_gate_keeps_the_latest_action_and_stop_wins() {
     let gate = ClassGate {
         hand: Some(GateAction::Comply),
         non_hand: Some(GateAction::Stop),
+        border: None,
     };
     assert_eq!(
         gate.decide([TouchClass::Hand, TouchClass::Hand]),
@@ -166,4 +168,62 @@ fn the_class_gate_keeps_the_latest_action_and_stop_wins() {
         gate.decide([TouchClass::Hand, TouchClass::NonHand, TouchClass::Hand]),
         GateAction::Stop
     );
+}
+
+#[test]
+fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
+    use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch, TouchClass};
+    let rule = BorderRule {
+        within_mm: 15.0,
+        hand_below: 0.9,
+        action: GateAction::Stop,
+    };
+    let gate = ClassGate {
+        hand: Some(GateAction::Comply),
+        non_hand: Some(GateAction::Slow),
+        border: Some(rule),
+    };
+    let hand = |probability: f64, border_mm: f64| GateTouch {
+        class: TouchClass::Hand,
+        probability,
+        border_mm,
+    };
+    // Within the distance (inclusive) and under the bar: the rule's action.
+    assert_eq!(gate.decide([hand(0.6, 0.0)]), GateAction::Stop);
+    assert_eq!(gate.decide([hand(0.89, 15.0)]), GateAction::Stop);
+    // A probability that is not a number is not a sure hand.
+    assert_eq!(gate.decide([hand(f64::NAN, 3.0)]), GateAction::Stop);
+    // Sure enough, or far enough from the border: the hand's action.
+    assert_eq!(gate.decide([hand(0.9, 0.0)]), GateAction::Comply);
+    assert_eq!(gate.decide([hand(0.6, 15.1)]), GateAction::Comply);
+    // The rule is about hands: anything else keeps its own action at the border.
+    let other = GateTouch {
+        class: TouchClass::NonHand,
+        probability: 0.55,
+        border_mm: 0.0,
+    };
+    assert_eq!(gate.decide([other]), GateAction::Slow);
+    // The rule's action is weighed with the others': stop still wins.
+    assert_eq!(gate.decide([other, hand(0.6, 1.0)]), GateAction::Stop);
+    // Without a rule, a hand is a hand wherever it touches.
+    let plain = ClassGate { border: None, ..gate };
+    assert_eq!(plain.decide([hand(0.51, 0.0)]), GateAction::Comply);
+}
+
+#[test]
+fn a_border_rule_out_of_bounds_is_named() {
+    use skin_control::hri::BorderRule;
+    assert!(BorderRule::default().check().is_ok());
+    let far = BorderRule {
+        within_mm: -1.0,
+        ..BorderRule::default()
+    };
+    assert_eq!(far.check().map_err(|e| e.0), Err("[gate] border.within_mm"));
+    for p in [1.5, f64::NAN, -0.1] {
+        let odd = BorderRule {
+            hand_below: p,
+            ..BorderRule::default()
+        };
+        assert_eq!(odd.check().map_err(|e| e.0), Err("[gate] border.hand_below"));
+    }
 }

@@ -56,6 +56,7 @@
 //! # Ok::<(), skin_geom::Error>(())
 //! ```
 
+mod border;
 mod chain_contacts;
 mod chart;
 mod dead_taxels;

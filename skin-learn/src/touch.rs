@@ -146,6 +146,21 @@ pub struct Decision {
     pub probability: f32,
     /// The hand parts pressing, when the class is the hand class and there is a segmenter.
     pub parts: Vec<PartContact>,
+    /// How near the image's taxels come to the skin's border, millimetres on the tactile map
+    /// (0: on it): a touch cut by the border is seen only in part (see
+    /// [`BorderRule`](skin_control::hri::BorderRule)).
+    pub border_mm: f32,
+}
+
+impl Decision {
+    /// What the gate weighs of it: the class, its probability, its distance from the border.
+    pub fn gate_touch(&self) -> skin_control::hri::GateTouch {
+        skin_control::hri::GateTouch {
+            class: self.class.kind(),
+            probability: f64::from(self.probability),
+            border_mm: f64::from(self.border_mm),
+        }
+    }
 }
 
 /// A touch began on a link.
@@ -319,6 +334,8 @@ struct Link {
     touch: Option<Touch>,
     /// Taxels without readings, bridged by the finder's and imager's triangles.
     dead: Vec<usize>,
+    /// Each taxel's distance from the skin's border on the map (as built), millimetres.
+    border_mm: Vec<f32>,
 }
 
 /// The contact search and the imager of a link's map (`map.name` names it in errors). A tactile
@@ -381,6 +398,7 @@ impl TouchPipeline {
                 })
                 .sum();
             let n = map.ids.len();
+            let border_mm = map.border_distances().iter().map(|&d| (d * 1e3) as f32).collect();
             links.push(Link {
                 area_per_taxel_cm2: area * 1e4 / n.max(1) as f64,
                 peak_pressures: vec![0.0; n],
@@ -391,6 +409,7 @@ impl TouchPipeline {
                 imager,
                 touch: None,
                 dead: Vec::new(),
+                border_mm,
             });
         }
         Ok(TouchPipeline {
@@ -512,11 +531,9 @@ impl TouchPipeline {
         self.links.get(link).is_some_and(|l| l.touch.is_some())
     }
 
-    /// The classes of the touches in progress that have been decided.
-    pub fn open_classes(&self) -> impl Iterator<Item = &Class> + '_ {
-        self.links
-            .iter()
-            .filter_map(|l| l.touch.as_ref()?.decision.as_ref().map(|d| &d.class))
+    /// The decisions of the touches in progress that have been decided, one per link at most.
+    pub fn open_decisions(&self) -> impl Iterator<Item = &Decision> + '_ {
+        self.links.iter().filter_map(|l| l.touch.as_ref()?.decision.as_ref())
     }
 
     /// The tactile map of `link` as built (every taxel, before dead ones are bridged): where
@@ -725,10 +742,19 @@ impl TouchPipeline {
             .is_some_and(|d| d.class.index() != class.index());
         let first = touch.decision.is_none();
         touch.classified_total = touch.peak_total;
+        // The image's taxels are those of the contacts at the touch's fullest.
+        let border_mm = link
+            .peak_pressures
+            .iter()
+            .zip(&link.border_mm)
+            .filter(|&(&p, _)| p > 0.0)
+            .map(|(_, &d)| d)
+            .fold(f32::INFINITY, f32::min);
         let decision = Decision {
             class,
             probability,
             parts,
+            border_mm,
         };
         if first || revised {
             events.push(TouchEvent::Classified(Classified {

@@ -277,6 +277,42 @@ fn touch_split_is_read_with_its_defaults_and_checked() {
     );
 }
 
+#[test]
+fn the_gates_border_rule_is_read_with_its_defaults_and_checked() {
+    use skin_control::hri::{BorderRule, GateAction};
+    let path = Path::new("/nowhere/run.toml");
+    let gate = |extra: &str| format!("layout = \"l.json\"\n[gate]\nhand = \"comply\"\n{extra}");
+    let plain = SessionConfig::parse(&gate(""), path).unwrap();
+    assert_eq!(plain.gate.and_then(|g| g.border), None);
+    let default = SessionConfig::parse(&gate("border = {}\n"), path).unwrap();
+    assert_eq!(default.gate.and_then(|g| g.border), Some(BorderRule::default()));
+    let set = SessionConfig::parse(
+        &gate("border = { within_mm = 8, hand_below = 0.99, action = \"slow\" }\n"),
+        path,
+    )
+    .unwrap();
+    assert_eq!(
+        set.gate.and_then(|g| g.border),
+        Some(BorderRule {
+            within_mm: 8.0,
+            hand_below: 0.99,
+            action: GateAction::Slow
+        })
+    );
+    for (extra, field) in [
+        ("border = { within_mm = -3 }\n", "[gate] border.within_mm"),
+        ("border = { hand_below = 1.5 }\n", "[gate] border.hand_below"),
+        ("border = { hand_below = nan }\n", "[gate] border.hand_below"),
+    ] {
+        let e = SessionConfig::parse(&gate(extra), path).unwrap_err().to_string();
+        assert!(e.contains(field), "{extra}: {e}");
+    }
+    let e = SessionConfig::parse(&gate("border = { within = 3 }\n"), path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("within"), "{e}");
+}
+
 /// Per real recording of `fingers` fingers: the most contacts in one of its touches, with the
 /// layout-only configuration plus `extra` lines of `[touch]`.
 fn most_contacts(fingers: usize, extra: &str) -> Option<Vec<usize>> {
@@ -525,4 +561,92 @@ fn a_long_session_keeps_its_last_touches_and_scores_them_all() {
     let score = session.summary(0.0).script_score().unwrap();
     assert_eq!((score.scripted, score.found, score.extra), (3, 0, 0));
     assert_eq!((session.stats().touches, session.touches().len()), (0, 0));
+}
+
+/// A classifier that says "hand" at 70% whatever it sees: unsure everywhere.
+struct UnsureHand;
+
+impl skin_learn::model::HandClassifier for UnsureHand {
+    fn input_size(&self) -> skin_core::image::ImageSize {
+        skin_core::image::ImageSize::MODEL_DEFAULT
+    }
+
+    fn classify(
+        &mut self,
+        _: skin_core::image::ImageView<'_, u8>,
+    ) -> Result<Vec<f32>, skin_learn::model::ModelError> {
+        Ok(vec![0.7, 0.3])
+    }
+}
+
+/// The gate's actions and the decisions' distances from the border when the bundled forearm is
+/// pressed around the taxel `centre` (layout index) by an unsure classifier, with the border
+/// rule's defaults.
+fn gate_for_press_at(centre: usize) -> (Vec<skin_control::hri::GateAction>, Vec<f32>) {
+    use skin_control::hri::{BorderRule, ClassGate, GateAction};
+    use skin_learn::model::{Classes, Models};
+    use skin_learn::session::SessionOptions;
+    use skin_learn::touch::{TouchOptions, TouchPipeline};
+    let map = support::forearm();
+    let link = skin_core::format::load_link(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json"))
+        .unwrap()
+        .value;
+    let near: Vec<usize> = (0..map.points.len())
+        .filter(|&i| (map.points[i] - map.points[centre]).norm() < 0.012)
+        .collect();
+    let models = Models::new(UnsureHand, Classes::new(["hand", "non_hand"], Some(0)));
+    let pipeline = TouchPipeline::new(vec![map], models, TouchOptions::default()).unwrap();
+    let options = SessionOptions {
+        gate: Some(ClassGate {
+            hand: Some(GateAction::Comply),
+            non_hand: Some(GateAction::Stop),
+            border: Some(BorderRule::default()),
+        }),
+        ..SessionOptions::default()
+    };
+    let mut session = Session::new(vec![link], pipeline, options).unwrap();
+    let mut events: Vec<Event> = Vec::new();
+    for k in 0..40u64 {
+        let mut frame = vec![100.0f32; 715];
+        if (20..32).contains(&k) {
+            for &i in &near {
+                frame[i] = 400.0;
+            }
+        }
+        assert!(session.push(k * 20_000, k, &[frame], &mut events).unwrap().is_continue());
+    }
+    let gates = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Gate { action, .. } => Some(*action),
+            _ => None,
+        })
+        .collect();
+    let borders = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Classified { touch, .. } => Some(touch.decision.border_mm),
+            _ => None,
+        })
+        .collect();
+    (gates, borders)
+}
+
+/// An object overhanging the skin's edge leaves part of its print, so a hand decided there with
+/// little confidence is stopped for, where the same decision in the middle of the skin complies.
+#[test]
+fn an_unsure_hand_at_the_skins_border_stops_the_arm_and_complies_in_the_middle() {
+    use skin_control::hri::GateAction;
+    let map = support::forearm();
+    let border = map.border_distances();
+    let edge = (0..border.len()).find(|&i| border[i] == 0.0).unwrap();
+    let middle = (0..border.len())
+        .max_by(|&a, &b| border[a].total_cmp(&border[b]))
+        .unwrap();
+    let (gates, borders) = gate_for_press_at(edge);
+    assert_eq!(gates, [GateAction::Stop, GateAction::Resume], "at the border");
+    assert_eq!(borders, [0.0], "at the border");
+    let (gates, borders) = gate_for_press_at(middle);
+    assert_eq!(gates, [GateAction::Comply, GateAction::Resume], "in the middle");
+    assert!(borders[0] > 30.0, "in the middle: {borders:?}");
 }

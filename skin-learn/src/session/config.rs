@@ -30,6 +30,9 @@
 //! [gate]                          # optional: what the robot should do
 //! hand = "comply"                 # stop, comply, slow or resume
 //! non_hand = "stop"
+//! border = { within_mm = 15, hand_below = 0.95, action = "stop" }
+//!                                 # optional: a hand less sure than hand_below whose taxels
+//!                                 # come within within_mm of the skin's border gets action
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time
 //! [sim]                           # optional: how a simulated skin answers (Python's
@@ -452,6 +455,9 @@ impl SessionConfig {
             }
         }
         config.image_size()?;
+        if let Some(Err((field, v, expected))) = config.gate.and_then(|g| g.border).map(|b| b.check()) {
+            return Err(value(field, v.to_string(), expected));
+        }
         config.sim.as_ref().map_or(Ok(()), |sim| sim.check(path))?;
         Ok(config)
     }

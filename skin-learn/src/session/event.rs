@@ -54,7 +54,8 @@ pub enum Event {
     },
     /// A touch was classified, on the image of the touch at its fullest so far; `revised` when
     /// the class changed since the touch's last decision. In JSON: `time`, `link`, `touch`,
-    /// `revised`, `class` (its name), `probability` and the `parts` pressing (a hand, with a
+    /// `revised`, `class` (its name), `probability`, `border_mm` (how near its taxels come to the
+    /// skin's border, millimetres on the map) and the `parts` pressing (a hand, with a
     /// segmenter), thumb to palm.
     Classified {
         /// The link's name.
@@ -332,6 +333,9 @@ impl Serialize for touch::Classified {
         m.serialize_entry("revised", &self.revised)?;
         m.serialize_entry("class", &d.class)?;
         m.serialize_entry("probability", &round(f64::from(d.probability), 4))?;
+        if d.border_mm.is_finite() {
+            m.serialize_entry("border_mm", &round(f64::from(d.border_mm), 1))?;
+        }
         if !d.parts.is_empty() {
             m.serialize_entry("parts", &Parts(&d.parts))?;
         }
