@@ -137,3 +137,23 @@ def test_read_map_flattens_a_layout():
     a = skin.read_map(FIXTURES / "forearm" / "layout.json")
     b = skin.flatten(skin.read_layout(FIXTURES / "forearm" / "layout.json")[0])
     np.testing.assert_array_equal(a.uv, b.uv)
+
+
+def test_border_mm_is_each_taxels_way_to_the_nearest_border_edge():
+    """Against numpy: the edges of one triangle only, the distance to the nearest segment."""
+    m = skin.read_map(FIXTURES / "forearm" / "layout.json")
+    count = {}
+    for f in m.faces:
+        for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0])):
+            key = (min(a, b), max(a, b))
+            count[key] = count.get(key, 0) + 1
+    edges = np.array([e for e, n in count.items() if n == 1])
+    a, b = m.uv[edges[:, 0]], m.uv[edges[:, 1]]
+    ab = b - a
+    rel = m.uv[:, None, :] - a[None]
+    t = np.clip(np.einsum("pkd,kd->pk", rel, ab) / np.einsum("kd,kd->k", ab, ab), 0.0, 1.0)
+    want = np.linalg.norm(rel - t[..., None] * ab[None], axis=2).min(axis=1) * 1e3
+    assert m.border_mm.shape == (len(m),)
+    np.testing.assert_allclose(m.border_mm, want, atol=1e-9)
+    # The forearm's map is nearly a rectangle: its border taxels are 0 from it, its middle far.
+    assert (m.border_mm == 0).sum() >= 40 and m.border_mm.max() > 80

@@ -261,6 +261,16 @@ impl TactileMap {
         )
     }
 
+    /// Each taxel's distance from the skin's border on the map (the outline of its triangles
+    /// and the rim of any hole), (N,) millimetres: 0 on the border, and for a taxel in no
+    /// triangle.
+    #[getter]
+    fn border_mm<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let d = self.inner.border_distances();
+        let n = d.len();
+        arrays::out(py, d.into_iter().map(|m| m * 1e3).collect(), &[n])
+    }
+
     /// Each taxel's 3D position, (N, 3) metres (empty for a map read without them).
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {

@@ -62,6 +62,9 @@ class TactileMap:
     def uv(self) -> npt.NDArray[np.float64]:
         """(N, 2) metres on the map."""
     @property
+    def border_mm(self) -> npt.NDArray[np.float64]:
+        """(N,) each taxel's distance from the skin's border on the map, millimetres."""
+    @property
     def positions(self) -> npt.NDArray[np.float64]: ...
     @property
     def faces(self) -> npt.NDArray[np.int64]: ...
