@@ -22,6 +22,7 @@ except ImportError:  # pragma: no cover - depends on the machine
 
 from skin.sim import FINGERS, Kit, PathFollower, SkinBridge, SkinLoop, bare_robot, robot_from_urdf, touches, two_joint_arm
 from skin.sim.bridge import HULL_DEPTH, MAX_TIMESTEP, allowed_depth, holding_force
+from skin.sim.loop import MAX_EVENTS
 
 CONFIG = FIXTURES / "session" / "run.toml"
 
@@ -539,6 +540,68 @@ def test_a_diverging_simulation_is_an_error_not_frames_from_the_past(tmp_path, m
         loop.run(0.1)
 
 
+# --- the loop's history of events: bounded, and nothing lost to the bound ---------------------
+
+
+def three_presses():
+    """The forearm pressed by the ball three times (1.5 s, 3.0 s, 4.5 s), to run for 6 s."""
+    bridge, kit, model, data = scene()
+    for k in range(3):
+        kit.press("sphere", [0.0, 0.18, 0.08], [0, 0, 1], 8.0, start=1.5 + 1.5 * k, duration=1.0)
+    return bridge, kit, model, data
+
+
+def test_a_bounded_history_keeps_the_latest_events_and_loses_none_to_its_readers():
+    bridge, kit, model, data = three_presses()
+    bound = 2
+    read, history = [], []
+
+    def control(l):
+        kit.control()
+        history.append(len(l.events))
+        if round(l.time / model.opt.timestep) % 300 == 0:  # now and then: many events between
+            read.extend(l.new_events())
+
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=control, max_events=bound)
+    assert loop.events.maxlen == bound
+    # run() collects its own stretch: each of these is longer than the history.
+    stretches = [loop.run(3.7), loop.run(2.3), loop.finish()]
+    read.extend(loop.new_events())
+    every = [e for s in stretches for e in s]
+    assert [len(s) > bound for s in stretches[:2]] == [True, True], [len(s) for s in stretches]
+    found = touches(every)
+    assert len(found) == 3 and all(t["end"] is not None and t["class"] == "non_hand" for t in found), found
+    assert read == every  # new_events() saw every one, in order
+    assert max(history) <= bound and list(loop.events) == every[-bound:]
+    assert loop.events_dropped == len(every) - bound
+
+
+def test_the_default_history_is_bounded_and_none_keeps_every_event():
+    bridge, kit, model, data = three_presses()
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control, max_events=None)
+    every = loop.run(6.0) + loop.finish()
+    assert len(every) > 6 and list(loop.events) == every and loop.events_dropped == 0
+    # Its first call: the events since the loop began, as the history holds them.
+    assert loop.new_events() == every and loop.new_events() == []
+    assert SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG)).events.maxlen == MAX_EVENTS
+
+
+def test_a_history_of_no_events_still_delivers_them():
+    bridge, kit, model, data = three_presses()
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control, max_events=0)
+    assert loop.new_events() == []
+    every = loop.run(6.0) + loop.finish()
+    assert len(loop.events) == 0 and loop.events_dropped == len(every) > 0
+    assert loop.new_events() == every
+
+
+@pytest.mark.parametrize("bad", [-1, 1.5, True, "10"])
+def test_a_bad_max_events_is_named(bad):
+    bridge, kit, model, data = scene()
+    with pytest.raises(skin.ArrayError, match=f"max_events = {bad!r}: a number of events, 0 or more"):
+        SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), max_events=bad)
+
+
 # --- other layouts, and a URDF, checked the same way --------------------------------------
 
 
@@ -702,7 +765,7 @@ def test_links_of_a_bare_robot_lie_apart():
     kit.press("sphere", wrist.positions[i], wrist.normals[i], 8.0, start=1.5, duration=1.0, body="wrist")
     loop = SkinLoop(model, data, bridge, skin.Session.from_config(config), control=kit.control)
     loop.run(3.0)
-    found = touches(loop.events + loop.finish())
+    found = touches([*loop.events, *loop.finish()])
     assert [t["link"] for t in found] == ["wrist"], found
 
 

@@ -5,8 +5,9 @@ deeper than a skin gives (`Overpress`: a warning and a record the loop keeps).""
 from __future__ import annotations
 
 import warnings
+from collections import deque
 from dataclasses import dataclass
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Deque, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -15,6 +16,12 @@ from .bridge import SimFrame, SkinBridge, _mujoco
 
 #: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
 Control = Callable[["SkinLoop"], None]
+
+#: How many of the latest events `SkinLoop.events` keeps by default: about 5 MB (a `classified`
+#: event carries its 68 x 100 image: some 15 kB a touch), some six minutes of a skin pressed
+#: without pause (about 160 events a simulated minute in python/bench/sim_memory.py), however
+#: long the session runs; every event of it, kept, would grow its memory without end.
+MAX_EVENTS = 1_000
 
 
 @dataclass
@@ -46,18 +53,38 @@ class SkinLoop:
     this loop: `loop.gate` is the gate's action now ("stop", "comply", "slow", "resume", or None
     with no gate or no touch), `loop.new_events()` the events since it last asked.
 
+    The loop keeps the latest `max_events` events in `loop.events` (`MAX_EVENTS` by default;
+    None keeps every one, for a short scripted run) and counts those it let go in
+    `loop.events_dropped`; what `step`, `run`, `finish` and `new_events` return is never cut
+    by that bound.
+
     At every step the loop also looks for geoms pressed into a link's skin deeper than a skin
     gives: each such press warns (`skin.SkinWarning`) when it starts and if it goes through the
     link, and is kept in `loop.overpresses` (`Overpress`)."""
 
-    def __init__(self, model, data, bridge: SkinBridge, session, *, control: Optional[Control] = None) -> None:
+    def __init__(
+        self,
+        model,
+        data,
+        bridge: SkinBridge,
+        session,
+        *,
+        control: Optional[Control] = None,
+        max_events: Optional[int] = MAX_EVENTS,
+    ) -> None:
+        if max_events is not None and (isinstance(max_events, bool) or not isinstance(max_events, int) or max_events < 0):
+            raise ArrayError(f"max_events = {max_events!r}: a number of events, 0 or more (None keeps every one)")
         self.model = model
         self.data = data
         self.bridge = bridge
         self.session = session
         self.control = control
-        #: Every event of the session so far.
-        self.events: List = []
+        #: The session's latest events, oldest first: at most `max_events` (a deque of that
+        #: `maxlen`; every one with None).
+        self.events: Deque = deque(maxlen=max_events)
+        #: How many events `events` let go to stay within `max_events` (they were returned and
+        #: delivered all the same).
+        self.events_dropped = 0
         #: The last frame the skin delivered.
         self.frame: Optional[SimFrame] = None
         #: The last step made a skin frame.
@@ -66,7 +93,9 @@ class SkinLoop:
         self.overpresses: List[Overpress] = []
         # The presses under way: per (link, geom), its record and its first normal.
         self._deep: Dict[Tuple[int, int], Tuple[Overpress, np.ndarray]] = {}
-        self._unread = 0
+        # The events `new_events` has yet to return, kept apart from the history so that none is
+        # lost to its bound; None until its first call (no reader yet: nothing kept twice).
+        self._unread: Optional[List] = None
         self._mj = _mujoco()
         bridge.bind(model)
         _check_session(bridge, session)
@@ -86,10 +115,30 @@ class SkinLoop:
         return float(self.data.time)
 
     def new_events(self) -> List:
-        """The events since the last call."""
-        new = self.events[len(self.events) - self._unread :] if self._unread else []
-        self._unread = 0
+        """The events since the last call, every one however many: from its first call on, the
+        loop keeps those not yet read until they are, whatever `max_events` says (so a caller
+        that reads once and then stops keeps them all). The first call returns the events
+        since the loop began as `events` holds them: every one, unless it had let some go
+        before (`events_dropped`); a controller that calls it from its first step misses
+        none."""
+        if self._unread is None:
+            self._unread = []
+            return list(self.events)
+        new, self._unread = self._unread, []
         return new
+
+    def _record(self, events: List) -> None:
+        """Events the session gave: into the history (counting what its bound lets go) and,
+        once someone reads them, among the unread."""
+        if not events:
+            return
+        bound = self.events.maxlen
+        if bound is not None:
+            # A deque at its maxlen lets go of its oldest as many as overflow it.
+            self.events_dropped += max(0, len(self.events) + len(events) - bound)
+        self.events.extend(events)
+        if self._unread is not None:
+            self._unread.extend(events)
 
     def step(self) -> List:
         """One control step and one MuJoCo step; returns the events of the skin frame it made
@@ -130,8 +179,7 @@ class SkinLoop:
             return []
         self.frame = self.bridge.frame(self.data)
         events = self.frame.push(self.session)
-        self.events.extend(events)
-        self._unread += len(events)
+        self._record(events)
         return events
 
     def _watch(self, t: float) -> None:
@@ -170,23 +218,23 @@ class SkinLoop:
             self._deep.pop(key)[0].end = t
 
     def run(self, seconds: float, until: Optional[Callable[["SkinLoop"], bool]] = None) -> List:
-        """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns the
-        events of that stretch."""
+        """Steps for `seconds` of simulated time (or until `until(loop)` is true); returns every
+        event of that stretch, however many (`max_events` bounds only `events`: for a long
+        session, run it a stretch at a time)."""
         if not (np.isfinite(seconds) and seconds >= 0):
             raise ArrayError(f"seconds = {seconds}: simulated seconds, 0 or more")
-        first = len(self.events)
+        stretch: List = []
         end = self.data.time + seconds - 0.5 * self.model.opt.timestep
         while self.data.time < end:
-            self._step()
+            stretch.extend(self._step())
             if until is not None and until(self):
                 break
-        return self.events[first:]
+        return stretch
 
     def finish(self) -> List:
         """Ends the session (open touches released); returns those events."""
         events = self.session.finish()
-        self.events.extend(events)
-        self._unread += len(events)
+        self._record(events)
         return events
 
 
