@@ -142,10 +142,18 @@ impl BorderRule {
     /// what it takes).
     pub fn check(&self) -> Result<(), (&'static str, f64, &'static str)> {
         if !(0.0..=1000.0).contains(&self.within_mm) {
-            return Err(("[gate] border.within_mm", self.within_mm, "millimetres from 0 to 1000"));
+            return Err((
+                "[gate] border.within_mm",
+                self.within_mm,
+                "millimetres from 0 to 1000",
+            ));
         }
         if !(0.0..=1.0).contains(&self.hand_below) {
-            return Err(("[gate] border.hand_below", self.hand_below, "a probability from 0 to 1"));
+            return Err((
+                "[gate] border.hand_below",
+                self.hand_below,
+                "a probability from 0 to 1",
+            ));
         }
         Ok(())
     }

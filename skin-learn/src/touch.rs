@@ -338,6 +338,19 @@ struct Link {
     border_mm: Vec<f32>,
 }
 
+impl Link {
+    /// How near the taxels of the touch's image (its contacts at their fullest) come to the
+    /// skin's border, millimetres; infinite with none.
+    fn image_border_mm(&self) -> f32 {
+        self.peak_pressures
+            .iter()
+            .zip(&self.border_mm)
+            .filter(|&(&p, _)| p > 0.0)
+            .map(|(_, &d)| d)
+            .fold(f32::INFINITY, f32::min)
+    }
+}
+
 /// The contact search and the imager of a link's map (`map.name` names it in errors). A tactile
 /// map carries no normals: contacts get none (`Contact::normal` is None).
 fn search_and_image(
@@ -533,7 +546,9 @@ impl TouchPipeline {
 
     /// The decisions of the touches in progress that have been decided, one per link at most.
     pub fn open_decisions(&self) -> impl Iterator<Item = &Decision> + '_ {
-        self.links.iter().filter_map(|l| l.touch.as_ref()?.decision.as_ref())
+        self.links
+            .iter()
+            .filter_map(|l| l.touch.as_ref()?.decision.as_ref())
     }
 
     /// The tactile map of `link` as built (every taxel, before dead ones are bridged): where
@@ -685,6 +700,7 @@ impl TouchPipeline {
             return Ok(());
         };
         let link = &mut self.links[k];
+        let border_mm = link.image_border_mm();
         let Some(touch) = &mut link.touch else {
             return Ok(());
         };
@@ -742,14 +758,6 @@ impl TouchPipeline {
             .is_some_and(|d| d.class.index() != class.index());
         let first = touch.decision.is_none();
         touch.classified_total = touch.peak_total;
-        // The image's taxels are those of the contacts at the touch's fullest.
-        let border_mm = link
-            .peak_pressures
-            .iter()
-            .zip(&link.border_mm)
-            .filter(|&(&p, _)| p > 0.0)
-            .map(|(_, &d)| d)
-            .fold(f32::INFINITY, f32::min);
         let decision = Decision {
             class,
             probability,

@@ -588,9 +588,11 @@ fn gate_for_press_at(centre: usize) -> (Vec<skin_control::hri::GateAction>, Vec<
     use skin_learn::session::SessionOptions;
     use skin_learn::touch::{TouchOptions, TouchPipeline};
     let map = support::forearm();
-    let link = skin_core::format::load_link(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json"))
-        .unwrap()
-        .value;
+    let link = skin_core::format::load_link(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/forearm/layout.json"),
+    )
+    .unwrap()
+    .value;
     let near: Vec<usize> = (0..map.points.len())
         .filter(|&i| (map.points[i] - map.points[centre]).norm() < 0.012)
         .collect();
@@ -613,7 +615,12 @@ fn gate_for_press_at(centre: usize) -> (Vec<skin_control::hri::GateAction>, Vec<
                 frame[i] = 400.0;
             }
         }
-        assert!(session.push(k * 20_000, k, &[frame], &mut events).unwrap().is_continue());
+        assert!(
+            session
+                .push(k * 20_000, k, &[frame], &mut events)
+                .unwrap()
+                .is_continue()
+        );
     }
     let gates = events
         .iter()

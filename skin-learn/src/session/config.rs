@@ -454,12 +454,28 @@ impl SessionConfig {
                 return Err(value(field, v.to_string(), "1 to 1000000"));
             }
         }
-        config.image_size()?;
-        if let Some(Err((field, v, expected))) = config.gate.and_then(|g| g.border).map(|b| b.check()) {
-            return Err(value(field, v.to_string(), expected));
-        }
-        config.sim.as_ref().map_or(Ok(()), |sim| sim.check(path))?;
+        config.check_sections()?;
         Ok(config)
+    }
+
+    /// The image size, the `[gate]` border rule's numbers ([`BorderRule::check`]) and the
+    /// `[sim]` table in their bounds.
+    ///
+    /// [`BorderRule::check`]: skin_control::hri::BorderRule::check
+    fn check_sections(&self) -> Result<(), ConfigError> {
+        self.image_size()?;
+        if let Some(sim) = &self.sim {
+            sim.check(&self.path)?;
+        }
+        match self.gate.and_then(|g| g.border).map(|b| b.check()) {
+            Some(Err((field, value, expected))) => Err(ConfigError::Value {
+                file: self.path.clone(),
+                field,
+                value: value.to_string(),
+                expected,
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// The models' input size (rows, cols); [`ImageSize::MODEL_DEFAULT`] unless the file says.

@@ -52,7 +52,11 @@ impl Session {
         let Some(gate) = &self.setup.options.gate else {
             return Ok(());
         };
-        let action = gate.decide(self.pipeline.open_decisions().map(crate::touch::Decision::gate_touch));
+        let action = gate.decide(
+            self.pipeline
+                .open_decisions()
+                .map(crate::touch::Decision::gate_touch),
+        );
         if self.gate != Some(action) {
             self.gate = Some(action);
             send(&mut self.stopped, sink, |s| {
