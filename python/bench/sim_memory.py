@@ -1,15 +1,17 @@
 """Memory of a long simulated session: the full arm in MuJoCo through the session with both
 shipped models, for 30 simulated minutes, resident memory read every simulated minute.
 
-    OMP_NUM_THREADS=1 python python/bench/sim_memory.py [--minutes 30] [--keep-events]
+    OMP_NUM_THREADS=1 python python/bench/sim_memory.py [--minutes 30] [--max-events N|none] [--clear-events]
 
 The scene of sim.py (the full arm's three links, a hand pressing the middle one, a ball
 rolling on the first and a bar pressing the last, in turn, every 1.4 s), with each press at
 its own place, force and yaw so that the classifier and the segmenter see varied images. The
-loop's events are read and dropped after every simulated second, as a robot's controller
-would (`SkinLoop.events` keeps every event otherwise; `--keep-events` leaves them there, to
-see what they cost). Prints resident memory each minute and, after warm-up (the first tenth
-of the run), its growth; exits non-zero if it grew by more than 10%.
+loop runs with its defaults: it keeps the latest events in `loop.events` (`SkinLoop`'s
+`max_events`, `skin.sim.loop.MAX_EVENTS` unless `--max-events` says otherwise; `none` keeps
+every one, as the loop did before it was bounded), and the bench reads each simulated
+second's events from what `run` returns; `--clear-events` also empties `loop.events` each
+simulated second, as a caller had to before. Prints resident memory each minute and, after
+warm-up (the first tenth of the run), its growth; exits non-zero if it grew by more than 10%.
 """
 
 import argparse
@@ -22,6 +24,7 @@ import numpy as np
 
 import skin
 from skin.sim import Kit, SkinBridge, SkinLoop
+from skin.sim.loop import MAX_EVENTS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sim import ROOT, full_arm_link  # noqa: E402  (the same arm as the speed bench)
@@ -85,13 +88,20 @@ def script(kit: Kit, seconds: float, seed: int = 54) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=30.0, help="simulated minutes (default 30)")
-    parser.add_argument("--keep-events", action="store_true", help="leave every event in loop.events")
+    parser.add_argument(
+        "--max-events",
+        type=lambda v: None if v == "none" else int(v),
+        default=argparse.SUPPRESS,  # unsaid: the loop's own default, not passed at all
+        help=f"events loop.events keeps ('none': every one; default the loop's own, {MAX_EVENTS})",
+    )
+    parser.add_argument("--clear-events", action="store_true", help="empty loop.events every simulated second")
     args = parser.parse_args()
     seconds = 60.0 * args.minutes
     folder = Path(tempfile.mkdtemp(prefix="skin-sim-memory-"))
     bridge, model, data, kit, session = build(folder)
     script(kit, seconds)
-    loop = SkinLoop(model, data, bridge, session, control=kit.control)
+    bound = {"max_events": args.max_events} if "max_events" in vars(args) else {}
+    loop = SkinLoop(model, data, bridge, session, control=kit.control, **bound)
     counts = {"classified": 0, "released": 0}
     rows = []
     w0 = time.perf_counter()
@@ -100,13 +110,13 @@ def main() -> int:
             for e in loop.run(1.0):
                 if e.kind in counts:
                     counts[e.kind] += 1
-            if not args.keep_events:
-                loop.new_events()
+            if args.clear_events:
                 loop.events.clear()
         rows.append((minute, resident_kb(), counts["classified"], counts["released"]))
         print(
             f"{minute:>3} min simulated ({time.perf_counter() - w0:6.0f} s): resident {rows[-1][1]:>7} kB, "
-            f"{counts['classified']} classifications, {counts['released']} touches",
+            f"{counts['classified']} classifications, {counts['released']} touches, "
+            f"{len(loop.events)} events kept ({loop.events_dropped} let go)",
             flush=True,
         )
     warm = max(1, len(rows) // 10)
