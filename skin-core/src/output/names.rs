@@ -1,6 +1,6 @@
 //! The names of per-input outputs (a folder or a file for each recording, image or log).
 
-use super::{OutputError, Result};
+use super::error::{OutputError, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
