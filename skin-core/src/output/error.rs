@@ -220,3 +220,62 @@ pub(super) fn io(action: Action, path: &Path) -> impl FnOnce(std::io::Error) -> 
         source,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_kinds_read_as_the_words_of_the_messages() {
+        let e = OutputError::Io {
+            action: Action::CreateFolderOf,
+            path: PathBuf::from("out/map.json"),
+            source: std::io::ErrorKind::PermissionDenied.into(),
+        };
+        assert!(
+            e.to_string()
+                .starts_with("cannot create the folder of out/map.json: "),
+            "{e}"
+        );
+        let words: Vec<&str> = [
+            Action::Write,
+            Action::Create,
+            Action::CreateFolderOf,
+            Action::Read,
+            Action::ReadLink,
+            Action::Lock,
+            Action::WriteInto,
+        ]
+        .iter()
+        .map(|a| a.as_str())
+        .collect();
+        let expected = [
+            "write",
+            "create",
+            "create the folder of",
+            "read",
+            "read the link",
+            "lock",
+            "write into",
+        ];
+        assert_eq!(words, expected);
+        let not_ours = |whose| OutputError::NotOurs {
+            dir: PathBuf::from("out"),
+            whose,
+            files: vec!["a.png".into()],
+            command: "skin run".into(),
+        };
+        let e = not_ours(Whose::Command("skin image".into()));
+        assert!(
+            e.to_string()
+                .starts_with("out: holds the output of `skin image` (a.png); "),
+            "{e}"
+        );
+        let e = not_ours(Whose::NotSkins);
+        assert!(
+            e.to_string()
+                .starts_with("out: holds files that skin did not write (a.png); "),
+            "{e}"
+        );
+    }
+}
