@@ -19,7 +19,9 @@
 //!   (counted, and shown on its page): the session never waits for a browser and the viewer's
 //!   memory does not grow with one.
 //! - `server`: `GET /` and `GET /stream`, nothing else (404; no file is read for a request);
-//!   loopback unless another address is asked for; a browser sending garbage is dropped.
+//!   loopback unless another address is asked for. It speaks HTTP through `http` (request heads,
+//!   answers, refusals; the `http` crate's statuses and methods) and hands each browser's stream
+//!   to `browser`, whose loop sends what is new and drops a browser sending garbage.
 //! - `limits`: idle sockets cannot lock browsers out. A request head must arrive within
 //!   [`HEAD_TIMEOUT`]; connections still waiting for theirs are given up first, each address's
 //!   oldest once it holds [`MAX_WAITING_PER_ADDRESS`], the busiest address's past
@@ -46,6 +48,8 @@
 //! # Ok(()) }
 //! ```
 
+mod browser;
+mod http;
 mod hub;
 mod limits;
 pub mod scene;
@@ -56,12 +60,13 @@ pub mod wire;
 #[cfg(feature = "mcap")]
 pub mod replay;
 
+pub use crate::http::HEAD_TIMEOUT;
 pub use hub::{Control, SPEEDS};
 pub use limits::{
     MAX_CONNECTIONS, MAX_STREAMS, MAX_STREAMS_PER_ADDRESS, MAX_WAITING, MAX_WAITING_PER_ADDRESS,
 };
 pub use scene::Scene;
-pub use server::{HEAD_TIMEOUT, ViewError, ViewStats};
+pub use server::{ViewError, ViewStats};
 pub use sink::ViewSink;
 
 use std::net::SocketAddr;

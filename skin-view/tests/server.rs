@@ -353,3 +353,25 @@ fn idle_sockets_do_not_lock_browsers_out_of_the_page() {
     assert_eq!(idle.len(), 200);
     drop(idle);
 }
+
+#[test]
+fn a_viewer_dropped_stops_accepting_and_frees_its_port() {
+    // The accepting thread blocks in `accept`: dropping the viewer must wake it and wait for it
+    // to end, on loopback and on every interface (woken through loopback). Without the wake,
+    // the drop never returns; with a thread left running, the port stays taken.
+    let (session, ..) = arm();
+    for addr in ["127.0.0.1:0", "0.0.0.0:0"] {
+        let viewer = Viewer::bind(addr.parse().unwrap(), Scene::of_session(&session, "arm")).unwrap();
+        let served = viewer.addr();
+        let host = format!("127.0.0.1:{}", served.port());
+        let page = status(&viewer, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+        assert!(page.contains("200"), "{addr}: {page}");
+        drop(viewer);
+        let again = std::net::TcpListener::bind(served);
+        assert!(
+            again.is_ok(),
+            "{addr}: port {} still taken: {again:?}",
+            served.port()
+        );
+    }
+}
