@@ -1,15 +1,26 @@
 """Scripted presses of the fixture forearm in MuJoCo through the session with the shipped models:
-how often HandsNet is right, and how often the segmenter's parts are the fingers that pressed.
+how often HandsNet is right over the whole skin, edges included, and how often the segmenter's
+parts are the fingers that pressed.
 
-    python python/bench/sim_presses.py [PRESSES] [SEEDS]      # default 50 presses, seeds 11..15
+    python python/bench/sim_presses.py [PRESSES] [SEEDS] [FIRST_SEED]   # default 50, 5, 101
 
-Hand, bar and ball in turn at random places of the forearm's middle, random forces (hand 8-20 N,
-bar 5-20 N, ball 3-20 N), yaws within 0.6 rad of its axis (either way), a random set of fingers
-(each pressing with probability 0.7). A hand press's fingers are those whose fingertip pressed the
-skin with more than 0.3 N in mid-press (MuJoCo's contacts); the segmenter's are the finger parts
-it names at the touch's last classification as a hand. For comparison, the same finger-set rule
-on the segmenter's own kind of data: hands from `skin.synthesize` (a seed and subjects it was not
-trained on), truth from their part masks (a finger present with 4 pixels or more).
+The session is the fixture's (`fixtures/session/run.toml`: the shipped models and gate); set
+`SKIN_RUN_TOML` to another run.toml to measure other models or another gate on the same presses.
+
+Each seed scripts PRESSES presses, the kit's tools in turn: a hand, a bar of 12 mm radius and
+balls of 15, 20 and 30 mm radius, each at a taxel drawn uniformly over the whole forearm, with a
+random force (hand 8-20 N, bar 5-20 N, balls 3-20 N), yaw and, for a hand, a random set of
+fingers (each pressing with probability 0.7). A press's distance from the edge is its taxel's
+distance on the tactile map from the skin's border (`TactileMap.border_mm`); the table gives
+each tool's presses within 15 mm of it, 15-30 mm and further. A touch's class is the class it is
+released with; "gate" counts the presses for which the gate said, at any frame of the press,
+what the wrong class would make it say: `stop` for a hand (the border rule, run.toml's
+`[gate] border`, included), `comply` for a bar or a ball. A hand press's fingers are those whose
+fingertip pressed the skin with more than 0.3 N in mid-press (MuJoCo's contacts); the
+segmenter's are the finger parts it names at the touch's last classification as a hand. For
+comparison, the same finger-set rule on the segmenter's own kind of data: hands from
+`skin.synthesize` (a seed and subjects it was not trained on), truth from their part masks (a
+finger present with 4 pixels or more).
 
 Then where the skin places a contact: a 2 cm ball pressed with 2-20 N at 30 random points of the
 forearm's middle, each up to 4 mm from a taxel (between taxels, and in the strips between
@@ -17,7 +28,9 @@ modules), the session's contact centroid against MuJoCo's contact point moved fr
 the penetration to the skin's surface.
 """
 
+import os
 import sys
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -26,36 +39,43 @@ import skin
 from skin.sim import FINGERS, Kit, SkinBridge, SkinLoop, bare_robot, touches
 
 ROOT = Path(__file__).resolve().parents[2]
-CONFIG = ROOT / "fixtures" / "session" / "run.toml"
+CONFIG = Path(os.environ.get("SKIN_RUN_TOML", ROOT / "fixtures" / "session" / "run.toml"))
+TOOLS = ("hand", "bar", "ball15", "ball20", "ball30")
+BANDS = ((0.0, 15.0), (15.0, 30.0), (30.0, np.inf))
 
 
 def presses(count: int, seed: int):
+    """One row per press: (tool, mm from the border, class released with, its probability,
+    fingers that pressed, fingers the segmenter named, the gate's actions during the press)."""
     import mujoco
 
     bridge = SkinBridge.from_config(CONFIG)
     spec = bare_robot(bridge.layout)
     kit = Kit(spec)
     kit.add_hand()
-    kit.add_bar(radius=0.015)
-    kit.add_sphere(radius=0.03)
+    kit.add_bar(radius=0.012)
+    for r in (15, 20, 30):
+        kit.add_sphere(f"ball{r}", radius=r * 1e-3)
     bridge.attach(spec)
     model = spec.compile()
     data = mujoco.MjData(model)
     kit.bind(model, data)
-    tmap = skin.read_map(ROOT / "fixtures" / "forearm" / "layout.json")
-    lo, hi = tmap.uv.min(0), tmap.uv.max(0)
-    c, half = (lo + hi) / 2, (hi - lo) / 2
-    central = (np.abs(tmap.uv[:, 0] - c[0]) <= 0.6 * half[0]) & (np.abs(tmap.uv[:, 1] - c[1]) <= 0.3 * half[1])
+    border = skin.read_map(ROOT / "fixtures" / "forearm" / "layout.json").border_mm
     link = bridge.layout[0]
-    actions = kit.random_presses(link.positions[central], link.normals[central], count, seed=seed, yaws=(-0.6, 0.6))
-    loop = SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG), control=kit.control)
+    actions = kit.random_presses(link.positions, link.normals, count, seed=seed)
+    at = [int(np.argmin(np.linalg.norm(link.positions - a.path[0], axis=1))) for a in actions]
+    session = skin.Session.from_config(CONFIG)
+    loop = SkinLoop(model, data, bridge, session, control=kit.control)
     forearm = model.body("forearm").id
     pressed = [set() for _ in actions]
+    gates = defaultdict(list)
 
     def sample(l):
         if not l.framed:
             return False
         for k, a in enumerate(actions):
+            if a.start <= l.time <= a.start + a.duration + 0.2:
+                gates[k].append(l.session.gate)
             if a.tool == "hand" and a.start + 0.3 < l.time < a.start + 0.8:
                 forces = kit.touching("hand", forearm, distal=True)
                 pressed[k] |= {p for p, f in forces.items() if p in FINGERS and f > 0.3}
@@ -63,13 +83,34 @@ def presses(count: int, seed: int):
 
     events = loop.run(actions[-1].start + actions[-1].duration + 0.5, until=sample) + loop.finish()
     found = touches(events)
+    probability = {e.touch: e["probability"] for e in events if e.kind == "released"}
     rows = []
-    for a, fingers in zip(actions, pressed):
+    for k, (a, i, fingers) in enumerate(zip(actions, at, pressed)):
         mine = [t for t in found if a.start <= t["start"] <= a.start + a.duration]
         cls = mine[0]["class"] if mine else None
         parts = {p["part"] for p in mine[0]["parts"] if p["part"] in FINGERS} if mine else set()
-        rows.append((a.tool, cls, fingers, parts))
+        p = probability.get(mine[0]["touch"]) if mine else None
+        rows.append((a.tool, float(border[i]), cls, p, fingers, parts, set(gates[k])))
     return rows
+
+
+def table(rows) -> None:
+    """HandsNet per tool and band of distance from the border."""
+    bands = [f"{lo:g}-{hi:g} mm" if np.isfinite(hi) else f"over {lo:g} mm" for lo, hi in BANDS]
+    print("| tool | right class | " + " | ".join(bands) + " | all | gate |")
+    print("|---|---|" + "---|" * (len(bands) + 2))
+    for tool in TOOLS + ("bar and balls",):
+        mine = [r for r in rows if r[0] == tool or (tool == "bar and balls" and r[0] != "hand")]
+        want = "hand" if tool == "hand" else "non_hand"
+        cells = []
+        for lo, hi in BANDS + ((0.0, np.inf),):
+            band = [r for r in mine if lo <= r[1] < hi]
+            ok = sum(r[2] == want for r in band)
+            cells.append(f"{ok}/{len(band)} ({ok / len(band):.1%})" if band else "-")
+        # What a wrong class would cost: a hand the arm stops for, an object it complies with.
+        wrong = "stop" if tool == "hand" else "comply"
+        gate = sum(wrong in r[6] for r in mine)
+        print(f"| {tool} | {want} | " + " | ".join(cells) + f" | {wrong}: {gate}/{len(mine)} |")
 
 
 def synthetic_baseline():
@@ -141,17 +182,16 @@ def centroids(count: int = 30, seed: int = 7):
 
 def main() -> int:
     count = int(sys.argv[1]) if len(sys.argv) > 1 else 50
-    seeds = range(11, 11 + (int(sys.argv[2]) if len(sys.argv) > 2 else 5))
+    first = int(sys.argv[3]) if len(sys.argv) > 3 else 101
+    seeds = range(first, first + (int(sys.argv[2]) if len(sys.argv) > 2 else 5))
     rows = [r for seed in seeds for r in presses(count, seed)]
-    hands = [r for r in rows if r[0] == "hand"]
-    others = [r for r in rows if r[0] != "hand"]
-    print(f"{len(rows)} presses ({len(seeds)} seeds of {count}): HandsNet calls "
-          f"{np.mean([r[1] == 'hand' for r in hands]):.1%} of {len(hands)} hand presses hand and "
-          f"{np.mean([r[1] == 'non_hand' for r in others]):.1%} of {len(others)} others non_hand")
-    exact = np.mean([r[2] == r[3] for r in hands])
-    agree = np.mean([(f in r[2]) == (f in r[3]) for r in hands for f in FINGERS])
-    print(f"segmenter on the hand presses: the fingers that pressed exactly in {exact:.1%}, "
-          f"finger by finger {agree:.1%}")
+    print(f"{len(rows)} presses over the whole forearm (seeds {seeds.start}-{seeds.stop - 1}, {count} each):")
+    table(rows)
+    hands = [r for r in rows if r[0] == "hand" and r[2] == "hand"]
+    exact = np.mean([r[4] == r[5] for r in hands])
+    agree = np.mean([(f in r[4]) == (f in r[5]) for r in hands for f in FINGERS])
+    print(f"segmenter on the {len(hands)} hand presses called hand: the fingers that pressed exactly in "
+          f"{exact:.1%}, finger by finger {agree:.1%}")
     try:
         n, s_exact, s_agree = synthetic_baseline()
         print(f"segmenter on {n} synthetic hands (seed 99): exactly {s_exact:.1%}, finger by finger {s_agree:.1%}")
