@@ -157,7 +157,7 @@ pub fn swap_max_pools(model: &mut TypedModel) -> TractResult<usize> {
         match relu_input(model, node.inputs[0])? {
             Some(input) => {
                 let name = node.name.clone();
-                crate::tract_plan::swap_in(model, &name, MaxPool2x2 { relu: true }, input, id.into())?;
+                super::patch::swap_in(model, &name, MaxPool2x2 { relu: true }, input, id.into())?;
             }
             None => {
                 TypedModelPatch::replace_single_op(model, node, &node.inputs, MaxPool2x2 { relu: false })?
