@@ -1,0 +1,156 @@
+//! The publishing threads: one puts the events (blocking, at a higher priority), one the frame
+//! messages (dropping); what each did with each topic's messages is counted for the report.
+
+use super::config::zenoh_error;
+use crate::RosError;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, Sender};
+use zenoh::Wait;
+use zenoh::qos::{CongestionControl, Priority};
+
+/// A message on its way to a publishing thread.
+pub(super) struct Outgoing {
+    pub topic: usize,
+    pub attachment: [u8; 33],
+    pub payload: Vec<u8>,
+}
+
+/// What a publishing thread did with each topic's messages.
+#[derive(Debug, Default)]
+pub(super) struct Counts {
+    pub sent: AtomicU64,
+    pub unmatched: AtomicU64,
+    pub failed: AtomicU64,
+}
+
+/// What a publishing thread shares with the outlet.
+pub(super) struct Shared {
+    pub session: zenoh::Session,
+    /// Every peer and router seen connected (their ids).
+    pub peers_seen: std::sync::Mutex<std::collections::BTreeSet<String>>,
+    pub publishers: Vec<zenoh::pubsub::Publisher<'static>>,
+    /// Per topic: a subscriber matches now (kept by Zenoh's matching listeners).
+    pub matching: Vec<Arc<AtomicBool>>,
+    pub counts: Vec<Counts>,
+}
+
+impl Shared {
+    /// The peers and routers connected now, noted among those seen.
+    pub fn peers(&self) -> Vec<String> {
+        let info = self.session.info();
+        let now: Vec<String> = info
+            .peers_zid()
+            .wait()
+            .chain(info.routers_zid().wait())
+            .map(|z| z.to_string())
+            .collect();
+        if let Ok(mut seen) = self.peers_seen.lock() {
+            seen.extend(now.iter().cloned());
+        }
+        now
+    }
+}
+
+/// What [`declare_publishers`] declared, in topic order.
+pub(super) struct Declared {
+    pub publishers: Vec<zenoh::pubsub::Publisher<'static>>,
+    /// Per topic: a subscriber matches now.
+    pub matching: Vec<Arc<AtomicBool>>,
+    /// What keeps `matching` up to date (dropped with the outlet).
+    pub listeners: Vec<zenoh::matching::MatchingListener<()>>,
+}
+
+/// Publishers, one per key, each with its flag of a matching subscriber (kept by the returned
+/// listeners). The events topic (index `events`) blocks rather than drops, at a higher priority.
+pub(super) fn declare_publishers(
+    session: &zenoh::Session,
+    keys: &[String],
+    events: usize,
+) -> Result<Declared, RosError> {
+    let mut publishers = Vec::new();
+    let mut matching = Vec::new();
+    let mut listeners = Vec::new();
+    for (k, key) in keys.iter().enumerate() {
+        let (congestion, priority) = if k == events {
+            (CongestionControl::Block, Priority::DataHigh)
+        } else {
+            (CongestionControl::Drop, Priority::Data)
+        };
+        let publisher = session
+            .declare_publisher(key.clone())
+            .congestion_control(congestion)
+            .priority(priority)
+            .wait()
+            .map_err(zenoh_error)?;
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        listeners.push(
+            publisher
+                .matching_listener()
+                .callback(move |s| f.store(s.matching(), Ordering::Relaxed))
+                .wait()
+                .map_err(zenoh_error)?,
+        );
+        if let Ok(s) = publisher.matching_status().wait() {
+            flag.fetch_or(s.matching(), Ordering::Relaxed);
+        }
+        publishers.push(publisher);
+        matching.push(flag);
+    }
+    Ok(Declared {
+        publishers,
+        matching,
+        listeners,
+    })
+}
+
+/// Which publishing thread.
+#[derive(Clone, Copy)]
+enum Kind {
+    Events,
+    Frames,
+}
+
+/// A publishing thread's queue: the events' (blocking puts, unbounded) or the frames'
+/// (dropping puts, bounded).
+pub(super) enum Queue {
+    Events(Receiver<Outgoing>),
+    Frames(Receiver<Outgoing>),
+}
+
+impl Queue {
+    /// Puts every message of the queue until the outlet lets go of it, counting each.
+    pub fn publish(self, shared: &Shared, give_back: &Sender<Vec<u8>>) {
+        let (self_kind, queue) = match self {
+            Queue::Events(q) => (Kind::Events, q),
+            Queue::Frames(q) => (Kind::Frames, q),
+        };
+        for m in queue {
+            let (Some(publisher), Some(counts), Some(matching)) = (
+                shared.publishers.get(m.topic),
+                shared.counts.get(m.topic),
+                shared.matching.get(m.topic),
+            ) else {
+                continue;
+            };
+            let matched = matching.load(Ordering::Relaxed);
+            // Blocking here (events) holds only this thread; the frame path never waits.
+            let put = publisher
+                .put(m.payload.as_slice())
+                .attachment(m.attachment.as_slice())
+                .wait();
+            let count = match (put, matched) {
+                (Err(_), _) => &counts.failed,
+                (Ok(()), true) => &counts.sent,
+                (Ok(()), false) => &counts.unmatched,
+            };
+            count.fetch_add(1, Ordering::Relaxed);
+            if matches!(self_kind, Kind::Events) {
+                // Rare enough to note who is there each time (a peer that leaves is said).
+                let _ = shared.peers();
+            }
+            let _ = give_back.send(m.payload);
+        }
+    }
+}
