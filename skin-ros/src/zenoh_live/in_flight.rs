@@ -1,7 +1,8 @@
 //! Where the bytes written to the network stand at the end, read from the system's socket
 //! tables (Linux): what [`ZenohOutlet::close`](super::ZenohOutlet::close) waits on.
 
-/// Where the bytes written to the network stand (as [`ZenohOutlet::close`](super::ZenohOutlet::close) found them).
+/// Where the bytes written to the network stand (as
+/// [`ZenohOutlet::close`](super::ZenohOutlet::close) found them).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct InFlight {
     /// Bytes written and not yet taken: on a connection to a process of this machine, not yet
