@@ -42,7 +42,7 @@ pub enum ObjectKind {
     Back,
     /// A small rigid ball or knob as it prints on a curved, soft link: a dome 0.8-2.8 cm across.
     Knob,
-    /// A rigid bar or rod pressed across a curved link: a stroke 2-7 cm long and 0.6-2 cm wide
+    /// A rigid bar or rod pressed across a curved link: a stroke 2-7 cm long and 0.5-1.6 cm wide
     /// (the link's curvature, not the bar, bounds its length).
     Rod,
 }
@@ -187,10 +187,11 @@ fn ball<R: Rng>(rng: &mut R) -> Patch {
     )
 }
 
-/// A knob's or small ball's print on a curved link: a rigid dome (Hertz's profile, gamma 0.5)
-/// of 0.4-1.4 cm radius, a little squashed by the link's curvature.
+/// A knob's or small ball's print on a curved link: a rigid dome (a Hertz-like profile, gamma
+/// 0.3-0.6) of 0.4-1.4 cm radius, a little squashed by the link's curvature. HandsNet's stage 4
+/// was fine-tuned on prints of exactly this range (its card in fixtures/models/handsnet.md).
 fn knob<R: Rng>(rng: &mut R) -> Patch {
-    let r = rng.random_range(0.25..1.0) * CM;
+    let r = rng.random_range(0.4..1.4) * CM;
     let squash = rng.random_range(0.7..1.0);
     Patch::new(
         Shape::Ellipse {
