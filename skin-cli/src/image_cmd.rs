@@ -135,6 +135,9 @@ pub fn run(args: Args) -> Result<()> {
             // The imager's output always fills its size.
             let png = skin_geom::encode_png(ImageView::new(grey, size)?)
                 .with_context(|| format!("cannot encode {}", input.names[f]))?;
+            // Held while the file is created: Ctrl-C's handler removes the staging folder only
+            // once no file is being made in it.
+            let _creating = skin_core::output::writing();
             std::fs::write(&path, &png)
                 .with_context(|| format!("cannot write {} in {}", input.names[f], args.output.display()))?;
             bar.inc(1);

@@ -88,7 +88,9 @@ pub fn run(args: Args) -> Result<()> {
                     let number = input.rec.frame_numbers[f];
                     let labels = net.segment(grey)?;
                     let file = input.names[f].replace(".png", "_parts.png");
+                    let creating = skin_core::output::writing();
                     write_colour(&input.dir.join(file), &labels, h, w)?;
+                    drop(creating);
                     crate::say!(
                         "{} frame {number} ({:.2} s): {}",
                         input.path.display(),

@@ -84,6 +84,7 @@ pub fn run(args: Args) -> Result<()> {
         for (p, report) in chain.postures().postures.iter().zip(chain.solves()) {
             let name = format!("stitched_{}.svg", file_name(&p.name));
             let svg = skin_geom::stitched_svg(chain.stitcher().maps(), &report.placements);
+            let _creating = skin_core::output::writing();
             std::fs::write(out.path().join(&name), svg.as_bytes())
                 .with_context(|| format!("cannot write {name} in {}", args.output.display()))?;
         }
@@ -201,6 +202,8 @@ fn write_frames(
         } else {
             image
         };
+        // Held while the file is created: Ctrl-C's handler waits for it (see skin-core's output).
+        let _creating = skin_core::output::writing();
         write_png(&png, image)
             .with_context(|| format!("cannot write {stem}/{file}.png in {}", args.output.display()))?;
     }
