@@ -12,7 +12,7 @@
 //! decisions and the gate as a robot stack would act on them.
 
 use skin_can::candump::CandumpLog;
-use skin_control::hri::{GateAction, TouchClass};
+use skin_control::hri::GateAction;
 use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
 use std::path::PathBuf;
 
@@ -29,9 +29,10 @@ impl Sink for Robot {
             Event::Classified { touch, image, .. } => {
                 self.decisions += 1;
                 let decision = &touch.decision;
-                let what = match decision.class.kind() {
-                    TouchClass::Hand => "hand",
-                    TouchClass::NonHand => "not a hand",
+                let what = if decision.class.is_hand() {
+                    "hand"
+                } else {
+                    "not a hand"
                 };
                 let parts: Vec<String> = decision
                     .parts

@@ -334,3 +334,65 @@ def test_taxels_on_no_bus_are_warned_of_and_listed(tmp_path):
         session = skin.Session.from_layout(layout, busmap=partial)
     assert sorted(id for link, id in session.uncovered) == lost
     assert {link for link, _ in session.uncovered} == {"forearm"}
+
+
+def test_defaults_agree_between_run_toml_python_keywords_and_the_library(tmp_path):
+    """One set of defaults: a run.toml that sets nothing, Session.from_layout with no keyword
+    and read_session_settings() give the same settings, every option (the Rust tests hold the
+    library's own defaults to the same run.toml)."""
+    layout_path = FIXTURES / "forearm" / "layout.json"
+    config = tmp_path / "run.toml"
+    config.write_text(f'layout = "{layout_path.as_posix()}"\n')
+    from_file = skin.Session.from_config(config).settings
+    from_keywords = skin.Session.from_layout(skin.read_layout(layout_path)).settings
+    defaults = skin.read_session_settings()
+    assert from_file == from_keywords == defaults == skin.read_session_settings(config)
+    # Every option is there, with run.toml's documented defaults.
+    assert defaults["image_size"] == "68x100"
+    assert defaults["baseline"] == {"frames": 20, "polarity": "rising"}
+    touch = defaults["touch"]
+    assert (touch["threshold"], touch["min_taxels"], touch["decide_frames"], touch["release_frames"]) == (
+        5.0,
+        2,
+        3,
+        2,
+    )
+    assert touch["contacts"] == "peaks" and defaults["gate"] is None
+
+
+def test_keywords_set_what_run_toml_sets(tmp_path):
+    layout_path = FIXTURES / "forearm" / "layout.json"
+    config = tmp_path / "run.toml"
+    config.write_text(
+        f'layout = "{layout_path.as_posix()}"\nimage_size = "34x50"\n'
+        '[baseline]\nframes = 30\npolarity = "falling"\n'
+        "[touch]\nthreshold = 7.5\nmin_taxels = 3\ndecide_frames = 4\nrelease_frames = 5\n"
+        '[gate]\nhand = "comply"\nnon_hand = "stop"\n'
+    )
+    from_keywords = skin.Session.from_layout(
+        skin.read_layout(layout_path),
+        image_size=(34, 50),
+        baseline_frames=30,
+        polarity="falling",
+        threshold=7.5,
+        min_taxels=3,
+        decide_frames=4,
+        release_frames=5,
+        gate={"hand": "comply", "non_hand": "stop"},
+    ).settings
+    assert from_keywords == skin.Session.from_config(config).settings == skin.read_session_settings(config)
+
+
+@pytest.mark.parametrize(
+    "keyword, value, words",
+    [
+        ("threshold", -1.0, "threshold"),
+        ("baseline_frames", 1, "baseline_frames"),
+        ("polarity", "up", "rising"),
+        ("gate", {"hand": "hug"}, "comply"),
+    ],
+)
+def test_a_keyword_out_of_run_tomls_bounds_is_named(keyword, value, words):
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    with pytest.raises(skin.SkinError, match=words):
+        skin.Session.from_layout(layout, **{keyword: value})

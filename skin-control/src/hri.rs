@@ -28,13 +28,10 @@ pub trait ContactGate {
 }
 
 /// What the robot does while a touch of some class is in progress (a configuration's `[gate]`
-/// maps each class to one, e.g. hand -> comply, non_hand -> stop).
+/// maps each class to one, e.g. hand -> comply, non_hand -> stop). Written as configuration
+/// files and events write it: `stop`, `comply`, `slow`, `resume` ([`GateAction::name`]; text is
+/// read with [`str::parse`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Deserialize),
-    serde(rename_all = "snake_case")
-)]
 pub enum GateAction {
     /// Stop the motion (the most severe: it wins over any other touch in progress).
     Stop,
@@ -47,6 +44,14 @@ pub enum GateAction {
 }
 
 impl GateAction {
+    /// Every action, in the order errors list them.
+    pub const ALL: [GateAction; 4] = [
+        GateAction::Stop,
+        GateAction::Comply,
+        GateAction::Slow,
+        GateAction::Resume,
+    ];
+
     /// The action's name as configuration files and events write it.
     pub fn name(self) -> &'static str {
         match self {
@@ -55,6 +60,30 @@ impl GateAction {
             GateAction::Slow => "slow",
             GateAction::Resume => "resume",
         }
+    }
+}
+
+impl std::fmt::Display for GateAction {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Text that names no [`GateAction`]: the text (its first 40 characters), and the names there
+/// are in the message.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?}: expected stop, comply, slow or resume")]
+pub struct UnknownAction(pub String);
+
+/// An action by its name (`"comply"`), as configuration files and the Python binding give it.
+impl std::str::FromStr for GateAction {
+    type Err = UnknownAction;
+
+    fn from_str(s: &str) -> Result<GateAction, UnknownAction> {
+        GateAction::ALL
+            .into_iter()
+            .find(|a| a.name() == s)
+            .ok_or_else(|| UnknownAction(s.chars().take(40).collect()))
     }
 }
 
@@ -68,53 +97,51 @@ pub enum TouchClass {
     NonHand,
 }
 
-/// What the robot does for each class of touch in progress (a configuration's `[gate]`: e.g.
-/// hand -> comply, non_hand -> stop). A class without an action leaves the decision to the others.
+/// What the robot does for each class of touch in progress, by the class's name (a
+/// configuration's `[gate]`: e.g. hand -> comply, non_hand -> stop, for as many classes as the
+/// classifier has). A class without an action leaves the decision to the others. Which class is
+/// the hand is the classifier's to say ([`GateTouch::hand`]), not the gate's.
 ///
 /// A touch near the skin's border is seen only in part (an object overhanging the edge prints
 /// only its inner side), so its class is less certain there. With a [`BorderRule`], a touch
-/// decided `hand` with a probability under the rule's bar whose taxels come within its distance
-/// of the border gets the rule's action (by default `stop`) instead of the hand's.
+/// decided to be the hand with a probability under the rule's bar whose taxels come within its
+/// distance of the border gets the rule's action (by default `stop`) instead of its class's.
 ///
 /// ```
-/// use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch, TouchClass};
+/// use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch};
 ///
-/// let gate = ClassGate { hand: Some(GateAction::Comply), non_hand: Some(GateAction::Stop), border: None };
-/// assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Comply);
+/// let gate = ClassGate::new([("hand", GateAction::Comply), ("non_hand", GateAction::Stop)]);
+/// assert_eq!(gate.decide(["hand"]), GateAction::Comply);
 /// // A bump while a hand guides the arm: stop wins over anything.
-/// assert_eq!(gate.decide([TouchClass::NonHand, TouchClass::Hand]), GateAction::Stop);
-/// assert_eq!(gate.decide([] as [TouchClass; 0]), GateAction::Resume);
+/// assert_eq!(gate.decide(["non_hand", "hand"]), GateAction::Stop);
+/// assert_eq!(gate.decide([] as [&str; 0]), GateAction::Resume);
 /// // Interaction tasks may follow the contacts only while the gate complies.
 /// use skin_control::hri::ContactGate;
-/// assert!(!gate.decide([TouchClass::NonHand]).allows("forearm", &[]));
+/// assert!(!gate.decide(["non_hand"]).allows("forearm", &[]));
 ///
 /// // A hand at 70% 5 mm from the border: stopped, where a sure one complies.
 /// let gate = ClassGate { border: Some(BorderRule::default()), ..gate };
-/// let unsure = GateTouch { class: TouchClass::Hand, probability: 0.7, border_mm: 5.0 };
+/// let unsure = GateTouch { class: "hand", hand: true, probability: 0.7, border_mm: 5.0 };
 /// assert_eq!(gate.decide([unsure]), GateAction::Stop);
 /// assert_eq!(gate.decide([GateTouch { probability: 0.999, ..unsure }]), GateAction::Comply);
 /// assert_eq!(gate.decide([GateTouch { border_mm: 40.0, ..unsure }]), GateAction::Comply);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Deserialize), serde(deny_unknown_fields))]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct ClassGate {
-    /// While a hand touches.
-    pub hand: Option<GateAction>,
-    /// While anything else touches.
-    pub non_hand: Option<GateAction>,
+    /// Each class's action, by the class's name.
+    pub actions: std::collections::BTreeMap<String, GateAction>,
     /// What a hand decided with little confidence near the skin's border gets instead (none:
     /// a hand is a hand wherever it touches).
-    #[cfg_attr(feature = "serde", serde(default))]
     pub border: Option<BorderRule>,
 }
 
 /// The gate's rule for a touch at the skin's border (`[gate] border = { ... }`): a touch decided
-/// `hand` with a probability under `hand_below`, some of whose taxels lie within `within_mm` of
-/// the skin's border, gets `action` instead of the hand's action.
+/// to be the hand with a probability under `hand_below`, some of whose taxels lie within
+/// `within_mm` of the skin's border, gets `action` instead of its class's action.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
-    derive(serde::Deserialize),
+    derive(serde::Deserialize, serde::Serialize),
     serde(default, deny_unknown_fields)
 )]
 pub struct BorderRule {
@@ -159,23 +186,27 @@ impl BorderRule {
     }
 }
 
-/// What the gate knows of a decided touch in progress: its class, the class's probability and
-/// how far its taxels come to the skin's border (millimetres on the tactile map; infinite when
-/// unknown). A bare [`TouchClass`] is a sure touch away from the border.
+/// What the gate knows of a decided touch in progress: its class's name, whether that class is
+/// the hand, the class's probability and how far its taxels come to the skin's border
+/// (millimetres on the tactile map; infinite when unknown). A bare class name is a sure touch
+/// away from the border.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GateTouch {
-    /// The class.
-    pub class: TouchClass,
+pub struct GateTouch<'a> {
+    /// The class's name.
+    pub class: &'a str,
+    /// The class is the hand (the classifier's classes say which).
+    pub hand: bool,
     /// Its probability, 0 to 1.
     pub probability: f64,
     /// The least distance of the touch's taxels from the skin's border, millimetres.
     pub border_mm: f64,
 }
 
-impl From<TouchClass> for GateTouch {
-    fn from(class: TouchClass) -> GateTouch {
+impl<'a> From<&'a str> for GateTouch<'a> {
+    fn from(class: &'a str) -> GateTouch<'a> {
         GateTouch {
             class,
+            hand: false,
             probability: 1.0,
             border_mm: f64::INFINITY,
         }
@@ -183,20 +214,25 @@ impl From<TouchClass> for GateTouch {
 }
 
 impl ClassGate {
-    /// The action for one class, if it has one.
-    pub fn action(&self, class: TouchClass) -> Option<GateAction> {
-        match class {
-            TouchClass::Hand => self.hand,
-            TouchClass::NonHand => self.non_hand,
+    /// A gate of `actions`, one per class name, without a border rule.
+    pub fn new<S: Into<String>>(actions: impl IntoIterator<Item = (S, GateAction)>) -> ClassGate {
+        ClassGate {
+            actions: actions.into_iter().map(|(c, a)| (c.into(), a)).collect(),
+            border: None,
         }
+    }
+
+    /// The action for one class, if it has one.
+    pub fn action(&self, class: &str) -> Option<GateAction> {
+        self.actions.get(class).copied()
     }
 
     /// The action for one touch: its class's, or the border rule's for an unsure hand at the
     /// border.
-    pub fn action_for(&self, touch: &GateTouch) -> Option<GateAction> {
+    pub fn action_for(&self, touch: &GateTouch<'_>) -> Option<GateAction> {
         match self.border {
             Some(rule)
-                if touch.class == TouchClass::Hand
+                if touch.hand
                     && touch.border_mm <= rule.within_mm
                     && !(touch.probability >= rule.hand_below) =>
             {
@@ -208,7 +244,7 @@ impl ClassGate {
 
     /// The action for the touches in progress (oldest first): stop if any asks to stop, else
     /// the action of the latest touch that has one; resume when none has.
-    pub fn decide<T: Into<GateTouch>>(&self, open: impl IntoIterator<Item = T>) -> GateAction {
+    pub fn decide<'a, T: Into<GateTouch<'a>>>(&self, open: impl IntoIterator<Item = T>) -> GateAction {
         open.into_iter()
             .fold(None::<GateAction>, |acc, touch| {
                 match (acc, self.action_for(&touch.into())) {
@@ -407,4 +443,93 @@ pub fn interaction_task(
             activation: 1.0,
         },
     )))
+}
+
+/// The gate as a configuration file writes it: actions by name, `[gate]` as a table of class
+/// names (and `border`).
+#[cfg(feature = "serde")]
+mod config {
+    use super::{BorderRule, ClassGate, GateAction};
+    use serde::de::{self, Deserializer, MapAccess, Visitor};
+    use serde::ser::{SerializeMap, Serializer};
+    use std::fmt;
+
+    /// An action is read by its name ([`str::parse`]), so a wrong one is named with the names
+    /// there are.
+    impl<'de> serde::Deserialize<'de> for GateAction {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<GateAction, D::Error> {
+            let name = std::borrow::Cow::<'de, str>::deserialize(d)?;
+            name.parse().map_err(de::Error::custom)
+        }
+    }
+
+    /// An action is written as its name.
+    impl serde::Serialize for GateAction {
+        fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+            s.serialize_str(self.name())
+        }
+    }
+
+    /// The key of a `[gate]` table that is not a class's: the border rule.
+    const BORDER: &str = "border";
+
+    /// `[gate]`: `border` is the border rule, every other key a class's name and its action.
+    impl<'de> serde::Deserialize<'de> for ClassGate {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<ClassGate, D::Error> {
+            d.deserialize_map(GateVisitor)
+        }
+    }
+
+    struct GateVisitor;
+
+    impl<'de> Visitor<'de> for GateVisitor {
+        type Value = ClassGate;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a table of class names and actions (stop, comply, slow or resume), and border")
+        }
+
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ClassGate, A::Error> {
+            let mut gate = ClassGate::default();
+            while let Some(key) = map.next_key::<String>()? {
+                if key == BORDER {
+                    gate.border = Some(map.next_value::<BorderRule>()?);
+                } else {
+                    let action = map.next_value_seed(ActionOf(&key))?;
+                    gate.actions.insert(key, action);
+                }
+            }
+            Ok(gate)
+        }
+    }
+
+    /// A class's action, read inside the value so that the file's line is the action's, and the
+    /// error names the class whose action it is.
+    struct ActionOf<'k>(&'k str);
+
+    impl<'de> de::DeserializeSeed<'de> for ActionOf<'_> {
+        type Value = GateAction;
+
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<GateAction, D::Error> {
+            let name = <std::borrow::Cow<'de, str> as serde::Deserialize>::deserialize(d)?;
+            name.parse().map_err(|e| {
+                let class: String = self.0.chars().take(40).collect();
+                de::Error::custom(format_args!("{class} = {e}"))
+            })
+        }
+    }
+
+    /// Written as it is read: the classes' actions, then `border`.
+    impl serde::Serialize for ClassGate {
+        fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+            let mut map = s.serialize_map(None)?;
+            for (class, action) in &self.actions {
+                map.serialize_entry(class, action)?;
+            }
+            if let Some(border) = &self.border {
+                map.serialize_entry(BORDER, border)?;
+            }
+            map.end()
+        }
+    }
 }

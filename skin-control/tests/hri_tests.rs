@@ -143,48 +143,64 @@ fn the_gate_can_veto_a_contact_and_nan_is_ignored() {
 
 #[test]
 fn the_class_gate_keeps_the_latest_action_and_stop_wins() {
-    use skin_control::hri::{ClassGate, GateAction, TouchClass};
-    let gate = ClassGate {
-        hand: None,
-        non_hand: Some(GateAction::Slow),
-        border: None,
-    };
+    use skin_control::hri::{ClassGate, GateAction};
+    let gate = ClassGate::new([("non_hand", GateAction::Slow)]);
     // A class without an action leaves the decision to the others.
-    assert_eq!(gate.decide([TouchClass::Hand]), GateAction::Resume);
-    assert_eq!(
-        gate.decide([TouchClass::NonHand, TouchClass::Hand]),
-        GateAction::Slow
-    );
-    let gate = ClassGate {
-        hand: Some(GateAction::Comply),
-        non_hand: Some(GateAction::Stop),
-        border: None,
-    };
-    assert_eq!(
-        gate.decide([TouchClass::Hand, TouchClass::Hand]),
-        GateAction::Comply
-    );
-    assert_eq!(
-        gate.decide([TouchClass::Hand, TouchClass::NonHand, TouchClass::Hand]),
-        GateAction::Stop
-    );
+    assert_eq!(gate.decide(["hand"]), GateAction::Resume);
+    assert_eq!(gate.decide(["non_hand", "hand"]), GateAction::Slow);
+    let gate = ClassGate::new([("hand", GateAction::Comply), ("non_hand", GateAction::Stop)]);
+    assert_eq!(gate.decide(["hand", "hand"]), GateAction::Comply);
+    assert_eq!(gate.decide(["hand", "non_hand", "hand"]), GateAction::Stop);
+}
+
+#[test]
+fn the_gate_maps_any_number_of_classes_by_name() {
+    use skin_control::hri::{ClassGate, GateAction};
+    // A classifier of four classes: each its own action, one without.
+    let gate = ClassGate::new([
+        ("palm", GateAction::Comply),
+        ("object", GateAction::Slow),
+        ("elbow", GateAction::Stop),
+    ]);
+    assert_eq!(gate.decide(["palm"]), GateAction::Comply);
+    assert_eq!(gate.decide(["palm", "object"]), GateAction::Slow);
+    assert_eq!(gate.decide(["object", "palm"]), GateAction::Comply);
+    assert_eq!(gate.decide(["finger"]), GateAction::Resume);
+    assert_eq!(gate.decide(["palm", "elbow", "object"]), GateAction::Stop);
+    assert_eq!(gate.action("object"), Some(GateAction::Slow));
+    assert_eq!(gate.action("Object"), None, "names are matched exactly");
+}
+
+#[test]
+fn gate_actions_are_read_by_name_and_a_wrong_one_lists_them() {
+    use skin_control::hri::GateAction;
+    for action in GateAction::ALL {
+        assert_eq!(action.name().parse::<GateAction>(), Ok(action));
+        assert_eq!(action.to_string(), action.name());
+    }
+    let e = "Stop".parse::<GateAction>().unwrap_err().to_string();
+    assert_eq!(e, "\"Stop\": expected stop, comply, slow or resume");
+    // A long text is cut in the message.
+    let e = "x".repeat(1000).parse::<GateAction>().unwrap_err().to_string();
+    assert!(e.len() < 100, "{e}");
 }
 
 #[test]
 fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
-    use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch, TouchClass};
+    use skin_control::hri::{BorderRule, ClassGate, GateAction, GateTouch};
     let rule = BorderRule {
         within_mm: 15.0,
         hand_below: 0.9,
         action: GateAction::Stop,
     };
     let gate = ClassGate {
-        hand: Some(GateAction::Comply),
-        non_hand: Some(GateAction::Slow),
         border: Some(rule),
+        ..ClassGate::new([("palm", GateAction::Comply), ("other", GateAction::Slow)])
     };
+    // The hand is whichever class the classifier says it is (here "palm").
     let hand = |probability: f64, border_mm: f64| GateTouch {
-        class: TouchClass::Hand,
+        class: "palm",
+        hand: true,
         probability,
         border_mm,
     };
@@ -198,7 +214,8 @@ fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
     assert_eq!(gate.decide([hand(0.6, 15.1)]), GateAction::Comply);
     // The rule is about hands: anything else keeps its own action at the border.
     let other = GateTouch {
-        class: TouchClass::NonHand,
+        class: "other",
+        hand: false,
         probability: 0.55,
         border_mm: 0.0,
     };

@@ -33,14 +33,58 @@
 use crate::{Error, Result};
 use std::path::Path;
 
-/// Which way pressure moves a raw reading (`"rising"` or `"falling"` in configuration files).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+/// Which way pressure moves a raw reading (`"rising"` or `"falling"` in configuration files,
+/// read with [`str::parse`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Polarity {
     /// Pressure raises the reading (Cyskin, skin16).
     Rising,
     /// Pressure lowers the reading (iCub: 255 = no load).
     Falling,
+}
+
+impl Polarity {
+    /// The polarity's name as configuration files write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Polarity::Rising => "rising",
+            Polarity::Falling => "falling",
+        }
+    }
+}
+
+impl std::fmt::Display for Polarity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Text that names no [`Polarity`]: the text (its first 40 characters), and the names there
+/// are in the message.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?}: expected \"rising\" or \"falling\"")]
+pub struct UnknownPolarity(pub String);
+
+/// A polarity by its name, as configuration files and the Python binding give it.
+impl std::str::FromStr for Polarity {
+    type Err = UnknownPolarity;
+
+    fn from_str(s: &str) -> std::result::Result<Polarity, UnknownPolarity> {
+        [Polarity::Rising, Polarity::Falling]
+            .into_iter()
+            .find(|p| p.name() == s)
+            .ok_or_else(|| UnknownPolarity(s.chars().take(40).collect()))
+    }
+}
+
+/// A polarity is read by its name ([`str::parse`]), so a wrong one is named with the names
+/// there are.
+impl<'de> serde::Deserialize<'de> for Polarity {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Polarity, D::Error> {
+        let name = std::borrow::Cow::<'de, str>::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
+    }
 }
 
 /// Options of [`Baseline::from_idle`].

@@ -58,7 +58,9 @@ pub mod output;
 mod taxel;
 pub mod text;
 
-pub use baseline::{Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth};
+pub use baseline::{
+    Baseline, BaselineLearner, BaselineOptions, IdleStats, Polarity, TaxelHealth, UnknownPolarity,
+};
 pub use contact::{Contact, ContactFinder};
 pub use contact_peaks::Separation;
 pub use error::{Error, Result};

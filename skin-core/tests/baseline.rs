@@ -415,3 +415,21 @@ fn an_icub_baseline_learned_under_a_press_is_corrected_too() {
     b.apply(&[230.0, 250.0], &mut p).unwrap();
     assert!((p[0] - 20.0).abs() < 1e-3, "{p:?}");
 }
+
+#[test]
+fn a_polarity_is_read_by_name_and_a_wrong_one_lists_the_names() {
+    for p in [Polarity::Rising, Polarity::Falling] {
+        assert_eq!(p.name().parse::<Polarity>(), Ok(p));
+        assert_eq!(p.to_string(), p.name());
+        // JSON writes it as configuration files do, and reads it back.
+        let json = serde_json::to_string(&p).unwrap();
+        assert_eq!(json, format!("\"{}\"", p.name()));
+        assert_eq!(serde_json::from_str::<Polarity>(&json).unwrap(), p);
+    }
+    let e = "Rising".parse::<Polarity>().unwrap_err();
+    assert_eq!(e.to_string(), "\"Rising\": expected \"rising\" or \"falling\"");
+    let e = serde_json::from_str::<Polarity>("\"up\"")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("\"up\": expected \"rising\" or \"falling\""), "{e}");
+}

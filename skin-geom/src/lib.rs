@@ -95,7 +95,7 @@ pub use mesh::{MeshOptions, MeshReport, MeshSource, SkinMesh, TriMesh, WELD_DIST
 pub use mesh_file::{MAX_MESH_BYTES, MeshFileLink, load_mesh_file};
 pub use morphology::{dilate_disk, erode_disk};
 pub use png::{encode_png, write_png};
-pub use raster::{BackProjection, Grid, Normalisation, Rasterizer, to_grey};
+pub use raster::{BackProjection, Grid, NormKind, Normalisation, Rasterizer, UnknownNorm, to_grey};
 pub use resize::Resizer;
 pub use stitch::{
     BridgeTriangle, ChainTaxel, Deadline, JointMode, JointSolve, Placement, PostureChain, StitchOptions,

@@ -307,3 +307,16 @@ fn process_into_writes_what_process_returns_for_every_option() {
         }
     }
 }
+
+#[test]
+fn a_normalisation_kind_is_read_by_name_and_a_wrong_one_lists_the_names() {
+    use skin_geom::NormKind;
+    for kind in [NormKind::ContactMax, NormKind::FullScale] {
+        assert_eq!(kind.name().parse::<NormKind>(), Ok(kind));
+        assert_eq!(kind.to_string(), kind.name());
+    }
+    assert_eq!(Normalisation::FullScale(4095.0).kind(), NormKind::FullScale);
+    assert_eq!(Normalisation::ContactMax.kind(), NormKind::ContactMax);
+    let e = "contact-max".parse::<NormKind>().unwrap_err().to_string();
+    assert_eq!(e, "\"contact-max\": expected \"contact_max\" or \"full_scale\"");
+}

@@ -84,6 +84,17 @@ pub enum ModelError {
         /// The classes the card lists.
         classes: Vec<String>,
     },
+    /// A class name that is none of the classes (the hand a caller names among them).
+    #[error("{name:?} is none of the classes ({})", classes.join(", "))]
+    NotAClass {
+        /// The name given.
+        name: String,
+        /// The classes there are.
+        classes: Vec<String>,
+    },
+    /// A classifier's classes named with no name at all.
+    #[error("no class")]
+    NoClass,
     /// Two outputs named alike: their scores would read as one class.
     #[error("class {name:?} names outputs {first} and {again}: each output needs a name of its own")]
     DuplicateClass {
@@ -204,10 +215,37 @@ impl Classes {
         Ok(Classes::new(names, hand))
     }
 
+    /// The name of the hand class when nothing else names it: the first of
+    /// [`Classes::hand_or_not`], and the hand among names given without saying which is
+    /// ([`Classes::for_names`]).
+    pub const HAND: &'static str = "hand";
+
     /// A two-output classifier without a card, as HandsNet is: output 0 the hand, output 1
     /// anything else.
     pub fn hand_or_not() -> Classes {
-        Classes::new(["hand", "non_hand"], Some(0))
+        Classes::new([Classes::HAND, "non_hand"], Some(0))
+    }
+
+    /// The classes of a caller's classifier whose outputs it names `names`, in order: the hand
+    /// is the class named `hand`, or without one the class named [`Classes::HAND`] if any. No
+    /// name, a name given twice ([`Classes::named`]) or a `hand` that is none of them is an
+    /// error.
+    pub fn for_names(names: Vec<String>, hand: Option<&str>) -> Result<Classes, ModelError> {
+        let at = match hand {
+            Some(h) => Some(position(&names, h)?),
+            None => names.iter().position(|n| n == Classes::HAND),
+        };
+        if names.is_empty() {
+            return Err(ModelError::NoClass);
+        }
+        Classes::named(names, at)
+    }
+
+    /// The same classes with the one named `hand` as the hand; an error if none is.
+    pub fn with_hand(&self, hand: &str) -> Result<Classes, ModelError> {
+        let names: Vec<String> = self.iter().map(|c| c.name().to_owned()).collect();
+        let at = position(&names, hand)?;
+        Ok(Classes::new(names, Some(at)))
     }
 
     /// The classes a model card lists (none if it lists none). The hand class is the one its
@@ -273,6 +311,17 @@ impl Classes {
     pub fn iter(&self) -> std::slice::Iter<'_, Class> {
         self.classes.iter()
     }
+}
+
+/// Where `name` is among `names`; an error naming them if it is not.
+fn position(names: &[String], name: &str) -> Result<usize, ModelError> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .ok_or_else(|| ModelError::NotAClass {
+            name: name.to_owned(),
+            classes: names.to_vec(),
+        })
 }
 
 /// The models of a touch pipeline: a classifier and the classes it names, and a segmenter for

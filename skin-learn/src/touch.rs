@@ -86,10 +86,12 @@ pub enum TouchError {
     },
 }
 
-/// Thresholds and timing of touch tracking.
+/// Thresholds and timing of touch tracking. [`Default`] is run.toml's `[touch]` when it sets
+/// nothing ([`TouchConfig`](crate::session::TouchConfig) takes its defaults from here).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TouchOptions {
-    /// A taxel is pressed above this pressure (frame units, after the baseline).
+    /// A taxel is pressed above this pressure (frame units, after the baseline; default 5
+    /// counts, as the fixture sessions, the README and Python's sessions use).
     pub threshold: f32,
     /// Patches of fewer taxels are noise, not contacts.
     pub min_taxels: usize,
@@ -111,7 +113,7 @@ pub struct TouchOptions {
 impl Default for TouchOptions {
     fn default() -> Self {
         TouchOptions {
-            threshold: 10.0,
+            threshold: 5.0,
             min_taxels: 2,
             decide_frames: 3,
             release_frames: 2,
@@ -153,10 +155,12 @@ pub struct Decision {
 }
 
 impl Decision {
-    /// What the gate weighs of it: the class, its probability, its distance from the border.
-    pub fn gate_touch(&self) -> skin_control::hri::GateTouch {
+    /// What the gate weighs of it: the class (and whether it is the hand), its probability, its
+    /// distance from the border.
+    pub fn gate_touch(&self) -> skin_control::hri::GateTouch<'_> {
         skin_control::hri::GateTouch {
-            class: self.class.kind(),
+            class: self.class.name(),
+            hand: self.class.is_hand(),
             probability: f64::from(self.probability),
             border_mm: f64::from(self.border_mm),
         }

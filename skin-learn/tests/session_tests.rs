@@ -60,16 +60,26 @@ fn the_fixture_session_decides_every_scripted_touch_with_typed_events() {
                 assert_eq!(class.is_hand(), class.name() == "hand", "{e:?}");
                 assert_eq!((image.rows, image.cols, image.pixels.len()), (68, 100, 6800));
                 assert!(image.pixels.iter().any(|&p| p > 0), "the image shows the touch");
-                last_kind = Some(class.kind());
+                // The fixture's border rule: a hand under 0.95 within 15 mm of the border stops.
+                let unsure_at_border = touch.decision.probability < 0.95 && touch.decision.border_mm <= 15.0;
+                last_kind = Some((class.kind(), unsure_at_border));
             }
             Event::Released { touch, .. } => {
                 let class = touch.decision.as_ref().map(|d| &d.class);
                 assert!(class.is_none_or(|c| c.is_hand() == (c.name() == "hand")), "{e:?}");
             }
-            // The gate follows the run.toml's [gate]: comply with a hand, stop for the rest.
+            // The gate follows the run.toml's [gate]: comply with a hand, stop for the rest and
+            // for an unsure hand at the skin's border.
             Event::Gate { action, .. } => match last_kind {
-                Some(TouchClass::Hand) => assert!(matches!(action, GateAction::Comply | GateAction::Resume)),
-                Some(TouchClass::NonHand) => assert!(matches!(action, GateAction::Stop | GateAction::Resume)),
+                Some((TouchClass::Hand, false)) => {
+                    assert!(matches!(action, GateAction::Comply | GateAction::Resume))
+                }
+                Some((TouchClass::Hand, true)) => {
+                    assert!(matches!(action, GateAction::Stop | GateAction::Resume))
+                }
+                Some((TouchClass::NonHand, _)) => {
+                    assert!(matches!(action, GateAction::Stop | GateAction::Resume))
+                }
                 None => assert_eq!(*action, GateAction::Resume),
             },
             _ => {}
@@ -600,9 +610,8 @@ fn gate_for_press_at(centre: usize) -> (Vec<skin_control::hri::GateAction>, Vec<
     let pipeline = TouchPipeline::new(vec![map], models, TouchOptions::default()).unwrap();
     let options = SessionOptions {
         gate: Some(ClassGate {
-            hand: Some(GateAction::Comply),
-            non_hand: Some(GateAction::Stop),
             border: Some(BorderRule::default()),
+            ..ClassGate::new([("hand", GateAction::Comply), ("non_hand", GateAction::Stop)])
         }),
         ..SessionOptions::default()
     };

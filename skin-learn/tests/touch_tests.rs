@@ -40,6 +40,14 @@ fn run(pipeline: &mut TouchPipeline, frames: &[Option<&[f32]>], n: usize) -> Vec
     all
 }
 
+/// The default options at a threshold of 10 counts, which these tests' pressures were made for.
+fn at_10_counts() -> TouchOptions {
+    TouchOptions {
+        threshold: 10.0,
+        ..TouchOptions::default()
+    }
+}
+
 /// The shipped models: HandsNet and the hand-part segmenter.
 #[cfg(feature = "onnx")]
 fn shipped_models() -> Models {
@@ -68,7 +76,7 @@ fn decided_then_released(models: Models) {
     let map = forearm();
     let press = hand(&map);
     let n = press.len();
-    let mut pipeline = TouchPipeline::new(vec![map], models, TouchOptions::default()).unwrap();
+    let mut pipeline = TouchPipeline::new(vec![map], models, at_10_counts()).unwrap();
     // 2 quiet, 6 pressed, 1 quiet (a dropped frame: not a release), 2 pressed, 4 quiet.
     let p = Some(press.as_slice());
     let frames = [None, None, p, p, p, p, p, p, None, p, p, None, None, None, None];
@@ -126,7 +134,7 @@ fn a_touch_too_short_to_decide_is_decided_at_release_and_growth_reclassifies() {
     let n = press.len();
     let classes = skin_learn::model::Classes::hand_or_not();
     let models = Models::new(support::ByArea { hand_pixels: 50 }, classes);
-    let mut pipeline = TouchPipeline::new(vec![map], models, TouchOptions::default()).unwrap();
+    let mut pipeline = TouchPipeline::new(vec![map], models, at_10_counts()).unwrap();
     let weak: Vec<f32> = press.iter().map(|v| v * 0.5).collect();
     let frames = [
         Some(press.as_slice()),
@@ -161,8 +169,7 @@ fn without_models_touches_are_tracked_and_left_undecided() {
     let map = forearm();
     let press = hand(&map);
     let n = press.len();
-    let mut pipeline =
-        TouchPipeline::new(vec![map.clone(), map], Models::none(), TouchOptions::default()).unwrap();
+    let mut pipeline = TouchPipeline::new(vec![map.clone(), map], Models::none(), at_10_counts()).unwrap();
     let quiet = vec![0.0f32; n];
     let mut events = Vec::new();
     // Link 1 touched, link 0 not.

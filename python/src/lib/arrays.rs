@@ -195,21 +195,6 @@ pub(crate) fn num(v: f64) -> String {
     }
 }
 
-/// A whole number from `lo` to `hi` (a Python or numpy integer), named with what it counts
-/// (`what`) and the range whenever it is not one: a float, a negative, a huge number.
-pub(crate) fn bounded(name: &str, v: &Bound<'_, PyAny>, lo: usize, hi: usize, what: &str) -> PyResult<usize> {
-    v.extract::<i64>()
-        .ok()
-        .and_then(|n| usize::try_from(n).ok())
-        .filter(|n| (lo..=hi).contains(n))
-        .ok_or_else(|| {
-            arg(
-                name,
-                format!("{}: expected a whole number from {lo} to {hi} ({what})", short(v)),
-            )
-        })
-}
-
 /// Whether `e` passes through as itself rather than as a bad argument: an exception that is not
 /// an `Exception` (`KeyboardInterrupt` from Ctrl-C, `SystemExit`) says nothing of the argument.
 pub(crate) fn passes(py: Python<'_>, e: &PyErr) -> bool {

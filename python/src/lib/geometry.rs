@@ -9,7 +9,7 @@ use numpy::{PyArrayDyn, PyArrayMethods, PyReadwriteArrayDyn, PyUntypedArrayMetho
 use pyo3::prelude::*;
 use skin_core::image::ImageSize;
 use skin_core::{LinkSkin, Taxel};
-use skin_geom::{FlattenOptions, Grid, MeshOptions, Normalisation, Rasterizer, TactileImager};
+use skin_geom::{FlattenOptions, Grid, MeshOptions, NormKind, Normalisation, Rasterizer, TactileImager};
 use std::path::PathBuf;
 
 /// One link's skin: its name and taxels (ids, positions and outward normals in metres, in the
@@ -514,17 +514,18 @@ impl Imager {
                 Grid::StepMm(step)
             }
         };
-        if full_scale.is_some() && norm != "full_scale" {
+        let kind = norm.parse::<NormKind>();
+        if full_scale.is_some() && kind != Ok(NormKind::FullScale) {
             return Err(arg(
                 "full_scale",
                 "only with norm=\"full_scale\" (contact_max scales each frame by its own maximum)",
             ));
         }
-        let norm = match (norm, full_scale) {
-            ("full_scale", Some(k)) if k > 0.0 && k <= f64::from(f32::MAX) => {
+        let norm = match (kind.map_err(|e| arg("norm", e))?, full_scale) {
+            (NormKind::FullScale, Some(k)) if k > 0.0 && k <= f64::from(f32::MAX) => {
                 Normalisation::FullScale(k as f32)
             }
-            ("full_scale", Some(k)) => {
+            (NormKind::FullScale, Some(k)) => {
                 return Err(arg(
                     "full_scale",
                     format!(
@@ -534,16 +535,10 @@ impl Imager {
                     ),
                 ));
             }
-            ("full_scale", None) => {
+            (NormKind::FullScale, None) => {
                 return Err(arg("full_scale", "norm=\"full_scale\" needs full_scale (counts)"));
             }
-            ("contact_max", _) => Normalisation::ContactMax,
-            (other, _) => {
-                return Err(arg(
-                    "norm",
-                    format!("{other:?}: expected \"contact_max\" or \"full_scale\""),
-                ));
-            }
+            (NormKind::ContactMax, _) => Normalisation::ContactMax,
         };
         if !threshold.is_finite() {
             return Err(arg(

@@ -7,7 +7,7 @@
 //! |---|---|
 //! | `read_layout`, `Link`, `flatten`, `read_map`, `TactileMap`, `Imager` | skin-geom ([`geometry`]) |
 //! | `read_recording`, `BusMap`, `read_log`, `CanFrame` | skin-core, skin-can ([`recordings`]) |
-//! | `Session`, `Event`, `Contact`, `read_sim_config`, Python models | skin-learn session ([`session`], [`models`]) |
+//! | `Session`, `Event`, `Contact`, `read_sim_config`, `read_session_settings`, Python models | skin-learn session ([`session`], [`models`]) |
 //! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
 //! | `synthesize`, `read_grey`, `Dataset` | skin-learn synth, dataset ([`synth`]) |
 //! | `TaskStack` | skin-control ([`control`]) |
@@ -16,11 +16,13 @@ mod arrays;
 mod calibration;
 mod control;
 mod errors;
+mod event;
 mod geometry;
 mod interrupt;
 mod models;
 mod recordings;
 mod session;
+mod settings;
 mod synth;
 
 use pyo3::prelude::*;
@@ -51,11 +53,12 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recordings::read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(recordings::read_log, m)?)?;
     m.add_class::<session::Session>()?;
-    m.add_class::<session::Event>()?;
-    m.add_class::<session::Contact>()?;
-    m.add_function(wrap_pyfunction!(session::_event, m)?)?;
-    m.add_function(wrap_pyfunction!(session::_contact, m)?)?;
-    m.add_function(wrap_pyfunction!(session::read_sim_config, m)?)?;
+    m.add_class::<event::Event>()?;
+    m.add_class::<event::Contact>()?;
+    m.add_function(wrap_pyfunction!(event::_event, m)?)?;
+    m.add_function(wrap_pyfunction!(event::_contact, m)?)?;
+    m.add_function(wrap_pyfunction!(settings::read_sim_config, m)?)?;
+    m.add_function(wrap_pyfunction!(settings::read_session_settings, m)?)?;
     m.add_class::<calibration::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibration::read_probes, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;

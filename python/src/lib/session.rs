@@ -4,280 +4,25 @@
 
 use crate::arrays::{array, slice};
 use crate::errors::{self, Kind, arg};
+use crate::event::{Contact, Event};
 use crate::geometry::Layout;
 use crate::interrupt::Watch;
 use crate::models::{Callable, Raised, reraise};
 use crate::recordings::{BusMap, CanFrame, open_log, open_recording};
+use crate::settings::{build_error, keyword_settings, settings_dict};
 use numpy::{PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use skin_control::hri::{ClassGate, GateAction};
+use skin_control::hri::GateAction;
+use skin_core::LinkSkin;
 use skin_core::image::ImageSize;
-use skin_core::{LinkSkin, Polarity};
-use skin_learn::card::ModelCard;
-use skin_learn::model::{Classes, Models};
+use skin_learn::model::{HandClassifier, PartSegmenter};
 use skin_learn::session::{
-    Event as RustEvent, Flow, InputError, ProcessedFrame, Session as RustSession, SessionConfig,
-    SessionError, SessionOptions, SimConfig, Sink,
+    Event as RustEvent, Flow, InputError, OwnModels, ProcessedFrame, Session as RustSession, SessionConfig,
+    SessionError, Sink,
 };
-use skin_learn::touch::{TouchOptions, TouchPipeline};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-
-/// Something that happened in a session: `kind` ("appeared", "classified", "released",
-/// "incomplete", "gate", ...) and the fields `events.jsonl` documents for it, as attributes
-/// (`event.time`, `event.link`, `event.probability`, ...), with the same units and rounding (times
-/// in s to 1 ms, centroids in m to 0.1 mm, areas in cm², pressures in counts above the baseline).
-/// A `classified` event also has `image`, the (rows, cols) uint8 image it was decided on. A field
-/// that is a Python keyword reads as `event["class"]`. Fields `events.jsonl` leaves out read as
-/// what they stand for: `parts` of a decision that is not a hand is `[]`, `class` and
-/// `probability` of a touch released undecided are None; `to_dict()` is the line itself.
-#[pyclass(module = "skin._skin", frozen)]
-pub(crate) struct Event {
-    kind: String,
-    /// The fields as `events.jsonl` writes them; each access makes new Python objects, so an
-    /// event cannot be changed through what it returns.
-    fields: serde_json::Map<String, serde_json::Value>,
-    image: Option<Py<PyAny>>,
-}
-
-#[pymethods]
-impl Event {
-    /// The event's name, as `events.jsonl`'s `"event"` field.
-    #[getter]
-    fn kind(&self) -> &str {
-        &self.kind
-    }
-
-    /// The tactile image a `classified` event was decided on, (rows, cols) uint8; None otherwise.
-    #[getter]
-    fn image(&self, py: Python<'_>) -> Option<Py<PyAny>> {
-        self.image.as_ref().map(|i| i.clone_ref(py))
-    }
-
-    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        self.field(py, name)?
-            .ok_or_else(|| pyo3::exceptions::PyAttributeError::new_err(self.no_field(name)))
-    }
-
-    fn __dir__(&self) -> Vec<String> {
-        let mut names: Vec<String> = self.fields.keys().cloned().collect();
-        names.extend(["kind", "image", "to_dict"].map(String::from));
-        names.sort();
-        names
-    }
-
-    /// A field by name: `event["class"]` (a Python keyword as an attribute).
-    fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        self.field(py, name)?
-            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(self.no_field(name)))
-    }
-
-    /// The event as the line `skin run` writes to `events.jsonl`: a dict with "event" and the
-    /// fields.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("event", &self.kind)?;
-        for (k, v) in &self.fields {
-            d.set_item(k, json(py, v)?)?;
-        }
-        Ok(d)
-    }
-
-    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
-        other
-            .cast::<Event>()
-            .is_ok_and(|o| self.kind == o.get().kind && self.fields == o.get().fields)
-    }
-
-    fn __repr__(&self) -> String {
-        let mut parts = vec![self.kind.clone()];
-        parts.extend(self.fields.iter().map(|(k, v)| format!("{k}={v}")));
-        format!("Event({})", parts.join(", "))
-    }
-
-    /// Pickles as its kind, its fields as JSON text (numbers exactly) and its image.
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, EventState)> {
-        let restore = py.import("skin._skin")?.getattr("_event")?;
-        let fields = serde_json::to_string(&self.fields).map_err(|e| errors::error(Kind::Session, e))?;
-        Ok((restore, (self.kind.clone(), fields, self.image(py))))
-    }
-}
-
-/// What an [`Event`] pickles as: kind, fields as JSON text, image.
-type EventState = (String, String, Option<Py<PyAny>>);
-
-/// An unpickled [`Event`].
-#[pyfunction]
-pub(crate) fn _event(kind: String, fields: &str, image: Option<Bound<'_, PyAny>>) -> PyResult<Event> {
-    let fields = match serde_json::from_str(fields) {
-        Ok(serde_json::Value::Object(fields)) => fields,
-        _ => return Err(arg("fields", "not the JSON object of a pickled Event")),
-    };
-    if let Some(image) = &image {
-        image
-            .cast::<numpy::PyArray2<u8>>()
-            .map_err(|_| arg("image", "not the (rows, cols) uint8 image of a pickled Event"))?;
-    }
-    Ok(Event {
-        kind,
-        fields,
-        image: image.map(Bound::unbind),
-    })
-}
-
-impl Event {
-    /// A field, or the value a field `events.jsonl` leaves out stands for: no `parts` on a
-    /// decision that is not a hand (an empty list), no `class` or `probability` on a touch
-    /// released undecided (None).
-    fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
-        if let Some(v) = self.fields.get(name) {
-            return json(py, v).map(Some);
-        }
-        Ok(match (self.kind.as_str(), name) {
-            ("classified", "parts") => Some(PyList::empty(py).into_any().unbind()),
-            ("released", "class" | "probability") => Some(py.None()),
-            _ => None,
-        })
-    }
-
-    fn no_field(&self, name: &str) -> String {
-        let names: Vec<&str> = self.fields.keys().map(String::as_str).collect();
-        format!(
-            "a \"{}\" event has no field {name:?} (it has {})",
-            self.kind,
-            names.join(", ")
-        )
-    }
-
-    /// The Python event of `event`: its JSON fields, and its image if it has one.
-    fn of(py: Python<'_>, event: &RustEvent) -> PyResult<Event> {
-        let value = serde_json::to_value(event).map_err(|e| errors::error(Kind::Session, e))?;
-        let serde_json::Value::Object(mut fields) = value else {
-            return Err(errors::error(Kind::Session, "an event that is not a JSON object"));
-        };
-        let kind = match fields.remove("event") {
-            Some(serde_json::Value::String(s)) => s,
-            _ => String::new(),
-        };
-        let image = match event {
-            RustEvent::Classified { image, .. } if !image.pixels.is_empty() => Some(
-                crate::arrays::out(py, image.pixels.clone(), &[image.rows, image.cols])?
-                    .into_any()
-                    .unbind(),
-            ),
-            _ => None,
-        };
-        Ok(Event { kind, fields, image })
-    }
-}
-
-/// A JSON value as the Python value `json.loads` gives.
-fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
-    use pyo3::IntoPyObjectExt;
-    Ok(match v {
-        serde_json::Value::Null => py.None(),
-        serde_json::Value::Bool(b) => b.into_py_any(py)?,
-        serde_json::Value::Number(n) => match (n.as_i64(), n.as_u64()) {
-            (Some(i), _) => i.into_py_any(py)?,
-            (None, Some(u)) => u.into_py_any(py)?,
-            _ => n.as_f64().unwrap_or(f64::NAN).into_py_any(py)?,
-        },
-        serde_json::Value::String(s) => s.into_py_any(py)?,
-        serde_json::Value::Array(a) => {
-            PyList::new(py, a.iter().map(|x| json(py, x)).collect::<PyResult<Vec<_>>>()?)?
-                .into_any()
-                .unbind()
-        }
-        serde_json::Value::Object(o) => {
-            let d = PyDict::new(py);
-            for (k, x) in o {
-                d.set_item(k, json(py, x)?)?;
-            }
-            d.into_any().unbind()
-        }
-    })
-}
-
-/// One contact of the last frame on a link. A value: compared, copied and pickled by its fields.
-#[pyclass(module = "skin._skin", frozen, get_all, eq)]
-#[derive(PartialEq)]
-pub(crate) struct Contact {
-    /// Its taxels as indices into the link's taxels (layout order, as `Link.ids` and a frame's
-    /// readings are), ascending: not taxel ids ([`Contact::taxel_ids`] has those).
-    taxels: Vec<usize>,
-    /// Its taxels' ids, in the order of `taxels`.
-    taxel_ids: Vec<u32>,
-    /// Pressure-weighted centroid, metres in the link's frame.
-    centroid: (f64, f64, f64),
-    /// Pressure-weighted outward normal (unit), when the contact search carries normals (the
-    /// session's searches on tactile maps do not: None).
-    normal: Option<(f64, f64, f64)>,
-    /// Mean pressure over its taxels, counts above the baseline.
-    mean_pressure: f32,
-    /// Largest pressure, counts above the baseline.
-    peak_pressure: f32,
-}
-
-#[pymethods]
-impl Contact {
-    fn __repr__(&self) -> String {
-        let (x, y, z) = self.centroid;
-        format!(
-            "Contact({} taxels at ({:.4}, {:.4}, {:.4}) m, mean {:.1}, peak {:.1} counts)",
-            self.taxels.len(),
-            x,
-            y,
-            z,
-            self.mean_pressure,
-            self.peak_pressure
-        )
-    }
-
-    /// Pickles as its fields.
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, pyo3::types::PyTuple>)> {
-        use pyo3::IntoPyObjectExt;
-        let restore = py.import("skin._skin")?.getattr("_contact")?;
-        let args = pyo3::types::PyTuple::new(
-            py,
-            [
-                self.taxels.clone().into_py_any(py)?,
-                self.taxel_ids.clone().into_py_any(py)?,
-                self.centroid.into_py_any(py)?,
-                self.normal.into_py_any(py)?,
-                self.mean_pressure.into_py_any(py)?,
-                self.peak_pressure.into_py_any(py)?,
-            ],
-        )?;
-        Ok((restore, args))
-    }
-}
-
-/// An unpickled [`Contact`].
-#[pyfunction]
-pub(crate) fn _contact(
-    taxels: Vec<usize>,
-    taxel_ids: Vec<u32>,
-    centroid: (f64, f64, f64),
-    normal: Option<(f64, f64, f64)>,
-    mean_pressure: f32,
-    peak_pressure: f32,
-) -> PyResult<Contact> {
-    if taxels.len() != taxel_ids.len() {
-        return Err(arg("taxel_ids", "not one id per taxel: not a pickled Contact"));
-    }
-    Ok(Contact {
-        taxels,
-        taxel_ids,
-        centroid,
-        normal,
-        mean_pressure,
-        peak_pressure,
-    })
-}
 
 /// What the Python session holds.
 struct Inner {
@@ -295,82 +40,6 @@ struct Inner {
     ended: Option<&'static str>,
 }
 
-/// A run configuration's `[sim]` table, checked, with the defaults filled in (all of them when
-/// the file has none, or with no file), and `overrides` (a dict of `[sim]` keys) on top, checked
-/// the same way: how a simulated skin answers (`skin.sim`). Units in the keys' names.
-#[pyfunction]
-#[pyo3(signature = (path = None, overrides = None))]
-pub(crate) fn read_sim_config(
-    py: Python<'_>,
-    path: Option<PathBuf>,
-    overrides: Option<&Bound<'_, PyDict>>,
-) -> PyResult<Py<PyAny>> {
-    let origin = path.clone().unwrap_or_else(|| PathBuf::from("[sim]"));
-    let mut sim = match &path {
-        Some(path) => SessionConfig::read(path)
-            .map_err(errors::config)?
-            .sim
-            .unwrap_or_default(),
-        None => SimConfig::default(),
-    };
-    let json = py.import("json")?;
-    // Each key set as a file's `[sim]` table sets it: a wrong key or kind of value is named
-    // with what the key takes (skin-learn's words).
-    for (key, value) in overrides.into_iter().flat_map(|o| o.iter()) {
-        let Ok(key) = key.extract::<String>() else {
-            return Err(errors::config(SimConfig::value_error(
-                &key.repr()?.to_string(),
-                "",
-                &origin,
-            )));
-        };
-        match toml_value(&value, 0) {
-            Some(value) => sim.set(&key, value, &origin),
-            None => Err(SimConfig::value_error(&key, &value.repr()?.to_string(), &origin)),
-        }
-        .map_err(errors::config)?;
-    }
-    sim.check(&origin).map_err(errors::config)?;
-    let text = serde_json::to_string(&sim).map_err(|e| errors::error(Kind::Config, e))?;
-    Ok(json.call_method1("loads", (text,))?.unbind())
-}
-
-/// A Python value as a TOML file would hold it (a `[sim]` value: a bool, a whole number, a
-/// number, text or a flat list of those); None for any other (None, a dict, a nested list, a
-/// whole number past 64 bits).
-fn toml_value(value: &Bound<'_, PyAny>, depth: usize) -> Option<toml::Value> {
-    use pyo3::types::{PyBool, PyFloat, PyInt, PyString, PyTuple};
-    if value.is_instance_of::<PyBool>() {
-        return value.extract().ok().map(toml::Value::Boolean);
-    }
-    if value.is_instance_of::<PyInt>() {
-        return value.extract().ok().map(toml::Value::Integer);
-    }
-    if value.is_instance_of::<PyFloat>() {
-        return value.extract().ok().map(toml::Value::Float);
-    }
-    if value.is_instance_of::<PyString>() {
-        return value.extract().ok().map(toml::Value::String);
-    }
-    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
-        // `[sim]`'s lists are flat: a list in a list is refused, not walked however deep.
-        if depth > 0 {
-            return None;
-        }
-        let items = value.try_iter().ok()?;
-        return items
-            .map(|item| item.ok().and_then(|item| toml_value(&item, depth + 1)))
-            .collect::<Option<Vec<_>>>()
-            .map(toml::Value::Array);
-    }
-    // numpy's scalars: whole numbers by `__index__`, others by `__float__`.
-    value
-        .extract::<i64>()
-        .map(toml::Value::Integer)
-        .or_else(|_| value.extract::<f64>().map(toml::Value::Float))
-        .ok()
-}
-
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
 /// in, events out. Build it with `Session.from_config` or `Session.from_layout`. Methods on many
 /// frames (`run_log`, `run_recording`) release the GIL. One thread uses a session at a time.
@@ -381,7 +50,8 @@ pub(crate) struct Session {
     sizes: Vec<usize>,
 }
 
-/// The models a session runs: callables where given, else the configuration's.
+/// The models a Python caller brings: callables, and the names of a callable classifier's
+/// scores.
 struct ModelChoice<'py> {
     classifier: Option<Bound<'py, PyAny>>,
     segmenter: Option<Bound<'py, PyAny>>,
@@ -428,110 +98,21 @@ impl<'py> ModelChoice<'py> {
         self.classifier.is_none() && self.segmenter.is_none()
     }
 
-    /// The classes a callable classifier's scores name: given, or the card of the
-    /// configuration's classifier, or hand / non_hand.
-    fn classes(&self, card_of: Option<&Path>) -> PyResult<Classes> {
-        if let Some(names) = &self.classes {
-            let hand = match &self.hand {
-                Some(h) => Some(names.iter().position(|n| n == h).ok_or_else(|| {
-                    arg(
-                        "hand",
-                        format!("{h:?} is none of the classes ({})", names.join(", ")),
-                    )
-                })?),
-                None => names.iter().position(|n| n == "hand"),
-            };
-            if names.is_empty() {
-                return Err(arg("classes", "no class"));
-            }
-            return Classes::named(names.clone(), hand).map_err(|e| arg("classes", e));
+    /// The callables as the session's own models, taking images of `size`; their classes are
+    /// skin-learn's to name ([`OwnModels::classes`]).
+    fn own(self, size: ImageSize, raised: &Raised) -> OwnModels {
+        let callable = |f: Bound<'_, PyAny>, what| Callable::new(f.unbind(), size, Arc::clone(raised), what);
+        OwnModels {
+            classifier: self
+                .classifier
+                .map(|f| Box::new(callable(f, "classifier")) as Box<dyn HandClassifier>),
+            classes: self.classes,
+            hand: self.hand,
+            segmenter: self
+                .segmenter
+                .map(|f| Box::new(callable(f, "segmenter")) as Box<dyn PartSegmenter>),
         }
-        let mut classes = Classes::hand_or_not();
-        if let Some(card) = card_of.and_then(ModelCard::for_model) {
-            let path = ModelCard::path_for(card_of.unwrap_or(Path::new("")));
-            if let Some(c) = Classes::from_card(&card)
-                .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", path.display())))?
-            {
-                classes = c;
-            }
-        }
-        if let Some(h) = &self.hand {
-            // The hand class named among the classes the scores already have.
-            let names: Vec<String> = classes.iter().map(|c| c.name().to_owned()).collect();
-            let at = names.iter().position(|n| n == h).ok_or_else(|| {
-                arg(
-                    "hand",
-                    format!("{h:?} is none of the classes ({})", names.join(", ")),
-                )
-            })?;
-            classes = Classes::new(names, Some(at));
-        }
-        Ok(classes)
     }
-
-    /// The models: callables where given, the configuration's model files for the rest.
-    fn models(&self, config: Option<&SessionConfig>, size: ImageSize, raised: &Raised) -> PyResult<Models> {
-        let resolve = |field: &'static str, p: &Option<PathBuf>| -> PyResult<Option<PathBuf>> {
-            match (config, p) {
-                (Some(c), Some(p)) => c
-                    .resolve(field, p)
-                    .map(Some)
-                    .map_err(|e| errors::raise(Kind::Config, &e)),
-                _ => Ok(None),
-            }
-        };
-        let config_classifier = resolve("classifier", &config.and_then(|c| c.classifier.clone()))?;
-        let config_segmenter = resolve("segmenter", &config.and_then(|c| c.segmenter.clone()))?;
-        let callable =
-            |f: &Bound<'_, PyAny>, what| Callable::new(f.clone().unbind(), size, Arc::clone(raised), what);
-        let mut models = match (&self.classifier, &config_classifier) {
-            (Some(f), _) => Models::new(
-                callable(f, "classifier"),
-                self.classes(config_classifier.as_deref())?,
-            ),
-            (None, Some(p)) => builtin_classifier(p, size)?,
-            (None, None) => Models::none(),
-        };
-        match (&self.segmenter, &config_segmenter) {
-            (Some(f), _) => models = models.with_segmenter(callable(f, "segmenter")),
-            (None, Some(p)) => {
-                use skin_learn::classify::InputScale;
-                let net = skin_learn::segment::Segmenter::load(p, InputScale::for_model(p))
-                    .map_err(|e| errors::raise(Kind::Model, &e))?;
-                models = models.with_segmenter(net);
-            }
-            (None, None) => {}
-        }
-        Ok(models)
-    }
-}
-
-/// The configuration's classifier file, run in tract, with the classes its card names.
-fn builtin_classifier(p: &Path, size: ImageSize) -> PyResult<Models> {
-    use skin_learn::classify::{Classifier, InputScale};
-    use skin_learn::model::HandClassifier;
-    let net = Classifier::load(p, InputScale::for_model(p)).map_err(|e| errors::raise(Kind::Model, &e))?;
-    let takes = HandClassifier::input_size(&net);
-    if takes != size {
-        return Err(errors::error(
-            Kind::Config,
-            format!("{}: takes {takes} images, the session makes {size}", p.display()),
-        ));
-    }
-    let card = ModelCard::for_model(p);
-    let classes = Classes::for_outputs(card.as_ref(), net.classes())
-        .map_err(|e| errors::error(Kind::Config, format!("{}: {e}", ModelCard::path_for(p).display())))?
-        .ok_or_else(|| {
-            errors::error(
-                Kind::Config,
-                format!(
-                    "{}: {} classes and no model card naming them",
-                    p.display(),
-                    net.classes()
-                ),
-            )
-        })?;
-    Ok(Models::new(net, classes))
 }
 
 #[pymethods]
@@ -558,10 +139,8 @@ impl Session {
             py.detach(|| RustSession::from_config(&config))
                 .map_err(errors::session)?
         } else {
-            let (rows, cols) = config.image_size().map_err(|e| errors::raise(Kind::Config, &e))?;
-            let size = ImageSize::new(rows, cols).map_err(|e| errors::error(Kind::Config, e))?;
-            let models = choice.models(Some(&config), size, &raised)?;
-            RustSession::from_config_with_models(&config, models).map_err(errors::session)?
+            let size = config.settings().map_err(errors::config)?.image_size;
+            RustSession::from_config_with_own(&config, choice.own(size, &raised)).map_err(errors::session)?
         };
         say_setup(py, &session)?;
         Ok(Session::wrap(session, raised))
@@ -569,11 +148,13 @@ impl Session {
 
     /// A session from code: the links of `layout` (a `Layout`), flattened with the default
     /// options; `busmap` to push CAN frames or run logs; `classifier` / `segmenter` callables
-    /// (none: touches are tracked, not decided); the touch settings of `run.toml`'s `[touch]`,
-    /// its `[baseline]` and `[gate]` (`gate={"hand": "comply", "non_hand": "stop"}`).
+    /// (none: touches are tracked, not decided); the settings of `run.toml`'s `[touch]`,
+    /// `[baseline]` and `[gate]` (`gate={"hand": "comply", "non_hand": "stop"}`, by the
+    /// classifier's class names). A keyword left out (or None) takes run.toml's default
+    /// (`read_session_settings()` lists them); `Session.settings` shows what it runs with.
     #[staticmethod]
     #[pyo3(signature = (layout, *, busmap = None, classifier = None, segmenter = None, classes = None, hand = None,
-        image_size = None, baseline_frames = None, polarity = "rising", threshold = 5.0, min_taxels = None,
+        image_size = None, baseline_frames = None, polarity = None, threshold = None, min_taxels = None,
         decide_frames = None, release_frames = None, gate = None))]
     #[allow(clippy::too_many_arguments)] // keyword arguments, the fields of run.toml
     fn from_layout(
@@ -586,80 +167,31 @@ impl Session {
         hand: Option<String>,
         image_size: Option<&Bound<'_, PyAny>>,
         baseline_frames: Option<&Bound<'_, PyAny>>,
-        polarity: &str,
-        threshold: f32,
+        polarity: Option<&str>,
+        threshold: Option<&Bound<'_, PyAny>>,
         min_taxels: Option<&Bound<'_, PyAny>>,
         decide_frames: Option<&Bound<'_, PyAny>>,
         release_frames: Option<&Bound<'_, PyAny>>,
         gate: Option<std::collections::HashMap<String, String>>,
     ) -> PyResult<Session> {
         let choice = ModelChoice::new(classifier, segmenter, classes, hand)?;
-        let (rows, cols) = image_size.map_or(Ok((68, 100)), |s| crate::arrays::pair("image_size", s))?;
-        let size = ImageSize::new(rows, cols).map_err(|e| arg("image_size", e))?;
-        // run.toml's bounds for the same fields.
-        let whole =
-            |name: &str, v: Option<&Bound<'_, PyAny>>, default: usize, range: (usize, usize), what: &str| {
-                v.map_or(Ok(default), |v| {
-                    crate::arrays::bounded(name, v, range.0, range.1, what)
-                })
-            };
-        let baseline_frames = whole(
-            "baseline_frames",
-            baseline_frames,
-            20,
-            (2, 100_000),
-            "untouched frames the baseline learns from; 2 at least to measure noise",
-        )?;
-        let min_taxels = whole("min_taxels", min_taxels, 2, (1, 1_000_000), "taxels")?;
-        let decide_frames = whole("decide_frames", decide_frames, 3, (1, 1_000_000), "frames")?;
-        let release_frames = whole("release_frames", release_frames, 2, (1, 1_000_000), "frames")?;
-        if !(0.0..=1e9).contains(&threshold) {
-            return Err(arg(
-                "threshold",
-                format!(
-                    "{}: expected counts from 0 to 1e9",
-                    crate::arrays::num(f64::from(threshold))
-                ),
-            ));
-        }
-        let polarity = match polarity {
-            "rising" => Polarity::Rising,
-            "falling" => Polarity::Falling,
-            other => {
-                return Err(arg(
-                    "polarity",
-                    format!("{other:?}: expected \"rising\" or \"falling\""),
-                ));
-            }
-        };
-        let gate = gate.map(|g| class_gate(&g)).transpose()?;
+        let numbers = [
+            ("baseline_frames", baseline_frames),
+            ("threshold", threshold),
+            ("min_taxels", min_taxels),
+            ("decide_frames", decide_frames),
+            ("release_frames", release_frames),
+        ];
+        let settings = keyword_settings(image_size, numbers, polarity, gate)?;
         let raised: Raised = Arc::default();
-        let models = choice.models(None, size, &raised)?;
+        let models = choice
+            .own(settings.image_size, &raised)
+            .into_models()
+            .map_err(errors::session)?;
         let links: Vec<LinkSkin> = layout.links.clone();
-        let maps = py
-            .detach(|| {
-                links
-                    .iter()
-                    .map(|l| skin_geom::TactileMap::flatten(l, &skin_geom::FlattenOptions::default()))
-                    .collect::<Result<Vec<_>, _>>()
-            })
-            .map_err(errors::geom)?;
-        let options = TouchOptions {
-            threshold,
-            min_taxels,
-            decide_frames,
-            release_frames,
-            ..TouchOptions::default()
-        };
-        let pipeline =
-            TouchPipeline::new(maps, models, options).map_err(|e| errors::raise(Kind::Config, &e))?;
-        let session_options = SessionOptions {
-            baseline_frames,
-            polarity,
-            gate,
-            frame_images: false,
-        };
-        let mut session = RustSession::new(links, pipeline, session_options).map_err(errors::session)?;
+        let mut session = py
+            .detach(|| RustSession::from_links(links, models, &settings))
+            .map_err(build_error)?;
         if let Some(b) = busmap {
             session = session.with_can(&b.inner).map_err(errors::session)?;
         }
@@ -905,6 +437,18 @@ impl Session {
             .iter()
             .map(|c| c.name().to_owned())
             .collect())
+    }
+
+    /// The settings it runs with, as run.toml's sections and keys: `image_size`, `baseline`,
+    /// `touch` and `gate` (a session of a run.toml has its settings, one from keywords run.toml's
+    /// defaults for the keywords left out; `read_session_settings` reads a file's).
+    #[getter]
+    fn settings(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let guard = self.lock()?;
+        match guard.session.settings() {
+            Some(s) => settings_dict(py, s),
+            None => Ok(py.None()),
+        }
     }
 
     /// What the gate says now ("stop", "comply", "slow", "resume"), or None without a gate.
@@ -1231,36 +775,4 @@ fn check_callable(name: &str, f: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         Some(f) if !f.is_callable() => Err(arg(name, "not callable: expected a function of the image")),
         _ => Ok(()),
     }
-}
-
-/// A gate from {"hand": action, "non_hand": action}.
-fn class_gate(g: &std::collections::HashMap<String, String>) -> PyResult<ClassGate> {
-    let action = |name: &str| -> PyResult<GateAction> {
-        Ok(match name {
-            "stop" => GateAction::Stop,
-            "comply" => GateAction::Comply,
-            "slow" => GateAction::Slow,
-            "resume" => GateAction::Resume,
-            other => {
-                return Err(arg(
-                    "gate",
-                    format!("{other:?}: expected stop, comply, slow or resume"),
-                ));
-            }
-        })
-    };
-    let mut gate = ClassGate::default();
-    for (class, a) in g {
-        match class.as_str() {
-            "hand" => gate.hand = Some(action(a)?),
-            "non_hand" => gate.non_hand = Some(action(a)?),
-            other => {
-                return Err(arg(
-                    "gate",
-                    format!("{other:?}: the classes are hand and non_hand"),
-                ));
-            }
-        }
-    }
-    Ok(gate)
 }

@@ -52,6 +52,7 @@ from ._skin import (
     read_map,
     read_probes,
     read_recording,
+    read_session_settings,
     read_sim_config,
     synthesize,
 )
@@ -90,6 +91,7 @@ __all__ = [
     "read_map",
     "read_probes",
     "read_recording",
+    "read_session_settings",
     "read_sim_config",
     "synthesize",
 ]

@@ -232,8 +232,8 @@ class Session:
         hand: Optional[str] = None,
         image_size: Optional[Sequence[int]] = None,  # (68, 100)
         baseline_frames: Optional[int] = None,  # 20
-        polarity: str = "rising",
-        threshold: float = 5.0,
+        polarity: Optional[str] = None,  # "rising" (or "falling")
+        threshold: Optional[float] = None,  # 5.0 counts
         min_taxels: Optional[int] = None,  # 2
         decide_frames: Optional[int] = None,  # 3
         release_frames: Optional[int] = None,  # 2
@@ -262,6 +262,9 @@ class Session:
     @property
     def gate(self) -> Optional[str]: ...
     @property
+    def settings(self) -> Optional[Dict[str, Any]]:
+        """What it runs with, as run.toml's sections and keys: image_size, baseline, touch, gate."""
+    @property
     def stats(self) -> Dict[str, int]: ...
     @property
     def uncovered(self) -> List[Tuple[str, int]]:
@@ -288,6 +291,10 @@ class Calibration:
 
 def read_sim_config(path: Optional[_Path] = None, overrides: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
     """A run configuration's `[sim]` table (all defaults without a file), `overrides` on top, checked."""
+
+def read_session_settings(path: Optional[_Path] = None) -> Dict[str, Any]:
+    """A run configuration's session settings (image_size, baseline, touch, gate), checked, the
+    defaults filled in (all of them without a file): what a session built from it runs with."""
 
 def read_probes(path: _Path) -> Dict[str, npt.NDArray[Any]]: ...
 def calibrate(

@@ -10,6 +10,60 @@ pub enum Normalisation {
     ContactMax,
 }
 
+/// Which pressure [`Normalisation`] takes as white, by name (`"contact_max"` or `"full_scale"`,
+/// read with [`str::parse`]); a full-scale normalisation also needs its full scale.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NormKind {
+    /// [`Normalisation::FullScale`].
+    FullScale,
+    /// [`Normalisation::ContactMax`].
+    ContactMax,
+}
+
+impl NormKind {
+    /// Its name, as options write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            NormKind::FullScale => "full_scale",
+            NormKind::ContactMax => "contact_max",
+        }
+    }
+}
+
+impl std::fmt::Display for NormKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Text that names no [`NormKind`]: the text (its first 40 characters), and the names there
+/// are in the message.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?}: expected \"contact_max\" or \"full_scale\"")]
+pub struct UnknownNorm(pub String);
+
+/// A normalisation's kind by its name, as the Python binding gives it.
+impl std::str::FromStr for NormKind {
+    type Err = UnknownNorm;
+
+    fn from_str(s: &str) -> Result<NormKind, UnknownNorm> {
+        [NormKind::ContactMax, NormKind::FullScale]
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| UnknownNorm(s.chars().take(40).collect()))
+    }
+}
+
+impl Normalisation {
+    /// Its kind.
+    pub fn kind(self) -> NormKind {
+        match self {
+            Normalisation::FullScale(_) => NormKind::FullScale,
+            Normalisation::ContactMax => NormKind::ContactMax,
+        }
+    }
+}
+
 /// Grey levels from pressures: I = floor(255 K / K_bar), clamped to 0..=255 (thesis eq. 3.1).
 /// With [`Normalisation::ContactMax`] and no positive pressure, the image is black.
 pub fn to_grey(pressure: &[f32], norm: Normalisation, grey: &mut [u8]) {

@@ -4,7 +4,7 @@ mod build;
 mod grey;
 mod render;
 
-pub use grey::{Normalisation, to_grey};
+pub use grey::{NormKind, Normalisation, UnknownNorm, to_grey};
 
 use crate::Result;
 use crate::tactile_map::TactileMap;

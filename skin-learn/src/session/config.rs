@@ -1,6 +1,8 @@
 //! A session's configuration: the TOML file `skin run` takes (`run.toml`), typed and checked.
 //! Paths in it are relative to the file. [`SessionConfig::parse`] checks every value; the files
 //! are read when a [`Session`](super::Session) is built from it ([`Session::from_config`]).
+//! The settings that are not files (`image_size`, `[baseline]`, `[touch]`, `[gate]`) are a
+//! [`SessionSettings`], whose defaults and bounds these are; the defaults below are theirs.
 //!
 //! ```toml
 //! layout = "layout.json"          # the skin: every link of a skin-layout/1 file
@@ -27,9 +29,9 @@
 //! [touch.split]                   # the peaks rule's parameters, defaults as shown:
 //! min_dip = 0.5                   # the pressure falls by half between two peaks...
 //! min_distance_mm = 12            # ...at least 12 mm apart (else one contact)
-//! [gate]                          # optional: what the robot should do
-//! hand = "comply"                 # stop, comply, slow or resume
-//! non_hand = "stop"
+//! [gate]                          # optional: what the robot should do, per class of the
+//! hand = "comply"                 # classifier (its model card's names): stop, comply,
+//! non_hand = "stop"               # slow or resume
 //! border = { within_mm = 15, hand_below = 0.95, action = "stop" }
 //!                                 # optional: a hand less sure than hand_below whose taxels
 //!                                 # come within within_mm of the skin's border gets action
@@ -54,11 +56,10 @@
 //! [`Session::from_config`]: super::Session::from_config
 
 use super::ConfigError;
+use super::settings::{BaselineConfig, SessionSettings, TouchConfig};
 use crate::touch::TouchOptions;
 use serde::Deserialize;
 use skin_control::hri::ClassGate;
-use skin_core::Polarity;
-use skin_core::Separation;
 use skin_core::image::ImageSize;
 use std::path::{Path, PathBuf};
 
@@ -95,92 +96,6 @@ pub struct SessionConfig {
     /// The file this came from; paths are relative to its folder.
     #[serde(skip)]
     pub path: PathBuf,
-}
-
-/// `[baseline]`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BaselineConfig {
-    /// Untouched complete frames at the start that learn the offsets (2 to 100,000).
-    pub frames: usize,
-    /// Which way pressure moves a reading.
-    pub polarity: Polarity,
-}
-
-impl Default for BaselineConfig {
-    fn default() -> Self {
-        BaselineConfig {
-            frames: 20,
-            polarity: Polarity::Rising,
-        }
-    }
-}
-
-/// `[touch]`: see [`TouchOptions`].
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct TouchConfig {
-    /// Counts above the baseline that press a taxel (0 to 1e9); default 5.
-    pub threshold: f32,
-    /// Patches of fewer taxels are noise.
-    pub min_taxels: usize,
-    /// Frames of contact before the first decision.
-    pub decide_frames: usize,
-    /// Frames without contact that end a touch.
-    pub release_frames: usize,
-    /// Classify again when the touch grows by this factor (1 to 1e6).
-    pub reclassify_growth: f32,
-    /// How a patch of pressed taxels becomes contacts; default [`ContactRule::Peaks`].
-    pub contacts: ContactRule,
-    /// `[touch.split]`: the parameters of [`ContactRule::Peaks`].
-    pub split: Option<SplitConfig>,
-}
-
-/// `[touch] contacts`: how a connected patch of pressed taxels becomes contacts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ContactRule {
-    /// `"peaks"`: split between prominent pressure peaks (`[touch.split]`), so fingers side by
-    /// side are separate contacts.
-    #[default]
-    Peaks,
-    /// `"connected"`: each connected patch is one contact (thesis Ch. 3.2).
-    Connected,
-}
-
-impl Default for TouchConfig {
-    fn default() -> Self {
-        let d = TouchOptions::default();
-        TouchConfig {
-            threshold: 5.0,
-            min_taxels: d.min_taxels,
-            decide_frames: d.decide_frames,
-            release_frames: d.release_frames,
-            reclassify_growth: d.reclassify_growth,
-            contacts: ContactRule::default(),
-            split: None,
-        }
-    }
-}
-
-/// `[touch.split]`: see [`Separation::Peaks`].
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SplitConfig {
-    /// How far the pressure must fall between two peaks, as a fraction of the lower (0 to 1;
-    /// default 0.5).
-    pub min_dip: f32,
-    /// How far apart two peaks must lie, millimetres (0 to 1000; default 12).
-    pub min_distance_mm: f64,
-}
-
-impl Default for SplitConfig {
-    fn default() -> Self {
-        SplitConfig {
-            min_dip: 0.5,
-            min_distance_mm: 12.0,
-        }
-    }
 }
 
 /// `[stitch]`.
@@ -393,89 +308,17 @@ impl SessionConfig {
             }
         })?;
         config.path = path.to_owned();
-        let value = |field: &'static str, value: String, expected: &'static str| ConfigError::Value {
-            file: path.to_owned(),
-            field,
-            value,
-            expected,
-        };
-        let b = &config.baseline;
-        if !(2..=100_000).contains(&b.frames) {
-            return Err(value(
-                "[baseline] frames",
-                b.frames.to_string(),
-                "2 to 100000 untouched frames (2 at least to measure noise)",
-            ));
+        config
+            .settings()?
+            .check()
+            .map_err(|source| ConfigError::Setting {
+                file: path.to_owned(),
+                source,
+            })?;
+        if let Some(sim) = &config.sim {
+            sim.check(path)?;
         }
-        let t = &config.touch;
-        if !(t.threshold.is_finite() && (0.0..=1e9).contains(&t.threshold)) {
-            return Err(value(
-                "[touch] threshold",
-                t.threshold.to_string(),
-                "counts from 0 to 1e9",
-            ));
-        }
-        if !(t.reclassify_growth.is_finite() && (1.0..=1e6).contains(&t.reclassify_growth)) {
-            return Err(value(
-                "[touch] reclassify_growth",
-                t.reclassify_growth.to_string(),
-                "a factor from 1 to 1e6",
-            ));
-        }
-        if t.contacts == ContactRule::Connected && t.split.is_some() {
-            return Err(value(
-                "[touch.split]",
-                "present".into(),
-                "no [touch.split] with contacts = \"connected\" (it sets the peaks rule)",
-            ));
-        }
-        if let Some(sp) = &t.split {
-            if !(0.0..=1.0).contains(&sp.min_dip) {
-                return Err(value(
-                    "[touch.split] min_dip",
-                    sp.min_dip.to_string(),
-                    "a fraction from 0 to 1",
-                ));
-            }
-            if !(0.0..=1000.0).contains(&sp.min_distance_mm) {
-                return Err(value(
-                    "[touch.split] min_distance_mm",
-                    sp.min_distance_mm.to_string(),
-                    "millimetres from 0 to 1000",
-                ));
-            }
-        }
-        for (field, v) in [
-            ("[touch] min_taxels", t.min_taxels),
-            ("[touch] decide_frames", t.decide_frames),
-            ("[touch] release_frames", t.release_frames),
-        ] {
-            if !(1..=1_000_000).contains(&v) {
-                return Err(value(field, v.to_string(), "1 to 1000000"));
-            }
-        }
-        config.check_sections()?;
         Ok(config)
-    }
-
-    /// The image size, the `[gate]` border rule's numbers ([`BorderRule::check`]) and the
-    /// `[sim]` table in their bounds.
-    ///
-    /// [`BorderRule::check`]: skin_control::hri::BorderRule::check
-    fn check_sections(&self) -> Result<(), ConfigError> {
-        self.image_size()?;
-        if let Some(sim) = &self.sim {
-            sim.check(&self.path)?;
-        }
-        match self.gate.and_then(|g| g.border).map(|b| b.check()) {
-            Some(Err((field, value, expected))) => Err(ConfigError::Value {
-                file: self.path.clone(),
-                field,
-                value: value.to_string(),
-                expected,
-            }),
-            _ => Ok(()),
-        }
     }
 
     /// The models' input size (rows, cols); [`ImageSize::MODEL_DEFAULT`] unless the file says.
@@ -495,27 +338,26 @@ impl SessionConfig {
         }
     }
 
-    /// The touch options it gives.
+    /// Its settings: the image size, `[baseline]`, `[touch]` and `[gate]` as they are written,
+    /// the defaults for the rest ([`SessionSettings::check`] checks them; [`SessionConfig::parse`]
+    /// has).
+    pub fn settings(&self) -> Result<SessionSettings, ConfigError> {
+        let (rows, cols) = self.image_size()?;
+        Ok(SessionSettings {
+            image_size: ImageSize { rows, cols },
+            baseline: self.baseline,
+            touch: self.touch,
+            gate: self.gate.clone(),
+        })
+    }
+
+    /// The touch options it gives ([`SessionSettings::touch_options`]).
     pub fn touch_options(&self) -> TouchOptions {
-        let t = &self.touch;
-        TouchOptions {
-            threshold: t.threshold,
-            min_taxels: t.min_taxels,
-            decide_frames: t.decide_frames,
-            release_frames: t.release_frames,
-            reclassify_growth: t.reclassify_growth,
-            separation: match t.contacts {
-                ContactRule::Connected => Separation::Connected,
-                ContactRule::Peaks => {
-                    let s = t.split.unwrap_or_default();
-                    Separation::Peaks {
-                        min_dip: s.min_dip,
-                        min_distance_m: s.min_distance_mm * 1e-3,
-                    }
-                }
-            },
-            ..TouchOptions::default()
+        SessionSettings {
+            touch: self.touch,
+            ..SessionSettings::default()
         }
+        .touch_options()
     }
 
     /// A path of the configuration, resolved against its folder; `field` names it if the file

@@ -2,8 +2,10 @@
 //! feeding it an input that does not fit ([`InputError`]), and anything while it runs
 //! ([`SessionError`], which carries the other two).
 
+use super::settings::SettingError;
 use crate::model::ModelError;
 use crate::touch::TouchError;
+use skin_core::image::ImageSize;
 use std::path::PathBuf;
 
 /// A configuration that cannot be used: its text, its values, the files it names, the models.
@@ -30,6 +32,16 @@ pub enum ConfigError {
         value: String,
         /// The range, in words.
         expected: &'static str,
+    },
+    /// A setting (`image_size`, `[baseline]`, `[touch]`, `[gate]`) out of its bounds, or a
+    /// `[gate]` class the classifier does not have.
+    #[error("{}: {source}", file.display())]
+    Setting {
+        /// The configuration.
+        file: PathBuf,
+        /// The setting and what it takes.
+        #[source]
+        source: SettingError,
     },
     /// A file the configuration names does not exist.
     #[error("{}: {field} = \"{}\": no such file ({})", config.display(), path.display(), resolved.display())]
@@ -209,6 +221,30 @@ pub enum SessionError {
         pipeline: Vec<String>,
         /// The session's.
         links: Vec<String>,
+    },
+    /// A setting of a session built from code out of its bounds (named as run.toml spells it),
+    /// or a gate class the classifier does not have.
+    #[error(transparent)]
+    Setting(#[from] SettingError),
+    /// The names a caller gave the scores of its own classifier do not fit (`field`: `"classes"`
+    /// or `"hand"`, the names given).
+    #[error("{field}: {source}")]
+    Names {
+        /// Which names: `"classes"` or `"hand"`.
+        field: &'static str,
+        /// What is wrong with them.
+        #[source]
+        source: ModelError,
+    },
+    /// The models take images of another size than the settings make.
+    #[error(
+        "the models take {takes} images; the session makes {makes} (image_size): models for another image size"
+    )]
+    ImageSize {
+        /// The models' input.
+        takes: ImageSize,
+        /// The settings' image size.
+        makes: ImageSize,
     },
     /// A frame of readings does not fit the skin.
     #[error("frame at {time:.3} s: {source}")]

@@ -39,17 +39,18 @@ mod event;
 mod frame;
 mod input;
 mod restart;
+mod settings;
 mod sink;
 mod stats;
 mod stitching;
 mod summary;
 
-pub use config::{
-    BaselineConfig, ContactRule, SessionConfig, SimConfig, SplitConfig, StitchConfig, TouchConfig,
-};
+pub use build::OwnModels;
+pub use config::{SessionConfig, SimConfig, StitchConfig};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, GreyImage, MissingModule, ProcessedFrame};
-pub use sink::{Flow, JsonLines, PngImages, Sink};
+pub use settings::{BaselineConfig, ContactRule, SessionSettings, SettingError, SplitConfig, TouchConfig};
+pub use sink::{Flow, JsonLines, PngImages, Sink, SinkError, Sinks};
 pub use stats::SessionStats;
 pub use stitching::{Spanning, Stitching};
 pub use summary::{ScriptScore, Summary, Timings};
@@ -72,7 +73,8 @@ pub const TOUCH_HISTORY: usize = 1_000;
 /// How a session runs (the parts of [`SessionConfig`] that are not files).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SessionOptions {
-    /// Complete untouched frames at the start that learn the baseline (2 to 100,000).
+    /// Complete untouched frames at the start that learn the baseline (2 to 100,000; default
+    /// [`BaselineConfig::default`]'s).
     pub baseline_frames: usize,
     /// Which way pressure moves a reading.
     pub polarity: Polarity,
@@ -83,13 +85,9 @@ pub struct SessionOptions {
 }
 
 impl Default for SessionOptions {
+    /// [`SessionSettings::default`]'s: run.toml's defaults.
     fn default() -> Self {
-        SessionOptions {
-            baseline_frames: 20,
-            polarity: Polarity::Rising,
-            gate: None,
-            frame_images: false,
-        }
+        SessionSettings::default().session_options()
     }
 }
 
@@ -139,6 +137,8 @@ struct Setup {
     /// Each link's dead taxels (no reading: on no bus, or no column of a recording), kept so a
     /// stitching added later bridges them too.
     dead: Vec<Vec<usize>>,
+    /// The settings it was built with ([`Session::with_settings`]).
+    settings: Option<SessionSettings>,
 }
 
 /// The per-frame pipeline of a whole skin, built once (see the [module](self)).
@@ -214,6 +214,7 @@ impl Session {
                 source: PathBuf::from("frames"),
                 layout_notes: Vec::new(),
                 dead: Vec::new(),
+                settings: None,
             },
             pipeline,
             touch_events: Vec::new(),
@@ -320,6 +321,19 @@ impl Session {
     /// taxels, ...): warnings to pass on. Empty for a session built from code.
     pub fn layout_notes(&self) -> &[skin_core::format::Note] {
         &self.setup.layout_notes
+    }
+
+    /// The settings it was built with, as run.toml would write them: those of its
+    /// configuration, or those given to [`Session::with_settings`]; none for a session put
+    /// together from a touch pipeline with [`Session::new`] (its options are
+    /// [`Session::options`] and the pipeline's).
+    pub fn settings(&self) -> Option<&SessionSettings> {
+        self.setup.settings.as_ref()
+    }
+
+    /// How it runs: the baseline, the gate.
+    pub fn options(&self) -> &SessionOptions {
+        &self.setup.options
     }
 
     /// The links, in layout order.

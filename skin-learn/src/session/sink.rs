@@ -5,6 +5,9 @@
 //! Each method says whether the run goes on ([`Flow::Continue`]) or stops ([`Flow::Break`]: the
 //! session's run functions return after the frame at hand, and its `push` functions say
 //! [`Flow::Break`] from then on), and fails with an error of the sink's own type.
+//!
+//! Sinks combine whatever their error types: a pair `(A, B)` is a sink, and so is a [`Sinks`]
+//! list of any number; either fails with a [`SinkError`], the failing sink's own error inside.
 
 use super::event::{Event, FrameView, GreyImage, ProcessedFrame};
 use std::io::Write;
@@ -152,32 +155,191 @@ impl Sink for PngImages {
     }
 }
 
-/// Both sinks get everything, `.0` first; the run stops if either says stop.
-impl<E, A, B> Sink for (A, B)
-where
-    E: std::error::Error + Send + Sync + 'static,
-    A: Sink<Error = E>,
-    B: Sink<Error = E>,
-{
-    type Error = E;
+/// A sink's error, whatever the sink's error type: what sinks combined ([`Sinks`], a pair) fail
+/// with. It reads as the error inside (the same text, the same sources); [`SinkError::get_ref`]
+/// and [`SinkError::into_inner`] give that error, to downcast.
+#[derive(Debug)]
+pub struct SinkError(Box<dyn std::error::Error + Send + Sync>);
 
-    fn event(&mut self, event: &Event) -> Result<Flow, E> {
-        Ok(both(self.0.event(event)?, self.1.event(event)?))
+impl SinkError {
+    /// Wraps a sink's error (a [`SinkError`] is kept as it is, not wrapped twice).
+    pub fn new<E: std::error::Error + Send + Sync + 'static>(error: E) -> SinkError {
+        let boxed: Box<dyn std::error::Error + Send + Sync> = Box::new(error);
+        match boxed.downcast::<SinkError>() {
+            Ok(already) => *already,
+            Err(other) => SinkError(other),
+        }
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, E> {
-        Ok(both(
-            self.0.frame_image(view, cycle, image)?,
-            self.1.frame_image(view, cycle, image)?,
-        ))
+    /// The sink's own error.
+    pub fn get_ref(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.0
     }
 
-    fn origin(&mut self, origin_us: u64) -> Result<Flow, E> {
-        Ok(both(self.0.origin(origin_us)?, self.1.origin(origin_us)?))
+    /// The sink's own error, by value.
+    pub fn into_inner(self) -> Box<dyn std::error::Error + Send + Sync> {
+        self.0
+    }
+}
+
+impl std::fmt::Display for SinkError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+/// Transparent: the error inside's sources are this one's (its own text is this one's text).
+impl std::error::Error for SinkError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+/// A sink whose errors are [`SinkError`]s.
+struct Boxed<S>(S);
+
+impl<S: Sink> Sink for Boxed<S> {
+    type Error = SinkError;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, SinkError> {
+        self.0.event(event).map_err(SinkError::new)
     }
 
-    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, E> {
-        Ok(both(self.0.frame(frame)?, self.1.frame(frame)?))
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+        self.0.frame_image(view, cycle, image).map_err(SinkError::new)
+    }
+
+    fn origin(&mut self, origin_us: u64) -> Result<Flow, SinkError> {
+        self.0.origin(origin_us).map_err(SinkError::new)
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
+        self.0.frame(frame).map_err(SinkError::new)
+    }
+}
+
+/// Any number of sinks, whatever their error types, as one: each gets everything, in the order
+/// added; the run stops if any says stop; the first to fail stops the others taking that item
+/// (its error, a [`SinkError`], is the run's). Sinks lent (`&mut sink`) are theirs again once
+/// the list is dropped, to be finished or flushed.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use skin_learn::session::{Event, JsonLines, Sink, Sinks};
+///
+/// let mut lines = JsonLines::new(Vec::new()); // fails with std::io::Error
+/// let mut kept: Vec<Event> = Vec::new(); // cannot fail
+/// let reset = Event::CounterReset { time: 1.5, bus: "can0".into(), from: 255, to: 0, cycle: 7 };
+/// {
+///     let mut both = Sinks::new().with(&mut lines).with(&mut kept);
+///     both.event(&reset)?;
+///     // A pair is a sink too.
+///     (&mut both, Vec::new()).event(&reset)?;
+/// }
+/// assert_eq!(kept.len(), 2);
+/// let text = String::from_utf8(lines.into_inner()?)?;
+/// assert_eq!(text.lines().count(), 2);
+/// assert!(text.lines().all(|l| l.contains(r#""event":"counter_reset""#)));
+/// # Ok(()) }
+/// ```
+#[derive(Default)]
+pub struct Sinks<'a> {
+    list: Vec<Box<dyn Sink<Error = SinkError> + 'a>>,
+}
+
+impl std::fmt::Debug for Sinks<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Sinks")
+            .field("len", &self.list.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> Sinks<'a> {
+    /// No sink yet.
+    pub fn new() -> Sinks<'a> {
+        Sinks::default()
+    }
+
+    /// The list with `sink` added last.
+    #[must_use]
+    pub fn with(mut self, sink: impl Sink + 'a) -> Sinks<'a> {
+        self.push(sink);
+        self
+    }
+
+    /// Adds `sink` last.
+    pub fn push(&mut self, sink: impl Sink + 'a) {
+        self.list.push(Box::new(Boxed(sink)));
+    }
+
+    /// How many sinks.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// No sink at all.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Hands something to every sink in order: stop if any says stop, the first error at once.
+    fn each(
+        &mut self,
+        mut give: impl FnMut(&mut dyn Sink<Error = SinkError>) -> Result<Flow, SinkError>,
+    ) -> Result<Flow, SinkError> {
+        let mut flow = GO;
+        for sink in &mut self.list {
+            flow = both(flow, give(sink.as_mut())?);
+        }
+        Ok(flow)
+    }
+}
+
+impl Sink for Sinks<'_> {
+    type Error = SinkError;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, SinkError> {
+        self.each(|s| s.event(event))
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+        self.each(|s| s.frame_image(view, cycle, image))
+    }
+
+    fn origin(&mut self, origin_us: u64) -> Result<Flow, SinkError> {
+        self.each(|s| s.origin(origin_us))
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
+        self.each(|s| s.frame(frame))
+    }
+}
+
+/// Both sinks get everything, `.0` first, whatever their error types; the run stops if either
+/// says stop, and `.1` is not given what `.0` failed on.
+impl<A: Sink, B: Sink> Sink for (A, B) {
+    type Error = SinkError;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, SinkError> {
+        let a = self.0.event(event).map_err(SinkError::new)?;
+        Ok(both(a, self.1.event(event).map_err(SinkError::new)?))
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+        let a = self.0.frame_image(view, cycle, image).map_err(SinkError::new)?;
+        let b = self.1.frame_image(view, cycle, image).map_err(SinkError::new)?;
+        Ok(both(a, b))
+    }
+
+    fn origin(&mut self, origin_us: u64) -> Result<Flow, SinkError> {
+        let a = self.0.origin(origin_us).map_err(SinkError::new)?;
+        Ok(both(a, self.1.origin(origin_us).map_err(SinkError::new)?))
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
+        let a = self.0.frame(frame).map_err(SinkError::new)?;
+        Ok(both(a, self.1.frame(frame).map_err(SinkError::new)?))
     }
 }
 
