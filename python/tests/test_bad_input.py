@@ -46,6 +46,30 @@ def test_missing_and_foreign_files_are_named(tmp_path):
         skin.Session.from_config(CONFIG).run_log("/dev/zero")
 
 
+def test_a_missing_file_is_a_file_not_found_error_and_an_input_error(tmp_path):
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    reads = [
+        lambda: skin.read_layout(tmp_path / "nope.json"),
+        lambda: skin.read_map(tmp_path / "nope.json"),
+        lambda: skin.read_recording(tmp_path / "nope.txt"),
+        lambda: skin.BusMap.read(tmp_path / "nope.toml"),
+        lambda: skin.read_log(tmp_path / "nope.log", busmap, skin.read_layout(LAYOUT)),
+        lambda: skin.Session.from_config(tmp_path / "nope.toml"),
+        lambda: skin.read_session_settings(tmp_path / "nope.toml"),
+        lambda: skin.read_probes(tmp_path / "nope.csv"),
+    ]
+    for read in reads:
+        with pytest.raises(FileNotFoundError, match="nope") as caught:
+            read()
+        assert isinstance(caught.value, skin.InputError) and isinstance(caught.value, skin.MissingFileError)
+    # A file that is there but wrong stays an InputError only.
+    bad = tmp_path / "layout.json"
+    bad.write_text("{")
+    with pytest.raises(skin.InputError) as caught:
+        skin.read_layout(bad)
+    assert not isinstance(caught.value, FileNotFoundError)
+
+
 def test_a_bad_configuration_is_a_config_error(tmp_path):
     cfg = tmp_path / "run.toml"
     cfg.write_text('layout = "../forearm/layout.json"\n[touch]\nthreshold = "high"\n')
@@ -479,3 +503,27 @@ def test_images_copy_the_frames_before_checking_them(tmap):
         else:
             np.testing.assert_array_equal(got, expected)
         writer.join()
+
+
+def test_every_error_skin_sim_raises_is_a_skin_error():
+    """Read from the source, so that it holds without MuJoCo too: each `raise` in skin.sim names
+    a SkinError class (ImportError only where MuJoCo or Python is missing, re-raises as they
+    are)."""
+    import ast
+    from pathlib import Path
+
+    sim = Path(skin.__file__).parent / "sim"
+    allowed_outside = {"ImportError"}
+    found = 0
+    for path in sorted(sim.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if not isinstance(node, ast.Raise) or node.exc is None:
+                continue
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            name = exc.id if isinstance(exc, ast.Name) else getattr(exc, "attr", None)
+            if name is None or name in allowed_outside or name[0].islower():
+                continue  # a re-raise of a caught exception, or the missing-MuJoCo ImportError
+            found += 1
+            cls = getattr(skin, name, None)
+            assert isinstance(cls, type) and issubclass(cls, skin.SkinError), f"{path.name}:{node.lineno}: raises {name}"
+    assert found > 30, found

@@ -11,6 +11,9 @@ use std::fmt::Display;
 pub(crate) enum Kind {
     /// A file or stream that is not what it should be (or cannot be read or written).
     Input,
+    /// A file that is not there: an `InputError` and a `FileNotFoundError` alike (chosen by
+    /// [`raise`] from the error's causes, whatever kind its caller named).
+    Missing,
     /// A run configuration (`run.toml`) at fault.
     Config,
     /// A model that cannot load or run.
@@ -31,6 +34,7 @@ impl Kind {
     fn class(self) -> &'static str {
         match self {
             Kind::Input => "InputError",
+            Kind::Missing => "MissingFileError",
             Kind::Config => "ConfigError",
             Kind::Model => "ModelError",
             Kind::Array => "ArrayError",
@@ -103,9 +107,27 @@ pub(crate) fn message(e: &(dyn std::error::Error + 'static)) -> String {
     text
 }
 
-/// `e` as the exception of `kind`.
+/// `e` as the exception of `kind`; a file that is not there (an `io::Error` of kind `NotFound`
+/// among its causes) as `MissingFileError`, so that `except FileNotFoundError` catches it as it
+/// would Python's own `open`.
 pub(crate) fn raise(kind: Kind, e: &(dyn std::error::Error + 'static)) -> PyErr {
+    let kind = if not_found(e) { Kind::Missing } else { kind };
     error(kind, message(e))
+}
+
+/// Whether `e` or one of its causes is an `io::Error` saying a file is not there.
+fn not_found(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut at = Some(e);
+    while let Some(e) = at {
+        if e
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
+        {
+            return true;
+        }
+        at = e.source();
+    }
+    false
 }
 
 /// A reading fault of skin-core (files, formats).
@@ -162,7 +184,8 @@ pub(crate) fn session(e: skin_learn::session::SessionError) -> PyErr {
             Kind::Model
         }
         E::Geom(g) => geom_kind(g),
-        E::Frame { .. } => Kind::Array,
+        // Names a caller gave its classifier's scores: an argument's fault, named as it.
+        E::Frame { .. } | E::Names { .. } => Kind::Array,
         _ => Kind::Session,
     };
     raise(kind, &e)

@@ -13,6 +13,11 @@ class InputError(SkinError):
     """A file or stream that is not what it should be, or cannot be read or written."""
 
 
+class MissingFileError(InputError, FileNotFoundError):
+    """A file that is not there: an `InputError`, and a `FileNotFoundError` as Python's own
+    `open` raises (``except FileNotFoundError`` catches both)."""
+
+
 class ConfigError(SkinError):
     """A run configuration (``run.toml``) or a model card at fault."""
 
@@ -23,6 +28,16 @@ class ModelError(SkinError):
 
 class ArrayError(SkinError, ValueError):
     """A bad argument, named: wrong dtype, shape or length, a NaN, a read-only output."""
+
+
+class UnknownNameError(SkinError, KeyError):
+    """A name the layout, scene or model does not have: a link, tool, body or actuator (a
+    KeyError too, as a lookup by name)."""
+
+
+class NotReadyError(SkinError, RuntimeError):
+    """A call made before what it needs: a bridge or kit used before it was bound to a
+    compiled model (a RuntimeError too)."""
 
 
 class GeometryError(SkinError):
@@ -46,9 +61,12 @@ class SkinWarning(UserWarning):
 __all__ = [
     "SkinError",
     "InputError",
+    "MissingFileError",
     "ConfigError",
     "ModelError",
     "ArrayError",
+    "UnknownNameError",
+    "NotReadyError",
     "GeometryError",
     "SessionError",
     "ControlError",

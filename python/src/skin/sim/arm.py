@@ -24,7 +24,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from .._errors import ArrayError
+from .._errors import ArrayError, UnknownNameError
 from .bridge import _mujoco, check_timestep
 
 #: The position servos' stiffness (N m / rad) and damping (N m s / rad).
@@ -71,7 +71,7 @@ class PathFollower:
         self.ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in actuators]
         missing = [a for a, i in zip(actuators, self.ids) if i < 0]
         if missing:
-            raise KeyError(f"no actuator {missing[0]!r} in the model")
+            raise UnknownNameError(f"no actuator {missing[0]!r} in the model")
         for a, i in zip(actuators, self.ids):
             # A position servo: force = kp (ctrl - q) - kv qdot, on one joint.
             servo = (

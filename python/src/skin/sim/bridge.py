@@ -36,7 +36,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _skin
-from .._errors import ArrayError
+from .._errors import ArrayError, NotReadyError, UnknownNameError
 from .response import Response
 from .surface import KERNEL_REACH, Kernel, Surface, boussinesq, sample_surface
 
@@ -388,7 +388,7 @@ class SkinBridge:
         mujoco = _mujoco()
         model = self._model
         if model is None:
-            raise RuntimeError("bind(model) first")
+            raise NotReadyError("bind(model) first")
         body_of = model.geom_bodyid
         forces: List[List[Tuple[float, np.ndarray]]] = [[] for _ in self._links]
         for i in range(data.ncon):
@@ -442,7 +442,7 @@ class SkinBridge:
             try:
                 return self.links.index(link)
             except ValueError:
-                raise KeyError(f"no link {link!r} (links: {self.links})") from None
+                raise UnknownNameError(f"no link {link!r} (links: {self.links})") from None
         return int(link)
 
 

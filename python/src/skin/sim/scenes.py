@@ -26,7 +26,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .._errors import ArrayError
+from .._errors import ArrayError, NotReadyError, UnknownNameError
 from .bridge import _mujoco, check_timestep, collide, holding_force, skin_geoms
 
 FINGERS = ("thumb", "index", "middle", "ring", "pinkie")
@@ -391,9 +391,9 @@ class Kit:
         soft contact at rest (`bridge.holding_force`). It grows with the tool's mass (and the
         cover's stiffness), not its size."""
         if tool not in self.tools:
-            raise KeyError(f"no tool {tool!r} (tools: {sorted(self.tools)})")
+            raise UnknownNameError(f"no tool {tool!r} (tools: {sorted(self.tools)})")
         if self.model is None:
-            raise RuntimeError("Kit.bind(model, data) first")
+            raise NotReadyError("Kit.bind(model, data) first")
         return float(self.tools[tool].limit)
 
     def _check_force(self, a: Action) -> None:
@@ -410,7 +410,7 @@ class Kit:
         mujoco = _mujoco()
         b = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if b < 0:
-            raise KeyError(f"no body {name!r} in the model")
+            raise UnknownNameError(f"no body {name!r} in the model")
         return int(b)
 
     def add(self, action: Action) -> Action:
@@ -420,7 +420,7 @@ class Kit:
         other action of the same tool at the same time, nothing in the simulation's past."""
         a = action
         if a.tool not in self.tools:
-            raise KeyError(f"no tool {a.tool!r} (tools: {sorted(self.tools)})")
+            raise UnknownNameError(f"no tool {a.tool!r} (tools: {sorted(self.tools)})")
         a.path = np.atleast_2d(np.asarray(a.path, dtype=np.float64))
         normal = np.atleast_2d(np.asarray(a.normal, dtype=np.float64))
         if a.path.ndim != 2 or a.path.shape[1] != 3 or normal.shape[1] != 3 or len(normal) not in (1, len(a.path)):
@@ -556,7 +556,7 @@ class Kit:
     def control(self, loop=None) -> None:
         """Sets every tool's wrench and servos for the step about to run (a `SkinLoop` control)."""
         if self.data is None:
-            raise RuntimeError("Kit.bind(model, data) first")
+            raise NotReadyError("Kit.bind(model, data) first")
         mujoco = _mujoco()
         d = self.data
         t = float(d.time)
