@@ -3,9 +3,7 @@
 
 use crate::output::Inputs;
 use crate::ros_out::RosArgs;
-use crate::run_sinks::{
-    Images, Named, Sinks, check_cache, precheck_mcap, say_mcap, sinks, stage_mcap, still_there,
-};
+use crate::run_sinks::{RunSinks, check_cache, precheck_mcap, say_mcap, sinks, stage_mcap, still_there};
 use crate::shared::LiveStep;
 use crate::view_cmd::{View, ViewArgs};
 use anyhow::{Context, Result};
@@ -14,11 +12,10 @@ use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
 use skin_core::output::{Staged, writing};
 use skin_core::text::{Gzip, Input};
-use skin_learn::session::{Flow, JsonLines, Session, SessionConfig, SessionError};
+use skin_learn::session::{Flow, Session, SessionConfig, SessionError};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -182,10 +179,8 @@ pub fn run(args: Args) -> Result<()> {
         // Every frame is processed: an interrupt from here on waits until the outputs are in
         // place, and keeps them.
         let finishing = writing();
-        if let Some(events) = sinks.0.take() {
-            events.into_inner()?;
-        }
-        let mut outlets = sinks.1.1.1.0.take().map(RosSink::into_outlet);
+        sinks.close_events()?;
+        let mut outlets = sinks.ros.take().map(RosSink::into_outlet);
         let mcap = stage_mcap(outlets.as_mut())?;
         let summary = session.summary(span).to_string();
         crate::say!("{summary}");
@@ -259,7 +254,7 @@ fn unreadable(path: &Path) -> Option<String> {
 
 /// Offline: the log through the session, read one frame at a time (gzip-compressed logs too);
 /// the progress bar follows the bytes of the file read. Returns the log's span, seconds.
-fn offline(session: &mut Session, log_path: &Path, sinks: &mut Sinks, quiet: bool) -> Result<f64> {
+fn offline(session: &mut Session, log_path: &Path, sinks: &mut RunSinks, quiet: bool) -> Result<f64> {
     let input = Input::open(log_path, Gzip::Read)?;
     let meter = input.meter();
     let style = |template: &str| {
@@ -279,7 +274,7 @@ fn offline(session: &mut Session, log_path: &Path, sinks: &mut Sinks, quiet: boo
 
 /// Live: SocketCAN through the same session until Ctrl-C or --duration. Returns the seconds
 /// it ran.
-fn live(session: &mut Session, args: &Args, sinks: &mut Sinks) -> Result<f64> {
+fn live(session: &mut Session, args: &Args, sinks: &mut RunSinks) -> Result<f64> {
     let started = Instant::now();
     let mut error = None;
     let busmap = session.busmap().cloned().context("the session has no bus map")?;
@@ -354,15 +349,13 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
             still_there(out.path(), dir)?;
             std::fs::create_dir_all(&here).with_context(cannot)?;
         }
-        let events = JsonLines::new(BufWriter::new(Named::create(
-            &here.join("events.jsonl"),
-            &shown.join("events.jsonl"),
-        )?));
         let ros = args.ros.open(session.links(), inputs)?;
-        let mut sinks = (events, (Images::new(&here, &shown)?, (ros, view.as_mut())));
-        let span = session.run_recording(&mut rec, path, &mut sinks)?;
-        sinks.0.into_inner()?;
-        if let Some(ros) = sinks.1.1.0 {
+        let mut sinks = RunSinks::recording(&here, &shown, ros, view.take())?;
+        let span = session.run_recording(&mut rec, path, &mut sinks);
+        view = sinks.view.take();
+        let span = span?;
+        sinks.close_events()?;
+        if let Some(ros) = sinks.ros.take() {
             let mut outlets = ros.into_outlet();
             staged = stage_mcap(Some(&mut outlets))?;
             rest = Some(outlets);

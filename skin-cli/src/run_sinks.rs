@@ -8,22 +8,90 @@ use crate::view_cmd::View;
 use anyhow::{Context, Result};
 use skin_core::output::{Staged, writing};
 use skin_learn::session::{
-    Event, Flow, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, SessionConfig, Sink,
+    Event, Flow, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, SessionConfig, Sink, SinkError,
 };
 use skin_ros::RosSink;
 use std::fs::File;
 use std::io::{BufWriter, Stdout};
 use std::path::{Path, PathBuf};
 
-/// Where events and images go: events.jsonl and the PNGs in the folder being built, and
-/// standard output when live.
-pub type Sinks = (
-    Option<JsonLines<BufWriter<Named>>>,
-    (
-        Option<JsonLines<Stdout>>,
-        (Option<Images>, (Option<RosSink<Outlets>>, Option<View>)),
-    ),
-);
+/// Where `skin run`'s events and images go: events.jsonl and the PNGs in the folder being
+/// built, standard output when live, the ROS 2 outlets and the viewer; each optional. Every sink
+/// gets everything, in this order; the first to fail stops the run with its own error (inside
+/// a [`SinkError`]).
+#[derive(Default)]
+pub struct RunSinks {
+    /// events.jsonl of the folder being built.
+    pub events: Option<JsonLines<BufWriter<Named>>>,
+    /// Events on standard output (live runs).
+    pub stdout: Option<JsonLines<Stdout>>,
+    /// The touches' (and with --frames, every frame's) PNG images.
+    pub images: Option<Images>,
+    /// The MCAP file and the Zenoh publisher.
+    pub ros: Option<RosSink<Outlets>>,
+    /// The live view.
+    pub view: Option<View>,
+}
+
+impl RunSinks {
+    /// The sinks of one recording of a batch: its events.jsonl and images in `dir` (in the
+    /// folder being built, shown as `shown`), the ROS outlets and the viewer.
+    pub fn recording(
+        dir: &Path,
+        shown: &Path,
+        ros: Option<RosSink<Outlets>>,
+        view: Option<View>,
+    ) -> Result<RunSinks> {
+        let file = Named::create(&dir.join("events.jsonl"), &shown.join("events.jsonl"))?;
+        Ok(RunSinks {
+            events: Some(JsonLines::new(BufWriter::new(file))),
+            images: Some(Images::new(dir, shown)?),
+            ros,
+            view,
+            ..RunSinks::default()
+        })
+    }
+
+    /// Writes out what events.jsonl still buffers; its error names the file.
+    pub fn close_events(&mut self) -> Result<()> {
+        if let Some(events) = self.events.take() {
+            events.into_inner()?;
+        }
+        Ok(())
+    }
+
+    /// The sinks as one, in order, without allocating (the per-frame path): skin-learn's pairs
+    /// carry any error types.
+    fn all(&mut self) -> impl Sink<Error = SinkError> + '_ {
+        (
+            &mut self.events,
+            (
+                &mut self.stdout,
+                (&mut self.images, (&mut self.ros, &mut self.view)),
+            ),
+        )
+    }
+}
+
+impl Sink for RunSinks {
+    type Error = SinkError;
+
+    fn event(&mut self, event: &Event) -> Result<Flow, SinkError> {
+        self.all().event(event)
+    }
+
+    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+        self.all().frame_image(view, cycle, image)
+    }
+
+    fn origin(&mut self, origin_us: u64) -> Result<Flow, SinkError> {
+        self.all().origin(origin_us)
+    }
+
+    fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
+        self.all().frame(frame)
+    }
+}
 
 /// A file of the folder being built, whose errors name it as the user will know it (never the
 /// staging folder).
@@ -133,7 +201,7 @@ pub fn sinks(
     live: bool,
     ros: Option<RosSink<Outlets>>,
     view: Option<View>,
-) -> Result<Sinks> {
+) -> Result<RunSinks> {
     let (events, images) = match out {
         Some(out) => {
             let file = Named::create(&out.path().join("events.jsonl"), &out.dir().join("events.jsonl"))?;
@@ -142,13 +210,13 @@ pub fn sinks(
         }
         None => (None, None),
     };
-    Ok((
+    Ok(RunSinks {
         events,
-        (
-            live.then(|| JsonLines::new(std::io::stdout())),
-            (images, (ros, view)),
-        ),
-    ))
+        stdout: live.then(|| JsonLines::new(std::io::stdout())),
+        images,
+        ros,
+        view,
+    })
 }
 
 /// Refuses to write on once the folder being built (`staging`, shown as `shown`) is gone: the

@@ -191,17 +191,12 @@ impl Pace {
     }
 }
 
-/// `Ok` of a sink that cannot fail, as the other sinks' error type.
-fn infallible(r: Result<Flow, std::convert::Infallible>) -> std::io::Result<Flow> {
-    Ok(r.unwrap_or_else(|never| match never {}))
-}
-
-/// The same error type as `skin run`'s other sinks (it never fails).
+/// The viewer's sink, paced: it never fails.
 impl Sink for View {
-    type Error = std::io::Error;
+    type Error = std::convert::Infallible;
 
     fn event(&mut self, event: &Event) -> Result<Flow, Self::Error> {
-        infallible(self.sink.event(event))
+        self.sink.event(event)
     }
 
     fn frame_image(
@@ -210,14 +205,14 @@ impl Sink for View {
         cycle: u64,
         image: &skin_learn::session::GreyImage,
     ) -> Result<Flow, Self::Error> {
-        infallible(self.sink.frame_image(view, cycle, image))
+        self.sink.frame_image(view, cycle, image)
     }
 
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, Self::Error> {
         if let Some(p) = &mut self.pace {
             p.wait(frame.time_us);
         }
-        infallible(self.sink.frame(frame))
+        self.sink.frame(frame)
     }
 }
 

@@ -187,7 +187,8 @@ pub(crate) fn settings_dict(py: Python<'_>, settings: &SessionSettings) -> PyRes
 pub(crate) fn read_session_settings(py: Python<'_>, path: Option<PathBuf>) -> PyResult<Py<PyAny>> {
     let settings = match path {
         Some(path) => SessionConfig::read(&path)
-            .and_then(|c| c.settings())
+            .map_err(errors::config)?
+            .settings()
             .map_err(errors::config)?,
         None => SessionSettings::default(),
     };
