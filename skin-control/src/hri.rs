@@ -43,49 +43,12 @@ pub enum GateAction {
     Resume,
 }
 
-impl GateAction {
-    /// Every action, in the order errors list them.
-    pub const ALL: [GateAction; 4] = [
-        GateAction::Stop,
-        GateAction::Comply,
-        GateAction::Slow,
-        GateAction::Resume,
-    ];
-
-    /// The action's name as configuration files and events write it.
-    pub fn name(self) -> &'static str {
-        match self {
-            GateAction::Stop => "stop",
-            GateAction::Comply => "comply",
-            GateAction::Slow => "slow",
-            GateAction::Resume => "resume",
-        }
-    }
-}
-
-impl std::fmt::Display for GateAction {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Text that names no [`GateAction`]: the text (its first 40 characters), and the names there
-/// are in the message.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0:?}: expected stop, comply, slow or resume")]
-pub struct UnknownAction(pub String);
-
-/// An action by its name (`"comply"`), as configuration files and the Python binding give it.
-impl std::str::FromStr for GateAction {
-    type Err = UnknownAction;
-
-    fn from_str(s: &str) -> Result<GateAction, UnknownAction> {
-        GateAction::ALL
-            .into_iter()
-            .find(|a| a.name() == s)
-            .ok_or_else(|| UnknownAction(s.chars().take(40).collect()))
-    }
-}
+skin_core::by_name!(GateAction, UnknownAction, "stop, comply, slow or resume", {
+    Stop => "stop",
+    Comply => "comply",
+    Slow => "slow",
+    Resume => "resume",
+});
 
 /// A touch's class as the gate sees it: a human hand, or anything else (HandsNet's two classes;
 /// a model card's other classes are not a hand).

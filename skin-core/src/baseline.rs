@@ -44,39 +44,10 @@ pub enum Polarity {
     Falling,
 }
 
-impl Polarity {
-    /// The polarity's name as configuration files write it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Polarity::Rising => "rising",
-            Polarity::Falling => "falling",
-        }
-    }
-}
-
-impl std::fmt::Display for Polarity {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Text that names no [`Polarity`]: the text (its first 40 characters), and the names there
-/// are in the message.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0:?}: expected \"rising\" or \"falling\"")]
-pub struct UnknownPolarity(pub String);
-
-/// A polarity by its name, as configuration files and the Python binding give it.
-impl std::str::FromStr for Polarity {
-    type Err = UnknownPolarity;
-
-    fn from_str(s: &str) -> std::result::Result<Polarity, UnknownPolarity> {
-        [Polarity::Rising, Polarity::Falling]
-            .into_iter()
-            .find(|p| p.name() == s)
-            .ok_or_else(|| UnknownPolarity(s.chars().take(40).collect()))
-    }
-}
+crate::by_name!(Polarity, UnknownPolarity, "\"rising\" or \"falling\"", {
+    Rising => "rising",
+    Falling => "falling",
+});
 
 /// A polarity is read by its name ([`str::parse`]), so a wrong one is named with the names
 /// there are.

@@ -46,6 +46,7 @@
 //! whatever the sensor reports (raw capacitance counts for Cyskin) unless a crate says otherwise.
 
 mod baseline;
+mod by_name;
 mod contact;
 mod contact_peaks;
 mod error;

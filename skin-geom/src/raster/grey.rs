@@ -20,39 +20,10 @@ pub enum NormKind {
     ContactMax,
 }
 
-impl NormKind {
-    /// Its name, as options write it.
-    pub fn name(self) -> &'static str {
-        match self {
-            NormKind::FullScale => "full_scale",
-            NormKind::ContactMax => "contact_max",
-        }
-    }
-}
-
-impl std::fmt::Display for NormKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Text that names no [`NormKind`]: the text (its first 40 characters), and the names there
-/// are in the message.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0:?}: expected \"contact_max\" or \"full_scale\"")]
-pub struct UnknownNorm(pub String);
-
-/// A normalisation's kind by its name, as the Python binding gives it.
-impl std::str::FromStr for NormKind {
-    type Err = UnknownNorm;
-
-    fn from_str(s: &str) -> Result<NormKind, UnknownNorm> {
-        [NormKind::ContactMax, NormKind::FullScale]
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownNorm(s.chars().take(40).collect()))
-    }
-}
+skin_core::by_name!(NormKind, UnknownNorm, "\"contact_max\" or \"full_scale\"", {
+    ContactMax => "contact_max",
+    FullScale => "full_scale",
+});
 
 impl Normalisation {
     /// Its kind.
