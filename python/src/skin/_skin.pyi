@@ -2,20 +2,75 @@
 
 import os
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import (
+    Any,
+    Callable,
+    ClassVar,
+    Dict,
+    Iterator,
+    List,
+    Literal,
+    Mapping,
+    Optional,
+    Sequence,
+    Tuple,
+    Union,
+    final,
+)
 
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.ArrayLike
+# (rows, cols): any sequence of two whole numbers (a tuple, a list, an array).
+_Size = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
+# What a gate tells the robot (run.toml's [gate] actions, `Session.gate`).
+_GateAction = Literal["stop", "comply", "slow", "resume"]
+
+# Every class is final (none can be subclassed) and those with a constructor take their arguments
+# in `__new__`, as the native module defines them.
+
+__all__ = [
+    "__version__",
+    "Link",
+    "Layout",
+    "TactileMap",
+    "Imager",
+    "read_layout",
+    "flatten",
+    "read_map",
+    "Recording",
+    "BusMap",
+    "CanFrame",
+    "LogFrames",
+    "read_recording",
+    "read_log",
+    "Session",
+    "Event",
+    "Contact",
+    "_event",
+    "_contact",
+    "read_sim_config",
+    "read_session_settings",
+    "Calibration",
+    "read_probes",
+    "calibrate",
+    "synthesize",
+    "read_grey",
+    "Dataset",
+    "TaskStack",
+]
 
 __version__: str
 
+@final
 class Link:
     """One link's skin: taxel ids, positions and outward normals (metres, the link's frame)."""
 
-    def __init__(self, name: str, ids: _Array, positions: _Array, normals: _Array, faces: Optional[_Array] = None) -> None: ...
+    def __new__(cls, name: str, ids: _Array, positions: _Array, normals: _Array, faces: Optional[_Array] = None) -> "Link":
+        """`ids` (N,) integers, `positions` (N, 3) metres, `normals` (N, 3) (normalised; a zero
+        normal is an error), `faces` (M, 3) indices into the taxels."""
     @property
     def name(self) -> str: ...
     @property
@@ -32,6 +87,7 @@ class Link:
         """(M, 3) indices into the taxels, or None."""
     def __len__(self) -> int: ...
 
+@final
 class Layout:
     """The links of a layout file, in its order."""
 
@@ -45,12 +101,13 @@ class Layout:
     @property
     def path(self) -> Path: ...
     def __len__(self) -> int: ...
-    def __getitem__(self, key: Union[int, str]) -> Link:
+    def __getitem__(self, key: Union[int, str], /) -> Link:
         """By name (KeyError if none) or index (IndexError)."""
 
 def read_layout(path: _Path) -> Layout:
     """Any layout format `skin` reads: native JSON, Cyskin, iCub taxel files, URDF with tactile sensors."""
 
+@final
 class TactileMap:
     """A link flattened onto the plane (LSCM)."""
 
@@ -73,7 +130,7 @@ class TactileMap:
         """The distortion report `skin flatten` prints."""
     @property
     def distortion(self) -> Dict[str, float]: ...
-    def write(self, path: _Path, format: str = "native") -> None:
+    def write(self, path: _Path, format: Literal["native", "cyskin"] = "native") -> None:
         """"native" (skin flatten's JSON) or "cyskin"; replaces only a tactile map."""
     def to_svg(self) -> str: ...
     def __len__(self) -> int: ...
@@ -84,21 +141,22 @@ def flatten(link: Link, *, triangulate: bool = False, max_edge: float = 3.0) -> 
 def read_map(path: _Path, link: Optional[str] = None) -> TactileMap:
     """A map file, or a layout's link flattened (`link` names it when the layout has several)."""
 
+@final
 class Imager:
     """Tactile images of one map (thesis eq. 3.1), built once; one thread at a time."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         map: TactileMap,
         *,
-        step_mm: Optional[float] = None,
-        grid: Optional[Sequence[int]] = None,
-        norm: str = "contact_max",
+        step_mm: Optional[float] = None,  # 1.0
+        grid: Optional[_Size] = None,
+        norm: Literal["contact_max", "full_scale"] = "contact_max",
         full_scale: Optional[float] = None,
         threshold: float = 0.0,
         morph: bool = False,
-        size: Optional[Sequence[int]] = None,
-    ) -> None:
+        size: Optional[_Size] = None,
+    ) -> "Imager":
         """step_mm (1 mm by default) or grid=(rows, cols); full_scale only with norm="full_scale"."""
     @property
     def size(self) -> Tuple[int, int]: ...
@@ -112,6 +170,7 @@ class Imager:
         holds the frames done so far)."""
     def pressure_image(self, frame: _Array) -> npt.NDArray[np.float32]: ...
 
+@final
 class Recording:
     @property
     def times(self) -> npt.NDArray[np.float64]: ...
@@ -130,6 +189,7 @@ class Recording:
 def read_recording(path: _Path) -> Recording:
     """The GIL is released while reading; Ctrl-C ends it (a named pipe's wait for a writer too)."""
 
+@final
 class BusMap:
     @staticmethod
     def read(path: _Path) -> "BusMap": ...
@@ -141,6 +201,7 @@ class BusMap:
     def modules(self) -> List[Tuple[str, int, List[int]]]:
         """(interface, address, its slots as indices into `ids`), in bus-map order."""
 
+@final
 class CanFrame:
     @property
     def time(self) -> float: ...
@@ -156,6 +217,7 @@ class CanFrame:
     @property
     def complete(self) -> bool: ...
 
+@final
 class LogFrames(Iterator[CanFrame]):
     """Frames read as asked for, the GIL released; after Ctrl-C ended a read, the next raises
     InputError (read the log again)."""
@@ -169,6 +231,7 @@ class LogFrames(Iterator[CanFrame]):
 def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames:
     """A named pipe's wait for its writer (a thread of this process too) releases the GIL and ends on Ctrl-C."""
 
+@final
 class Event:
     """A session event: `kind` and the fields events.jsonl documents, as attributes. Pickles."""
 
@@ -176,24 +239,42 @@ class Event:
     def kind(self) -> str: ...
     @property
     def image(self) -> Optional[npt.NDArray[np.uint8]]: ...
-    def __getattr__(self, name: str) -> Any: ...
-    def __getitem__(self, name: str) -> Any: ...
+    # The fields as attributes (`event.time`, `event.touch`): the native class looks them up
+    # after its own attributes, in `__getattribute__`; AttributeError for a field it lacks.
+    def __getattribute__(self, name: str, /) -> Any: ...
+    def __getitem__(self, name: str, /) -> Any:
+        """A field by name: `event["class"]` (a Python keyword as an attribute); KeyError if none."""
     def to_dict(self) -> Dict[str, Any]: ...
+    def __eq__(self, other: object, /) -> bool: ...
+    __hash__: ClassVar[None]  # type: ignore[assignment]  # compared by value: unhashable
 
 def _event(kind: str, fields: str, image: Optional[npt.NDArray[np.uint8]]) -> Event:
     """An unpickled Event."""
 
+@final
 class Contact:
     """One contact of the last frame on a link; a value (compared, pickled by its fields)."""
 
-    taxels: List[int]
-    """Indices into the link's taxels (layout order), ascending: not ids (`taxel_ids`)."""
-    taxel_ids: List[int]
-    """The same taxels' ids, in the order of `taxels`."""
-    centroid: Tuple[float, float, float]
-    normal: Optional[Tuple[float, float, float]]
-    mean_pressure: float
-    peak_pressure: float
+    @property
+    def taxels(self) -> List[int]:
+        """Indices into the link's taxels (layout order), ascending: not ids (`taxel_ids`)."""
+    @property
+    def taxel_ids(self) -> List[int]:
+        """The same taxels' ids, in the order of `taxels`."""
+    @property
+    def centroid(self) -> Tuple[float, float, float]:
+        """Pressure-weighted, metres in the link's frame."""
+    @property
+    def normal(self) -> Optional[Tuple[float, float, float]]:
+        """Pressure-weighted outward unit normal, or None (the session's contacts on tactile maps)."""
+    @property
+    def mean_pressure(self) -> float:
+        """Counts above the baseline."""
+    @property
+    def peak_pressure(self) -> float:
+        """Counts above the baseline."""
+    def __eq__(self, other: object, /) -> bool: ...
+    __hash__: ClassVar[None]  # type: ignore[assignment]  # compared by value: unhashable
 
 def _contact(
     taxels: Sequence[int],
@@ -208,6 +289,7 @@ def _contact(
 # image (rows, cols) uint8 -> class probabilities (0 to 1), or part labels (rows, cols) 0..6.
 _Model = Callable[[npt.NDArray[np.uint8]], Any]
 
+@final
 class Session:
     """The per-frame pipeline of a skin: frames in, events out. Not picklable (TypeError): pickle
     its events. Building one whose bus map leaves layout taxels on no bus warns (SkinWarning)."""
@@ -230,19 +312,24 @@ class Session:
         segmenter: Optional[_Model] = None,
         classes: Optional[Sequence[str]] = None,
         hand: Optional[str] = None,
-        image_size: Optional[Sequence[int]] = None,  # (68, 100)
+        image_size: Optional[_Size] = None,  # (68, 100)
         baseline_frames: Optional[int] = None,  # 20
-        polarity: Optional[str] = None,  # "rising" (or "falling")
+        polarity: Optional[Literal["rising", "falling"]] = None,  # "rising"
         threshold: Optional[float] = None,  # 5.0 counts
         min_taxels: Optional[int] = None,  # 2
         decide_frames: Optional[int] = None,  # 3
         release_frames: Optional[int] = None,  # 2
-        gate: Optional[Mapping[str, str]] = None,
+        gate: Optional[Dict[str, _GateAction]] = None,  # {class name: action}; None: no gate
     ) -> "Session": ...
     def push(self, readings: Union[Sequence[_Array], Mapping[str, _Array], _Array], time: float) -> List[Event]:
         """One frame; times in seconds, in order."""
     def push_can(self, frame: CanFrame) -> List[Event]: ...
-    def push_bus(self, values: _Array, time: float, missing: Sequence[Tuple[str, int]] = ()) -> List[Event]:
+    def push_bus(
+        self,
+        values: _Array,
+        time: float,
+        missing: Sequence[Tuple[str, int]] = ...,  # none missing
+    ) -> List[Event]:
         """(S,) counts in bus-map slot order, and the modules lost (interface, address): a CAN frame."""
     def finish(self) -> List[Event]:
         """Releases open touches; the session then takes no more frames. Before the baseline
@@ -260,7 +347,8 @@ class Session:
     @property
     def classes(self) -> List[str]: ...
     @property
-    def gate(self) -> Optional[str]: ...
+    def gate(self) -> Optional[_GateAction]:
+        """What the gate says now, or None without a gate."""
     @property
     def settings(self) -> Optional[Dict[str, Any]]:
         """What it runs with, as run.toml's sections and keys: image_size, baseline, touch, gate."""
@@ -270,6 +358,7 @@ class Session:
     def uncovered(self) -> List[Tuple[str, int]]:
         """(link, taxel id) of the layout's taxels on no bus of the bus map: dead."""
 
+@final
 class Calibration:
     @property
     def ids(self) -> npt.NDArray[np.uint32]: ...
@@ -289,7 +378,7 @@ class Calibration:
     def to_tsv(self) -> str: ...
     def __len__(self) -> int: ...
 
-def read_sim_config(path: Optional[_Path] = None, overrides: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
+def read_sim_config(path: Optional[_Path] = None, overrides: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
     """A run configuration's `[sim]` table (all defaults without a file), `overrides` on top, checked."""
 
 def read_session_settings(path: Optional[_Path] = None) -> Dict[str, Any]:
@@ -307,7 +396,7 @@ def calibrate(
     max_iterations: Optional[int] = None,  # 200
     max_extrapolation_mm: float = 8.0,
     max_open_angle_deg: float = 170.0,
-    outward: Optional[Tuple[float, float, float]] = None,
+    outward: Optional[_Array] = None,  # a direction (x, y, z): any sequence or array of 3
 ) -> Calibration: ...
 def synthesize(
     map: TactileMap,
@@ -315,9 +404,9 @@ def synthesize(
     *,
     seed: Optional[int] = None,  # 1
     subjects: Optional[int] = None,  # one per 40 samples
-    size: Optional[Sequence[int]] = None,  # (68, 100)
+    size: Optional[_Size] = None,  # (68, 100)
     hand_fraction: float = 0.5,
-    mask_labels: str = "pressing",  # or "as-imaged"
+    mask_labels: Literal["pressing", "as-imaged"] = "pressing",
     remove_up_to: Optional[float] = None,  # 0.01 to 0.95: Test B's removal, up to this fraction
     thinned_share: Optional[float] = None,  # 0.5; only with remove_up_to
     blind_spots: Optional[int] = None,  # 1 to 64: Test A's blind spots, up to this many
@@ -328,11 +417,13 @@ def synthesize(
     """In parallel, the GIL released; Ctrl-C raises KeyboardInterrupt within a sample."""
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
 
+@final
 class Dataset:
     """A dataset folder (labels.csv, images/, masks/) as `skin eval` reads it; what SynthDataset
     stands on. File names that leave the folder (absolute, .., links out) are refused."""
 
-    def __init__(self, root: _Path) -> None: ...
+    def __new__(cls, root: _Path) -> "Dataset":
+        """Reads `root/labels.csv`."""
     @property
     def entries(self) -> List[Tuple[str, bool, str, int, bool, bool]]:
         """(file, hand, kind, subject, partial, fingertips) per sample, in row order."""
@@ -340,15 +431,20 @@ class Dataset:
     def mask(self, i: int) -> npt.NDArray[np.uint8]: ...
     def __len__(self) -> int: ...
 
+@final
 class TaskStack:
-    def __init__(
-        self,
+    """Joint velocities from a stack of tasks, highest priority first. `regularisation`:
+    "activation_aware" (`lam`, `threshold`, `eta`), "damped" (`lam`) or "exact" (singular values
+    under `tolerance` dropped; not for control)."""
+
+    def __new__(
+        cls,
         joints: int,
         *,
-        regularisation: str = "activation_aware",
+        regularisation: Literal["activation_aware", "damped", "exact"] = "activation_aware",
         lam: float = 0.05,
         threshold: float = 0.01,
         eta: float = 1.0,
         tolerance: float = 1e-9,
-    ) -> None: ...
+    ) -> "TaskStack": ...
     def solve(self, tasks: Sequence[Tuple[_Array, _Array, float]]) -> npt.NDArray[np.float64]: ...
