@@ -119,8 +119,7 @@ pub(crate) fn raise(kind: Kind, e: &(dyn std::error::Error + 'static)) -> PyErr 
 fn not_found(e: &(dyn std::error::Error + 'static)) -> bool {
     let mut at = Some(e);
     while let Some(e) = at {
-        if e
-            .downcast_ref::<std::io::Error>()
+        if e.downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
         {
             return true;
