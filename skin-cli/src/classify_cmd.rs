@@ -33,7 +33,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let scale = input_scale(&args.run.model, args.run.input_scale);
     let mut net = Classifier::load(&args.run.model, scale)?;
-    let (h, w) = net.input_size();
+    let skin_core::image::ImageSize { rows: h, cols: w } = net.input_size();
     let classes = net.classes();
     let card = ModelCard::for_model(&args.run.model)
         .map(|c| c.classes)

@@ -41,7 +41,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let scale = crate::shared::input_scale(&args.run.model, args.run.input_scale);
     let mut net = Segmenter::load(&args.run.model, scale)?.with_mirror_averaging(args.mirrors);
-    let (h, w) = net.input_size();
+    let skin_core::image::ImageSize { rows: h, cols: w } = net.input_size();
     let sources = crate::output::Inputs::new(
         [&args.run.model]
             .into_iter()

@@ -39,6 +39,7 @@ fn speed(text: &str) -> Result<f64, String> {
 }
 
 /// A replay's speed: what the page's replay controls take (`skin_view::SPEEDS`).
+#[cfg(feature = "mcap")]
 fn replay_speed(text: &str) -> Result<f64, String> {
     in_speeds(text).ok_or_else(|| format!("must be {}", speeds()))
 }

@@ -46,9 +46,12 @@ impl Classifier {
         Ok(self)
     }
 
-    /// Input height and width, pixels.
-    pub fn input_size(&self) -> (usize, usize) {
-        (self.net.height, self.net.width)
+    /// Its input image's size (rows and columns, pixels).
+    pub fn input_size(&self) -> ImageSize {
+        ImageSize {
+            rows: self.net.height,
+            cols: self.net.width,
+        }
     }
 
     /// Number of classes (the output's width).

@@ -33,8 +33,8 @@ pub enum Model {
 }
 
 impl Model {
-    /// Its input (rows, cols).
-    pub fn input_size(&self) -> (usize, usize) {
+    /// Its input image's size.
+    pub fn input_size(&self) -> ImageSize {
         match self {
             Model::Classifier(c) => c.input_size(),
             Model::Segmenter(s) => s.input_size(),
@@ -281,7 +281,7 @@ impl Scores {
         e: &crate::dataset::Entry,
         truth: &[u8],
         labels: &[u8],
-        (rows, cols): (usize, usize),
+        ImageSize { rows, cols }: ImageSize,
         taxel: Option<(&TaxelTruth, usize)>,
     ) {
         let mut one = ConfusionMatrix::new(self.cm.classes());
@@ -346,8 +346,9 @@ pub fn test_images(model: &Model, data: &Dataset, test: &[usize]) -> Result<(Ima
     let mut truths = Vec::with_capacity(test.len());
     for &i in test {
         let (img, r, c) = data.image(i)?;
-        if (r, c) != model.input_size() {
-            let (mr, mc) = model.input_size();
+        let takes = model.input_size();
+        if (r, c) != (takes.rows, takes.cols) {
+            let (mr, mc) = (takes.rows, takes.cols);
             let message = format!(
                 "image {} is {r} x {c}, the model takes {mr} x {mc}",
                 data.entries[i].file
@@ -419,14 +420,7 @@ pub fn robustness(
         let mut sums = [0.0f64; 5];
         for seed in 0..patterns as u64 {
             let degraded = make(seed)?;
-            let mut imager = TactileImager::for_model(
-                &degraded,
-                1.0,
-                ImageSize {
-                    rows: size.0,
-                    cols: size.1,
-                },
-            )?;
+            let mut imager = TactileImager::for_model(&degraded, 1.0, size)?;
             let cols = columns_of(&frames, &degraded.ids, &frames_path, "a degraded map")?;
             let masks = segmenting.then_some(truths_full.as_slice());
             let (images, truths, kept, before) = degraded_images(&mut imager, &frames, &cols, test, masks)?;

@@ -70,9 +70,12 @@ impl Segmenter {
         Ok(self)
     }
 
-    /// Input (and output) height and width, pixels.
-    pub fn input_size(&self) -> (usize, usize) {
-        (self.net.height, self.net.width)
+    /// Its input (and output) image's size (rows and columns, pixels).
+    pub fn input_size(&self) -> ImageSize {
+        ImageSize {
+            rows: self.net.height,
+            cols: self.net.width,
+        }
     }
 
     /// Number of classes, background included.
@@ -92,7 +95,7 @@ impl Segmenter {
         if images.is_empty() {
             return Ok(Vec::new());
         }
-        let (classes, (h, w)) = (self.classes, self.input_size());
+        let (classes, ImageSize { rows: h, cols: w }) = (self.classes, self.input_size());
         let pixels = h * w;
         let label = |image: &[u8], score: &dyn Fn(usize, usize) -> f32| -> Vec<u8> {
             (0..pixels)

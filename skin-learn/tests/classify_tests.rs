@@ -29,7 +29,10 @@ fn blob(r0: f64, c0: f64, radius: f64, level: u8) -> Vec<u8> {
 fn the_matlab_handsnet_loads_and_gives_two_class_probabilities() {
     let Some(path) = shared(HANDSNET) else { return };
     let mut net = Classifier::load(&path, InputScale::Bytes).unwrap();
-    assert_eq!(net.input_size(), (68, 100));
+    assert_eq!(
+        net.input_size(),
+        skin_core::image::ImageSize { rows: 68, cols: 100 }
+    );
     assert_eq!(net.classes(), 2);
     let images = [
         blob(34.0, 50.0, 10.0, 255),

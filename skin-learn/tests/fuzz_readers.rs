@@ -98,7 +98,7 @@ mod session_config {
         let config = SessionConfig::parse(SESSION, Path::new("run.toml")).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
             (config.baseline.frames, config.image_size().unwrap()),
-            (20, (68, 100))
+            (20, ImageSize { rows: 68, cols: 100 })
         );
         assert!(config.gate.is_some());
     }
@@ -259,7 +259,7 @@ mod session_config {
                 Ok(c) => {
                     prop_assert!((2..=100_000).contains(&c.baseline.frames));
                     prop_assert!(c.touch.threshold.is_finite() && c.touch.reclassify_growth >= 1.0);
-                    let (rows, cols) = c.image_size().unwrap();
+                    let ImageSize { rows, cols } = c.image_size().unwrap();
                     let side = 1..=ImageSize::MAX_SIDE;
                     prop_assert!(side.contains(&rows) && side.contains(&cols));
                 }

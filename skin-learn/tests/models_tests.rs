@@ -8,6 +8,7 @@
 mod support;
 use support::{forearm, model};
 
+use skin_core::image::ImageSize;
 use skin_learn::card::ModelCard;
 use skin_learn::classify::{Classifier, InputScale, ModelError};
 use skin_learn::metrics::ConfusionMatrix;
@@ -53,7 +54,10 @@ fn fresh_hands(seed: u64, count: u32) -> Vec<Sample> {
 
 fn labels_fresh_hands_far_above_chance(name: &str) {
     let mut net = Segmenter::load(&model(name), InputScale::Unit).unwrap();
-    assert_eq!((net.input_size(), net.classes()), ((68, 100), 7));
+    assert_eq!(
+        (net.input_size(), net.classes()),
+        (ImageSize { rows: 68, cols: 100 }, 7)
+    );
     let samples = fresh_hands(77, 24);
     let images: Vec<&[u8]> = samples.iter().map(|s| s.image.as_slice()).collect();
     let batch = net.segment_batch(&images).unwrap();
@@ -86,7 +90,7 @@ fn mirror_averaging_labels_a_mirrored_hand_as_the_mirror_of_its_labels() {
     let mut averaged = Segmenter::load(&model("handseg_wide.onnx"), InputScale::Unit)
         .unwrap()
         .with_mirror_averaging(true);
-    let w = averaged.input_size().1;
+    let w = averaged.input_size().cols;
     let samples = fresh_hands(79, 16);
     let (mut plain_cm, mut averaged_cm) = (ConfusionMatrix::new(7), ConfusionMatrix::new(7));
     let mut plain_breaks_symmetry = false;

@@ -237,9 +237,9 @@ fn in_config(config: &SessionConfig, e: SessionError) -> SessionError {
         .into(),
         SessionError::ImageSize { takes, makes } => ConfigError::ImageSize {
             model: PathBuf::from("the models"),
-            takes: (takes.rows, takes.cols),
+            takes,
             config: config.path.clone(),
-            makes: (makes.rows, makes.cols),
+            makes,
         }
         .into(),
         e => e,
@@ -289,10 +289,11 @@ fn maps(config: &SessionConfig, layout: &Path, links: &[LinkSkin]) -> Result<Vec
 fn load_models(config: &SessionConfig, own: OwnModels) -> Result<Models, SessionError> {
     use crate::classify::{Classifier, InputScale};
     use crate::segment::Segmenter;
+    use skin_core::image::ImageSize;
     let at =
         |field: &'static str, p: &Option<PathBuf>| p.as_deref().map(|p| config.resolve(field, p)).transpose();
     let size = config.image_size()?;
-    let check_size = |model: &Path, takes: (usize, usize)| {
+    let check_size = |model: &Path, takes: ImageSize| {
         if takes == size {
             Ok(())
         } else {

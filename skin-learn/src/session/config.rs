@@ -321,14 +321,13 @@ impl SessionConfig {
         Ok(config)
     }
 
-    /// The models' input size (rows, cols); [`ImageSize::MODEL_DEFAULT`] unless the file says.
-    pub fn image_size(&self) -> Result<(usize, usize), ConfigError> {
+    /// The models' input size; [`ImageSize::MODEL_DEFAULT`] unless the file says.
+    pub fn image_size(&self) -> Result<ImageSize, ConfigError> {
         let Some(s) = &self.image_size else {
-            let d = ImageSize::MODEL_DEFAULT;
-            return Ok((d.rows, d.cols));
+            return Ok(ImageSize::MODEL_DEFAULT);
         };
         match s.parse::<ImageSize>() {
-            Ok(size) => Ok((size.rows, size.cols)),
+            Ok(size) => Ok(size),
             Err(_) => Err(ConfigError::Value {
                 file: self.path.clone(),
                 field: "image_size",
@@ -342,9 +341,8 @@ impl SessionConfig {
     /// the defaults for the rest ([`SessionSettings::check`] checks them; [`SessionConfig::parse`]
     /// has).
     pub fn settings(&self) -> Result<SessionSettings, ConfigError> {
-        let (rows, cols) = self.image_size()?;
         Ok(SessionSettings {
-            image_size: ImageSize { rows, cols },
+            image_size: self.image_size()?,
             baseline: self.baseline,
             touch: self.touch,
             gate: self.gate.clone(),

@@ -67,16 +67,16 @@ pub enum ConfigError {
     },
     /// A model takes images of another size than the configuration makes.
     #[error("{}: takes {} x {} images; {} makes {} x {} (image_size): a model for another image size",
-        model.display(), takes.0, takes.1, config.display(), makes.0, makes.1)]
+        model.display(), takes.rows, takes.cols, config.display(), makes.rows, makes.cols)]
     ImageSize {
         /// The model.
         model: PathBuf,
-        /// Its input (rows, cols).
-        takes: (usize, usize),
+        /// Its input.
+        takes: ImageSize,
         /// The configuration.
         config: PathBuf,
         /// The configuration's image size.
-        makes: (usize, usize),
+        makes: ImageSize,
     },
     /// A classifier of more than two classes without a model card naming them.
     #[error("{}: {classes} classes and no model card naming them ({})", model.display(), card.display())]
