@@ -79,7 +79,7 @@ pub fn run(args: Args) -> Result<()> {
             let map = crate::shared::load_map(map_path)?;
             let (inputs, maps) =
                 crate::shared::load_inputs(&args.run.inputs, &map, std::path::Path::new("."))?;
-            let mut imagers = crate::shared::model_imagers(&maps, (h, w), map_path)?;
+            let mut imagers = crate::shared::model_imagers(&maps, net.input_size(), map_path)?;
             let quiet = crate::shared::each_touched_frame(
                 &inputs,
                 &mut imagers,

@@ -43,7 +43,7 @@ pub struct Args {
     /// Lay a grid of exactly ROWSxCOLS pixels on the map instead of a fixed step (each side at
     /// most 4096).
     #[arg(long, value_name = "ROWSxCOLS", value_parser = crate::numbers::image_size)]
-    grid: Option<(usize, usize)>,
+    grid: Option<ImageSize>,
     /// K_bar, the pressure shown as white: the sensor's full scale (needs --full-scale) or the
     /// largest pressure of each frame.
     #[arg(long, value_enum, default_value_t = Norm::ContactMax)]
@@ -62,7 +62,7 @@ pub struct Args {
     morph: bool,
     /// Resize the image to ROWSxCOLS (68x100 for the hand classifier; each side at most 4096).
     #[arg(long, value_name = "ROWSxCOLS", value_parser = crate::numbers::image_size)]
-    size: Option<(usize, usize)>,
+    size: Option<ImageSize>,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -79,7 +79,7 @@ pub fn run(args: Args) -> Result<()> {
     let out = crate::output::open_dir(&args.output, "skin image", args.force, &sources)?;
     let map = load_map(&args.map)?;
     let grid = match args.grid {
-        Some((rows, cols)) => Grid::Size { rows, cols },
+        Some(ImageSize { rows, cols }) => Grid::Size { rows, cols },
         None => Grid::StepMm(args.step_mm),
     };
     let norm = match (args.norm, args.full_scale) {
@@ -95,7 +95,7 @@ pub fn run(args: Args) -> Result<()> {
         .iter()
         .map(|m| {
             let raster = Rasterizer::new(m, grid).with_context(|| format!("{}", args.map.display()))?;
-            let size = args.size.map(|(rows, cols)| ImageSize { rows, cols });
+            let size = args.size;
             Ok(TactileImager::new(raster, norm, args.morph, size)?)
         })
         .collect::<Result<Vec<_>>>()?;

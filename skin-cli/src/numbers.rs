@@ -53,9 +53,8 @@ fn real(s: &str) -> Result<f64, String> {
 
 /// Image sizes: `ROWSxCOLS`, each side 1 to [`ImageSize::MAX_SIDE`] pixels (an 8-bit image of
 /// 16 MB at most), read by the one parser the libraries use.
-pub fn image_size(s: &str) -> Result<(usize, usize), String> {
-    let size: ImageSize = s.parse().map_err(|e: ImageSizeError| e.to_string())?;
-    Ok((size.rows, size.cols))
+pub fn image_size(s: &str) -> Result<ImageSize, String> {
+    s.parse().map_err(|e: ImageSizeError| e.to_string())
 }
 
 #[cfg(test)]
@@ -76,7 +75,7 @@ mod tests {
         assert!(count::<1, 10>("0").unwrap_err().contains("from 1 to 10"));
         assert!(count::<1, 10>("4294967295").is_err());
         assert!(threads("100000").is_err());
-        assert_eq!(image_size("68x100"), Ok((68, 100)));
+        assert_eq!(image_size("68x100"), Ok(ImageSize { rows: 68, cols: 100 }));
         assert!(image_size("100000x100000").unwrap_err().contains("4096"));
         assert!(image_size("0x5").is_err());
     }

@@ -41,7 +41,8 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let scale = crate::shared::input_scale(&args.run.model, args.run.input_scale);
     let mut net = Segmenter::load(&args.run.model, scale)?.with_mirror_averaging(args.mirrors);
-    let skin_core::image::ImageSize { rows: h, cols: w } = net.input_size();
+    let size = net.input_size();
+    let (h, w) = (size.rows, size.cols);
     let sources = crate::output::Inputs::new(
         [&args.run.model]
             .into_iter()
@@ -73,7 +74,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(map_path) => {
             let map = crate::shared::load_map(map_path)?;
             let (inputs, maps) = crate::shared::load_inputs(&args.run.inputs, &map, out.path())?;
-            let mut imagers = crate::shared::model_imagers(&maps, (h, w), map_path)?;
+            let mut imagers = crate::shared::model_imagers(&maps, size, map_path)?;
             // The per-part table needs the grids while the imagers are busy.
             let rasters: Vec<_> = imagers.iter().map(|i| i.raster().clone()).collect();
             for input in &inputs {
@@ -98,8 +99,7 @@ pub fn run(args: Args) -> Result<()> {
                         Shares::of(&labels)
                     );
                     crate::say!("  part     taxels  mean reading   centroid x, y, z (mm)");
-                    for pc in part_contacts(&maps[input.map], &rasters[input.map], (h, w), &labels, pressures)
-                    {
+                    for pc in part_contacts(&maps[input.map], &rasters[input.map], size, &labels, pressures) {
                         let c = pc.centroid.map_or("-".to_string(), |c| {
                             format!("{:.1}, {:.1}, {:.1}", 1e3 * c.x, 1e3 * c.y, 1e3 * c.z)
                         });

@@ -87,17 +87,13 @@ pub(crate) fn each_touched_frame(
     Ok(quiet)
 }
 
-/// The imagers of a model's input (`size`: rows, cols) for `maps` ([`TactileImager::for_model`]).
+/// The imagers of a model's input (`size`) for `maps` ([`TactileImager::for_model`]).
 #[cfg(feature = "onnx")] // only the commands that run models use it
 pub(crate) fn model_imagers(
     maps: &[TactileMap],
-    size: (usize, usize),
+    size: skin_core::image::ImageSize,
     map_path: &Path,
 ) -> Result<Vec<TactileImager>> {
-    let size = skin_core::image::ImageSize {
-        rows: size.0,
-        cols: size.1,
-    };
     let imager = |m| TactileImager::for_model(m, 1.0, size).with_context(|| map_path.display().to_string());
     maps.iter().map(imager).collect()
 }

@@ -3,6 +3,7 @@
 use anyhow::{Context as _, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
+use skin_core::image::ImageSize;
 use skin_learn::dataset::DatasetWriter;
 use skin_learn::synth::{DeadSpots, MaskLabels, Removal, SynthOptions, Synthesizer};
 use std::collections::BTreeMap;
@@ -68,7 +69,7 @@ pub struct Args {
     seed: u64,
     /// Output image size ROWSxCOLS.
     #[arg(long, value_name = "ROWSxCOLS", default_value = "68x100", value_parser = crate::numbers::image_size)]
-    size: (usize, usize),
+    size: ImageSize,
     /// Output folder: created if missing; an existing one is written into only if it holds an
     /// earlier output of `skin synth` (whose files this one replaces, stale ones removed), or
     /// with --force.
@@ -163,13 +164,13 @@ const MAX_SAMPLE_BYTES: usize = 8 << 30;
 
 pub fn run(args: Args) -> Result<()> {
     // Each sample holds its image and its mask until the dataset is written.
-    let bytes = args.count.saturating_mul(args.size.0 * args.size.1 * 2);
+    let bytes = args.count.saturating_mul(args.size.pixels() * 2);
     if bytes > MAX_SAMPLE_BYTES {
         bail!(
             "--count {} of {}x{} images would hold {:.1} GB in memory; at most {} GB: make fewer or smaller samples, or several datasets",
             args.count,
-            args.size.0,
-            args.size.1,
+            args.size.rows,
+            args.size.cols,
             bytes as f64 / 1e9,
             MAX_SAMPLE_BYTES >> 30
         );

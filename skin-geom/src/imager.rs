@@ -72,11 +72,13 @@ impl TactileImager {
 
     /// Output image size.
     pub fn output_size(&self) -> ImageSize {
-        let (rows, cols) = match &self.resizer {
+        match &self.resizer {
             Some(r) => r.output_size(),
-            None => (self.raster.rows(), self.raster.cols()),
-        };
-        ImageSize { rows, cols }
+            None => ImageSize {
+                rows: self.raster.rows(),
+                cols: self.raster.cols(),
+            },
+        }
     }
 
     /// Processes one frame and returns the grey image, row-major, of [`Self::output_size`].

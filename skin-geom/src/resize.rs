@@ -6,6 +6,7 @@
 //! nothing.
 
 use crate::{Error, Result};
+use skin_core::image::ImageSize;
 
 /// Taps of one output coordinate: the first source index and its weights.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,9 +86,12 @@ impl Resizer {
         })
     }
 
-    /// Output size (rows, cols).
-    pub fn output_size(&self) -> (usize, usize) {
-        self.dst
+    /// Output size.
+    pub fn output_size(&self) -> ImageSize {
+        ImageSize {
+            rows: self.dst.0,
+            cols: self.dst.1,
+        }
     }
 
     /// Resizes `src` (input size) into `dst` (output size). The lengths are checked: a buffer of

@@ -283,7 +283,7 @@ pub struct DatasetWriter {
     csv: String,
     frames: Recording,
     parts: Recording,
-    size: (usize, usize),
+    size: ImageSize,
 }
 
 impl DatasetWriter {
@@ -293,7 +293,7 @@ impl DatasetWriter {
         dir: &Path,
         ids: &[TaxelId],
         map_json: &str,
-        size: (usize, usize),
+        size: ImageSize,
     ) -> Result<DatasetWriter, DatasetError> {
         for sub in ["images", "masks"] {
             let d = dir.join(sub);
@@ -317,7 +317,7 @@ impl DatasetWriter {
     /// Adds one sample, named by `index`.
     pub fn add(&mut self, index: usize, s: &Sample) -> Result<(), DatasetError> {
         let file = format!("{index:06}.png");
-        let (rows, cols) = self.size;
+        let ImageSize { rows, cols } = self.size;
         let png = |name: &str, pixels: &[u8]| {
             let path = self.dir.join(name).join(&file);
             let io = |message: String| DatasetError::Io {

@@ -312,7 +312,8 @@ impl Scores {
         if let (Some((t, at)), Some(cms)) = (taxel, self.by_taxel.as_mut()) {
             let (pressures, parts) = (&t.pressures[at], &t.parts[at]);
             for (cm, image) in cms.iter_mut().zip([labels, truth]) {
-                for (i, label) in taxel_labels(&t.map, &t.raster, (rows, cols), image, pressures) {
+                for (i, label) in taxel_labels(&t.map, &t.raster, ImageSize { rows, cols }, image, pressures)
+                {
                     if parts[i] > 0 {
                         cm.add(usize::from(parts[i]), usize::from(label));
                     }

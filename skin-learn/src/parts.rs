@@ -6,6 +6,7 @@
 //! link, not on the flat map.
 
 use nalgebra::Point3;
+use skin_core::image::ImageSize;
 use skin_geom::{Rasterizer, TactileMap};
 
 /// The segmentation classes (thesis Ch. 4.4), as stored in part masks.
@@ -140,13 +141,13 @@ pub struct PartContact {
     pub centroid: Option<Point3<f64>>,
 }
 
-/// The parts pressing in `labels` (a segmentation of `size` = (rows, cols), the image made from
+/// The parts pressing in `labels` (a segmentation of `size`, the image made from
 /// `pressures` through `raster` on `map`), thumb to palm; parts with no pressed taxel are left
 /// out.
 pub fn part_contacts(
     map: &TactileMap,
     raster: &Rasterizer,
-    size: (usize, usize),
+    size: ImageSize,
     labels: &[u8],
     pressures: &[f32],
 ) -> Vec<PartContact> {
@@ -176,17 +177,17 @@ pub fn part_contacts(
 }
 
 /// Each pressed taxel (positive reading, not zeroed in `map`) with the label of the output
-/// pixel of `labels` (rows, cols = `size`) its map position falls in: (taxel index in map order,
+/// pixel of `labels` (of `size`) its map position falls in: (taxel index in map order,
 /// label). Taxels off the image are left out. This is how a segmentation reaches the taxels, so
 /// it is also how a segmenter is scored against per-taxel truth.
 pub fn taxel_labels<'a>(
     map: &'a TactileMap,
     raster: &'a Rasterizer,
-    size: (usize, usize),
+    size: ImageSize,
     labels: &'a [u8],
     pressures: &'a [f32],
 ) -> impl Iterator<Item = (usize, u8)> + 'a {
-    let (rows, cols) = size;
+    let ImageSize { rows, cols } = size;
     pressures
         .iter()
         .zip(&map.points)
@@ -234,7 +235,7 @@ mod tests {
             .collect();
         let map = TactileMap::flatten(&LinkSkin::new("p", taxels), &FlattenOptions::default()).unwrap();
         let raster = Rasterizer::new(&map, Grid::StepMm(1.0)).unwrap();
-        let size = (10, 20);
+        let size = ImageSize { rows: 10, cols: 20 };
         let labels: Vec<u8> = (0..200).map(|k| if k % 20 < 10 { 1 } else { 6 }).collect();
         // Two pressed taxels under each half (in map coordinates, whatever the flattening did).
         let mut pressures = vec![0.0f32; 200];

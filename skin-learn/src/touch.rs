@@ -749,7 +749,7 @@ impl TouchPipeline {
             parts = part_contacts(
                 &link.map,
                 link.imager.raster(),
-                (rows, cols),
+                ImageSize { rows, cols },
                 &labels,
                 &link.peak_pressures,
             );

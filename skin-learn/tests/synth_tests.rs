@@ -212,7 +212,7 @@ proptest! {
     #[test]
     fn any_seed_gives_a_valid_sample(seed in any::<u64>(), subject in any::<u32>(), index in any::<u32>()) {
         let map = forearm();
-        let mut synth = Synthesizer::new(&map, SynthOptions { image_size: (34, 50), ..SynthOptions::default() }).unwrap();
+        let mut synth = Synthesizer::new(&map, SynthOptions { image_size: skin_core::image::ImageSize { rows: 34, cols: 50 }, ..SynthOptions::default() }).unwrap();
         let s = synth.sample(seed, subject, index);
         prop_assert_eq!(s.image.len(), 34 * 50);
         prop_assert_eq!(s.mask.len(), 34 * 50);

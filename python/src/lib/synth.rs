@@ -96,7 +96,7 @@ pub(crate) fn synthesize<'py>(
         }
     };
     let options = SynthOptions {
-        image_size: (image.rows, image.cols),
+        image_size: image,
         hand_fraction,
         labels,
         small_objects,

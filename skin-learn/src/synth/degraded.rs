@@ -19,6 +19,7 @@
 use super::{Sample, SynthOptions, Synthesizer, image_of, mix};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use skin_core::image::ImageSize;
 use skin_geom::{BlindSpots, Decimation, Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 
 /// Taxels removed from the map a share of the samples is imaged through, as Test B removes them:
@@ -91,7 +92,7 @@ impl Degradations {
         subject: u32,
         index: u32,
         sample: &mut Sample,
-        size: (usize, usize),
+        size: ImageSize,
     ) {
         let removal_share = self.removal.as_ref().map_or(0.0, |(share, _)| *share);
         let drawn = |salt: u64, share: f64, maps: usize| {
@@ -140,11 +141,7 @@ impl Degradations {
 /// The real image pipeline on `map` at the generator's grid step and output size.
 fn pipeline(map: &TactileMap, options: &SynthOptions) -> skin_geom::Result<TactileImager> {
     let raster = Rasterizer::new(map, Grid::StepMm(options.step_mm))?;
-    let size = skin_core::image::ImageSize {
-        rows: options.image_size.0,
-        cols: options.image_size.1,
-    };
-    TactileImager::new(raster, Normalisation::ContactMax, true, Some(size))
+    TactileImager::new(raster, Normalisation::ContactMax, true, Some(options.image_size))
 }
 
 fn bad(name: &'static str, value: f64, expected: &'static str) -> skin_geom::Error {

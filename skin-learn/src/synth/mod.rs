@@ -49,6 +49,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use shapes::{Patch, press};
+use skin_core::image::ImageSize;
 use skin_geom::{Grid, Normalisation, Rasterizer, TactileImager, TactileMap};
 
 /// Where a contact sits on the map: its centre (metres, map coordinates) and rotation (radians).
@@ -96,8 +97,8 @@ impl Kind {
 /// Generation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SynthOptions {
-    /// Output image (rows, cols); 68 x 100 as HandsNet's input (App. C).
-    pub image_size: (usize, usize),
+    /// Output image size; 68 x 100 as HandsNet's input (App. C).
+    pub image_size: ImageSize,
     /// Grid step on the map before resizing, millimetres (1 mm in the thesis).
     pub step_mm: f64,
     /// Fraction of hand samples (the thesis: 1710 of 3530, 48%).
@@ -136,7 +137,7 @@ pub enum MaskLabels {
 impl Default for SynthOptions {
     fn default() -> Self {
         SynthOptions {
-            image_size: (68, 100),
+            image_size: ImageSize { rows: 68, cols: 100 },
             step_mm: 1.0,
             hand_fraction: 0.5,
             peak: (30.0, 250.0),
@@ -150,10 +151,10 @@ impl Default for SynthOptions {
 
 /// `imager`'s image of `pressures`; black if it cannot make one (the buffers are sized from the
 /// map, so it always can).
-fn image_of(imager: &mut TactileImager, pressures: &[f32], size: (usize, usize)) -> Vec<u8> {
+fn image_of(imager: &mut TactileImager, pressures: &[f32], size: ImageSize) -> Vec<u8> {
     match imager.process(pressures) {
         Ok(img) => img.to_vec(),
-        Err(_) => vec![0; size.0 * size.1],
+        Err(_) => vec![0; size.pixels()],
     }
 }
 
@@ -227,10 +228,7 @@ impl Synthesizer {
             }
         }
         let (lo, hi) = map.bounds();
-        let size = skin_core::image::ImageSize {
-            rows: options.image_size.0,
-            cols: options.image_size.1,
-        };
+        let size = options.image_size;
         let imager = TactileImager::new(raster, Normalisation::ContactMax, true, Some(size))?;
         Ok(Synthesizer {
             options,
@@ -450,7 +448,10 @@ impl Synthesizer {
             TactileImager::DILATION_RADIUS,
             own_first,
         );
-        let (out_rows, out_cols) = self.options.image_size;
+        let ImageSize {
+            rows: out_rows,
+            cols: out_cols,
+        } = self.options.image_size;
         let mut mask = vec![0u8; out_rows * out_cols];
         for (o, m) in mask.iter_mut().enumerate() {
             if image[o] == 0 {
