@@ -358,6 +358,8 @@ def test_defaults_agree_between_run_toml_python_keywords_and_the_library(tmp_pat
         2,
     )
     assert touch["contacts"] == "peaks" and defaults["gate"] is None
+    # The peaks rule's parameters are shown as the session runs them, not left out.
+    assert touch["split"] == {"min_dip": 0.5, "min_distance_mm": 12.0}
 
 
 def test_keywords_set_what_run_toml_sets(tmp_path):

@@ -175,7 +175,7 @@ pub(crate) fn keyword_settings(
 
 /// A session's settings as the dict `Session.settings` gives: run.toml's sections and keys.
 pub(crate) fn settings_dict(py: Python<'_>, settings: &SessionSettings) -> PyResult<Py<PyAny>> {
-    let text = serde_json::to_string(settings).map_err(|e| errors::error(Kind::Session, e))?;
+    let text = serde_json::to_string(&settings.filled()).map_err(|e| errors::error(Kind::Session, e))?;
     Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
 }
 

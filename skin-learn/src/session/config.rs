@@ -35,6 +35,7 @@
 //! border = { within_mm = 15, hand_below = 0.95, action = "stop" }
 //!                                 # optional: a hand less sure than hand_below whose taxels
 //!                                 # come within within_mm of the skin's border gets action
+//!                                 # (`border` is this rule's key, never a class's)
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time
 //! [sim]                           # optional: how a simulated skin answers (Python's

@@ -339,6 +339,16 @@ impl SessionSettings {
         Ok(())
     }
 
+    /// The same settings with every default written out as the session runs them: the peaks
+    /// rule's `[touch.split]` parameters when the file leaves them out (what a binding shows).
+    pub fn filled(&self) -> SessionSettings {
+        let mut filled = self.clone();
+        if filled.touch.contacts == ContactRule::Peaks && filled.touch.split.is_none() {
+            filled.touch.split = Some(SplitConfig::default());
+        }
+        filled
+    }
+
     /// The touch tracking they give.
     pub fn touch_options(&self) -> TouchOptions {
         let t = &self.touch;
