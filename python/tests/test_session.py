@@ -392,6 +392,7 @@ def test_keywords_set_what_run_toml_sets(tmp_path):
         ("baseline_frames", 1, "baseline_frames"),
         ("polarity", "up", "rising"),
         ("gate", {"hand": "hug"}, "comply"),
+        ("gate", {"hnad": "stop"}, "none of the classes"),
     ],
 )
 def test_a_keyword_out_of_run_tomls_bounds_is_named(keyword, value, words):

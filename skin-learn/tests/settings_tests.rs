@@ -348,8 +348,19 @@ fn a_gate_class_the_classifier_lacks_is_refused_from_code_and_from_run_toml() {
     let config = SessionConfig::read(&path).unwrap();
     let e = Session::from_config_with_models(&config, models()).unwrap_err();
     assert_eq!(e.to_string(), format!("{}: {want}", path.display()));
-    // Without a classifier there is no class to gate: nothing to check the names against.
-    assert!(Session::from_links(patch(), Models::none(), &settings).is_ok());
+    // Without a classifier the classes are hand and non_hand: a gate naming others (a misspelt
+    // class) would never act, so it is refused too.
+    let e = Session::from_links(patch(), Models::none(), &settings).unwrap_err();
+    let want = SettingError::GateClass {
+        class: "palm".into(),
+        classes: vec!["hand".into(), "non_hand".into()],
+    };
+    assert!(matches!(&e, SessionError::Setting(s) if *s == want), "{e}");
+    let plain = SessionSettings {
+        gate: Some(ClassGate::new([("non_hand", GateAction::Stop)])),
+        ..SessionSettings::default()
+    };
+    assert!(Session::from_links(patch(), Models::none(), &plain).is_ok());
 }
 
 #[test]

@@ -156,9 +156,9 @@ impl Session {
                 makes: settings.image_size,
             });
         }
-        if models.classifies() {
-            settings.check_gate(models.classes())?;
-        }
+        // Without a classifier the classes are hand / non_hand (what one brought later takes):
+        // a gate naming others would never act.
+        settings.check_gate(models.classes())?;
         let pipeline = TouchPipeline::new(maps, models, settings.touch_options())?;
         let mut session = Session::new(links, pipeline, settings.session_options())?;
         session.setup.settings = Some(settings.clone());
