@@ -333,7 +333,7 @@ impl SessionConfig {
                 file: self.path.clone(),
                 field: "image_size",
                 value: s.chars().take(40).collect(),
-                expected: "ROWSxCOLS, e.g. 68x100, each side 1 to 4096 pixels",
+                expected: super::settings::IMAGE_SIZE,
             }),
         }
     }

@@ -166,10 +166,13 @@ const WHOLE: [Whole; 4] = [
     Whole { field: "[touch] release_frames", min: 1, max: 1_000_000, expected: "a whole number from 1 to 1000000 (frames)" },
 ];
 
+/// What `image_size` takes, in words (a configuration's error says it too).
+pub(super) const IMAGE_SIZE: &str = "ROWSxCOLS, e.g. 68x100, each side 1 to 4096 pixels";
+
 /// The other settings' keys and what they take (ranges checked in [`SessionSettings::check`]).
 #[rustfmt::skip]
 const OTHER: [(&str, &str); 7] = [
-    ("image_size", "ROWSxCOLS, e.g. 68x100, each side 1 to 4096 pixels"),
+    ("image_size", IMAGE_SIZE),
     ("[baseline] polarity", "\"rising\" or \"falling\""),
     ("[touch] threshold", "counts from 0 to 1e9"),
     ("[touch] reclassify_growth", "a factor from 1 to 1e6"),
