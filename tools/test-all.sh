@@ -13,14 +13,15 @@ cd "$(dirname "$0")/.."
 cargo test --workspace --all-features
 
 # The package as a user installs it (pip, through maturin), but built with the test build's
-# settings (`dev` at opt-level 2 reuses what `cargo test` compiled) instead of a second,
-# release build of every dependency.
+# settings (`dev` at opt-level 2) and its dependencies' features (the package's feature
+# `test-build`), so it reuses what `cargo test` compiled instead of building every dependency a
+# second time (tools/check-shared-build.py checks that it does).
 venv=target/py-venv
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r python/tests/requirements.txt
-CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev" \
+CARGO_PROFILE_DEV_OPT_LEVEL=2 MATURIN_PEP517_ARGS="--profile dev --features test-build" \
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check ./python
 # pytest exits 5 when it collects nothing: that fails this script (set -e) as any failure does.
 # The report (target/pytest.xml, written anew) lets .ci/run check what ran.
