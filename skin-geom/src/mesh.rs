@@ -7,6 +7,7 @@
 //! What it cannot repair (an edge shared by three triangles) is an error naming the taxels.
 
 use crate::chart::{Chart, choose_chart};
+use crate::triangulate::{PruneLimits, delaunay, prune};
 use crate::{Error, Result};
 use nalgebra::{Point3, Unit, Vector3};
 use skin_core::{LinkSkin, TaxelId};
@@ -159,7 +160,12 @@ impl SkinMesh {
         let mut mesh = TriMesh { vertices, faces };
         clean_faces(&mut mesh, &mut report);
         if let MeshSource::Triangulated { .. } = source {
-            report.bridging_faces = crate::triangulate::prune(&mut mesh, &normals, options);
+            let limits = PruneLimits {
+                max_normal_deviation_deg: options.max_normal_deviation_deg,
+                max_edge_pitches: options.max_edge_pitches,
+                min_border_angle_deg: options.min_border_angle_deg,
+            };
+            report.bridging_faces = prune(&mesh.vertices, &mut mesh.faces, &normals, &limits);
         }
         if mesh.faces.is_empty() {
             return Err(Error::TooFewTaxels(
@@ -223,7 +229,7 @@ fn triangulated(
             }
         }
     }
-    let faces = crate::triangulate::delaunay(&uv)?;
+    let faces = delaunay(&uv)?;
     Ok((faces, MeshSource::Triangulated { chart }))
 }
 

@@ -1,7 +1,7 @@
 //! ROS 2 message definitions (`.msg` text), read by the code: the standard types the skin
 //! publishes (`msg/standard.msg`) and the repository's own `skin_msgs` package. From them come
 //! the `ros2msg` schemas an MCAP file carries ([`Interfaces::schema`]) and the RIHS01 type
-//! hashes rmw_zenoh matches on ([`Interfaces::type_hash`], in [`crate::type_hash`]).
+//! hashes rmw_zenoh matches on ([`Interfaces::type_hash`], computed in `type_hash.rs`).
 //!
 //! The `.msg` grammar read here: one field a line, `TYPE NAME [DEFAULT]`, or a constant
 //! `TYPE NAME=VALUE`; `#` starts a comment (outside a string constant); TYPE is a primitive
@@ -181,11 +181,6 @@ impl Interfaces {
             text.push_str(&body(d));
         }
         Some(text)
-    }
-
-    /// The RIHS01 hash of `name` (REP-2016), `RIHS01_` and 64 hex digits.
-    pub fn type_hash(&self, name: &str) -> Option<String> {
-        crate::type_hash::rihs01(self, name)
     }
 }
 

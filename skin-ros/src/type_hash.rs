@@ -35,8 +35,16 @@ fn primitive_id(name: &str) -> u8 {
     }
 }
 
+impl Interfaces {
+    /// The RIHS01 hash of `name` (REP-2016), `RIHS01_` and 64 hex digits; none when `name` is
+    /// not defined.
+    pub fn type_hash(&self, name: &str) -> Option<String> {
+        rihs01(self, name)
+    }
+}
+
 /// The hash of `name`, or none when it is not defined.
-pub(crate) fn rihs01(all: &Interfaces, name: &str) -> Option<String> {
+fn rihs01(all: &Interfaces, name: &str) -> Option<String> {
     let def = all.get(name)?;
     let mut json = String::from("{\"type_description\": ");
     describe(def, &mut json);
