@@ -13,7 +13,7 @@
 
 use skin_can::candump::CandumpLog;
 use skin_control::hri::GateAction;
-use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
+use skin_learn::session::{Event, Flow, FromConfig, Session, SessionConfig, Sink};
 use std::path::PathBuf;
 
 /// Prints each decision and each change of the gate's action.

@@ -4,7 +4,7 @@ use crate::output::Inputs;
 use crate::ros_out::RosArgs;
 use anyhow::{Context, Result};
 use skin_can::Traffic;
-use skin_learn::session::{Session, SessionConfig};
+use skin_learn::session::{FromConfig, Session, SessionConfig};
 use std::path::PathBuf;
 
 /// Convert a candump log or a raw recording into ROS 2 messages, without the models.

@@ -12,7 +12,7 @@ use skin_can::candump::CandumpReader;
 use skin_can::live::Live;
 use skin_core::output::{Staged, writing};
 use skin_core::text::{Gzip, Input};
-use skin_learn::session::{Flow, Session, SessionConfig, SessionError};
+use skin_learn::session::{Flow, FromConfig, Session, SessionConfig, SessionError};
 use skin_ros::RosSink;
 use std::fmt::Write as _;
 use std::fs::File;

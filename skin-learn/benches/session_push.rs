@@ -18,7 +18,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use skin_core::{LinkSkin, SkinLayout};
 use skin_learn::session::Session;
-use skin_test_support::full_arm::{Discard, tracking_session};
+use skin_learn::synth::arm::{Discard, tracking_session};
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -41,7 +41,7 @@ fn dump(links: &[LinkSkin], idle: &[Vec<f32>], held: &[Vec<f32>]) {
 fn bench(c: &mut Criterion) {
     // Tracking only, the settings of `Session.from_layout`'s defaults (and of the fixture
     // session's run.toml), the baseline learned.
-    let (mut session, idle, held) = tracking_session();
+    let (mut session, idle, held) = tracking_session().unwrap();
     dump(session.links(), &idle, &held);
     let (mut t, mut cycle) = (1_000_000u64, 100u64);
     let mut push = |session: &mut Session, frame: &[Vec<f32>]| {

@@ -28,8 +28,7 @@ use skin_learn::touch::{TouchOptions, TouchPipeline};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use full_arm::{hand_on_middle_link, link};
-use skin_test_support::full_arm;
+use skin_learn::synth::arm::{hand_on_middle_link, link};
 
 struct Arm {
     links: Vec<LinkSkin>,
@@ -156,7 +155,7 @@ fn bench(c: &mut Criterion) {
         .collect();
     let stitching = stitched_in_a_row(&maps);
     // A whole hand on the middle link, from the synthetic-data generator.
-    let hand = hand_on_middle_link(&arm.links, &maps[1]);
+    let hand = hand_on_middle_link(&arm.links, &maps[1]).unwrap();
     let offset = 300u16;
     let quiet: Vec<Vec<u16>> = arm.links.iter().map(|l| vec![offset; l.taxels.len()]).collect();
     let touched: Vec<Vec<u16>> = quiet

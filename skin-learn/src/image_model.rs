@@ -112,7 +112,7 @@ impl ImageModel {
                 .num_threads(threads)
                 .thread_name(|k| format!("skin-onnx-{k}"))
                 .build()
-                .map_err(|e| ModelError::Run(format!("cannot start {threads} threads: {e}")))?;
+                .map_err(|e| ModelError::Run(format!("cannot start {threads} threads: {e}").into()))?;
             Executor::MultiThread(std::sync::Arc::new(pool))
         };
         Ok(())
@@ -290,7 +290,7 @@ impl Input {
         executor: &Executor,
         out: &mut [f32],
     ) -> Result<(), ModelError> {
-        let run_err = |e: TractError| ModelError::Run(format!("{e:#}"));
+        let run_err = |e: TractError| ModelError::Run(format!("{e:#}").into());
         // tract takes the input tensor by value: one H x W tensor an image (27 kB for
         // 68 x 100), next to the output tensors tract allocates for each node of the plan.
         let mut input = Tensor::zero::<f32>(&[1, 1, self.height, self.width]).map_err(run_err)?;
@@ -308,11 +308,14 @@ impl Input {
             .as_slice()
             .ok_or_else(|| ModelError::Run("the output is not contiguous".into()))?;
         if flat.len() != out.len() {
-            return Err(ModelError::Run(format!(
-                "{} output values for one image, the plan said {}",
-                flat.len(),
-                out.len()
-            )));
+            return Err(ModelError::Run(
+                format!(
+                    "{} output values for one image, the plan said {}",
+                    flat.len(),
+                    out.len()
+                )
+                .into(),
+            ));
         }
         out.copy_from_slice(flat);
         Ok(())

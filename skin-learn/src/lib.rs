@@ -109,7 +109,6 @@
 //! - [`Error`]: every error of the crate in one type, for `?` in a robot stack's code.
 
 pub mod calibration;
-pub mod card;
 #[cfg(feature = "onnx")]
 pub mod classify;
 pub mod dataset;
@@ -122,16 +121,15 @@ mod image_model;
 #[cfg(feature = "onnx")]
 pub use tract_plan::max_pool;
 pub mod metrics;
-pub mod model;
-pub mod parts;
-pub mod script;
 #[cfg(feature = "onnx")]
 pub mod segment;
 pub mod segmentation_diagnostics;
 pub mod session;
 pub mod synth;
-pub mod touch;
 #[cfg(feature = "onnx")]
 pub mod tract_plan;
 
 pub use error::{Error, Result};
+// The runtime's modules, at the paths they had here before skin-runtime held them: one
+// definition, two paths.
+pub use skin_runtime::{card, model, parts, script, touch};

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
 
 use skin_can::candump::CandumpLog;
-use skin_learn::session::{Event, Session, SessionConfig};
+use skin_learn::session::{Event, FromConfig, Session, SessionConfig};
 use std::path::Path;
 
 /// The fixture session's scripted touches: (start s, end s) from its first frame.

@@ -6,7 +6,7 @@
 
 use skin_can::candump::{CandumpLog, CandumpReader};
 use skin_core::format::recording::{self, RecordingReader};
-use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
+use skin_learn::session::{Event, Flow, FromConfig, Session, SessionConfig, Sink};
 use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -7,7 +7,7 @@
 use skin_can::candump::CandumpLog;
 #[cfg(feature = "onnx")]
 use skin_control::hri::{GateAction, TouchClass};
-use skin_learn::session::{Event, MissingModule, Session, SessionConfig};
+use skin_learn::session::{Event, FromConfig, MissingModule, Session, SessionConfig};
 use std::path::{Path, PathBuf};
 
 mod support;

@@ -10,8 +10,8 @@ use skin_core::LinkSkin;
 use skin_core::image::{ImageSize, ImageView};
 use skin_learn::model::{Classes, HandClassifier, ModelError, Models};
 use skin_learn::session::{
-    BaselineConfig, ConfigError, Event, OwnModels, Session, SessionConfig, SessionError, SessionOptions,
-    SessionSettings, SettingError, SplitConfig, TouchConfig,
+    BaselineConfig, ConfigError, Event, FromConfig, OwnModels, Session, SessionConfig, SessionError,
+    SessionOptions, SessionSettings, SettingError, SplitConfig, TouchConfig,
 };
 use skin_learn::touch::TouchOptions;
 use std::path::{Path, PathBuf};

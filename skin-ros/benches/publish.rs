@@ -17,8 +17,7 @@ use skin_learn::session::{ProcessedFrame, Sink};
 use skin_learn::touch::{TouchOptions, TouchPipeline};
 use skin_ros::{Outlet, RosOptions, RosSink};
 
-use full_arm::{hand_on_middle_link, links_and_maps};
-use skin_test_support::full_arm;
+use skin_learn::synth::arm::{hand_on_middle_link, links_and_maps};
 
 /// Keeps nothing.
 struct Discard(usize);
@@ -31,8 +30,8 @@ impl Outlet for Discard {
 }
 
 fn bench(c: &mut Criterion) {
-    let (links, maps) = links_and_maps();
-    let pressures = hand_on_middle_link(&links, &maps[1]);
+    let (links, maps) = links_and_maps().unwrap();
+    let pressures = hand_on_middle_link(&links, &maps[1]).unwrap();
     // The threshold BENCHMARKS.md's figures were measured at.
     let options = TouchOptions {
         threshold: 10.0,

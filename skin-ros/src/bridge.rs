@@ -16,9 +16,9 @@ use crate::messages::{
 };
 use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
-use skin_learn::parts::PartContact;
-use skin_learn::session::{Event, Flow, GreyImage, ProcessedFrame, Sink};
-use skin_learn::touch::Footprint;
+use skin_runtime::parts::PartContact;
+use skin_runtime::session::{Event, Flow, GreyImage, ProcessedFrame, Sink};
+use skin_runtime::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
 pub trait Outlet {
@@ -95,7 +95,7 @@ impl<O: Outlet> RosSink<O> {
     /// A sink for a session over `links` (layout order, as [`Session::links`] gives them),
     /// publishing `topics` ([`RosOptions::topics`]) to `outlet`. The point clouds are written now.
     ///
-    /// [`Session::links`]: skin_learn::session::Session::links
+    /// [`Session::links`]: skin_runtime::session::Session::links
     pub fn new(links: &[LinkSkin], topics: Topics, outlet: O) -> RosSink<O> {
         let names: Vec<String> = links.iter().map(|l| l.name.clone()).collect();
         let ids: Vec<Vec<u32>> = links

@@ -1,7 +1,7 @@
 //! ROS 2 without ROS: a skin session's frames and events as ROS 2 messages, written to an MCAP
 //! file that `ros2 bag play` and Foxglove open, or published live on Zenoh as rmw_zenoh (the
 //! Zenoh middleware of ROS 2 Jazzy) does, with nothing of ROS installed. It is the last step of a
-//! frame's path (ARCHITECTURE.md at the repository's root): a `Sink` of skin-learn's session.
+//! frame's path (ARCHITECTURE.md at the repository's root): a `Sink` of skin-runtime's session.
 //!
 //! ```text
 //! Session --Sink--> RosSink --CDR messages--> Outlet: McapOutlet  (feature mcap: a rosbag2 file)
@@ -20,7 +20,7 @@
 //!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
 //! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). Neither needs ROS installed, and the crate
-//! never loads a model: it depends on skin-learn without its model runtime.
+//! never loads a model: it depends on skin-runtime alone (no calibration, synthesis or tract).
 //!
 //! ```
 //! use skin_ros::{Outlet, RosOptions, RosSink, messages::Stamp};

@@ -12,7 +12,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the bench
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use skin_test_support::full_arm::{Discard, tracking_session};
+use skin_learn::synth::arm::{Discard, tracking_session};
 use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -52,7 +52,7 @@ fn reading_browser(viewer: &Viewer) -> (Arc<AtomicBool>, std::thread::JoinHandle
 }
 
 fn bench(c: &mut Criterion) {
-    let (mut session, _, held) = tracking_session();
+    let (mut session, _, held) = tracking_session().unwrap();
     let (mut t, mut cycle) = (1_000_000u64, 100u64);
     let viewer = Viewer::bind(
         "127.0.0.1:0".parse().unwrap(),

@@ -12,7 +12,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // an example: a failed set-up should stop it
 
-use skin_test_support::full_arm::tracking_session;
+use skin_learn::synth::arm::tracking_session;
 use skin_view::{Scene, Viewer};
 use std::io::Write as _;
 use std::time::{Duration, Instant};
@@ -23,7 +23,7 @@ fn main() {
     let (port, seconds, rate) = (arg(0, 8080.0) as u16, arg(1, 60.0), arg(2, 50.0));
 
     // Tracking only (no model): the decisions' cost is not the view's.
-    let (mut session, idle, held) = tracking_session();
+    let (mut session, idle, held) = tracking_session().expect("the synthetic arm");
     let viewer = Viewer::bind(
         std::net::SocketAddr::from(([127, 0, 0, 1], port)),
         Scene::of_session(&session, "full arm (synthetic)"),

@@ -31,7 +31,7 @@
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use skin_can::candump::CandumpLog;
-//! use skin_learn::session::{Session, SessionConfig};
+//! use skin_learn::session::{FromConfig, Session, SessionConfig};
 //! use skin_view::{Scene, Viewer};
 //! use std::path::Path;
 //!

@@ -5,7 +5,7 @@
 use serde::Serialize;
 use skin_can::BusMap;
 use skin_geom::TactileMap;
-use skin_learn::session::Session;
+use skin_runtime::session::Session;
 use std::collections::HashMap;
 
 /// The gate's actions, in the order a frame's `gate` field counts them (1-based).

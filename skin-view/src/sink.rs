@@ -5,7 +5,7 @@
 use crate::hub::{Hub, writable};
 use crate::scene::{GATE_ACTIONS, Scene};
 use crate::wire::{self, FrameHead, STITCHED, WireContact, WirePlacement};
-use skin_learn::session::{Event, Flow, FrameView, GreyImage, ProcessedFrame, Sink};
+use skin_runtime::session::{Event, Flow, FrameView, GreyImage, ProcessedFrame, Sink};
 use std::collections::HashMap;
 use std::sync::Arc;
 

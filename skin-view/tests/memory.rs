@@ -9,7 +9,7 @@ mod common;
 use common::{browser, next_frame};
 
 use skin_learn::session::Session;
-use skin_test_support::full_arm::tracking_session;
+use skin_learn::synth::arm::tracking_session;
 use skin_view::{Scene, ViewSink, Viewer};
 use std::io::Write;
 use std::net::TcpStream;
@@ -33,7 +33,7 @@ fn push_many(session: &mut Session, sink: &mut ViewSink, frames: &[Vec<f32>], fr
 
 #[test]
 fn a_browser_that_stops_reading_costs_no_memory_and_others_keep_up() {
-    let (mut session, _, held) = tracking_session();
+    let (mut session, _, held) = tracking_session().unwrap();
     let viewer = Viewer::bind("127.0.0.1:0".parse().unwrap(), Scene::of_session(&session, "arm")).unwrap();
     let mut sink = viewer.sink();
     // Connected, handshake answered, then never read again.

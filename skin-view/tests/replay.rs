@@ -9,8 +9,8 @@
 mod common;
 
 use skin_core::output::Inputs;
+use skin_learn::synth::arm::tracking_session;
 use skin_ros::{McapOutlet, RosOptions, RosSink};
-use skin_test_support::full_arm::tracking_session;
 use skin_view::Viewer;
 use skin_view::replay::Replay;
 use std::net::TcpStream;
@@ -26,7 +26,7 @@ const FRAMES: u64 = 40;
 /// `skin run --mcap` writes one.
 fn session_mcap(dir: &Path) -> PathBuf {
     let path = dir.join("session.mcap");
-    let (mut session, idle, held) = tracking_session();
+    let (mut session, idle, held) = tracking_session().unwrap();
     let topics = RosOptions::default().topics(session.links()).unwrap();
     let outlet = McapOutlet::create(&path, &topics, &Inputs::default()).unwrap();
     let mut sink = RosSink::new(session.links(), topics, outlet);

@@ -8,7 +8,7 @@ mod common;
 use common::{browser, next_frame};
 
 use skin_learn::session::Session;
-use skin_test_support::full_arm::{hand_on_middle_link, links_and_maps, tracking_session};
+use skin_learn::synth::arm::{hand_on_middle_link, links_and_maps, tracking_session};
 
 use skin_view::{Scene, Viewer};
 use std::io::{Read, Write};
@@ -19,7 +19,7 @@ use tungstenite::Message;
 /// The full arm's session (tracking only), its baseline learned, and the idle and hand-held
 /// frames.
 fn arm() -> (Session, Vec<Vec<f32>>, Vec<Vec<f32>>) {
-    tracking_session()
+    tracking_session().unwrap()
 }
 
 fn serve(session: &Session) -> Viewer {
@@ -187,7 +187,10 @@ fn a_browser_gets_the_scene_then_each_frame_as_the_session_had_it() {
     assert_eq!(f.pressures.len(), 3495);
     // The pressures are the session's: zero on the idle links, the hand's on the middle one.
     let offset = 1165;
-    let hand = hand_on_middle_link(&links_and_maps().0, &links_and_maps().1[1]);
+    let hand = {
+        let (links, maps) = links_and_maps().unwrap();
+        hand_on_middle_link(&links, &maps[1]).unwrap()
+    };
     for (i, want) in hand[1].iter().enumerate() {
         assert!((f.pressures[offset + i] - want).abs() < 1e-3, "taxel {i}");
     }

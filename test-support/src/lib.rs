@@ -7,8 +7,7 @@
 //! - [`python`] and [`python_checks!`]: the Python that runs the interoperability checks;
 //! - [`cli`] and [`skin_binary!`]: running the `skin` binary as a user would;
 //! - `mutate` (feature `fuzz`): hostile edits of valid files, for the readers' fuzz tests;
-//! - `recordings` (feature `recordings`): recordings made partial;
-//! - `full_arm` (feature `full-arm`): the thesis' full arm with a hand on it, for benches.
+//! - `recordings` (feature `recordings`): recordings made partial.
 //!
 //! What needs the test crate's own environment (its `skin` binary, its `tests/` folder) comes as
 //! a macro, expanded in the test crate where Cargo sets that environment.
@@ -17,8 +16,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod cli;
-#[cfg(feature = "full-arm")]
-pub mod full_arm;
 pub mod long_log;
 #[cfg(feature = "fuzz")]
 pub mod mutate;

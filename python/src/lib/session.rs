@@ -7,7 +7,7 @@ use crate::errors::{self, Kind, arg};
 use crate::event::{Contact, Event};
 use crate::geometry::Layout;
 use crate::interrupt::Watch;
-use crate::models::{Callable, Raised, reraise};
+use crate::models::{Callable, reraised};
 use crate::recordings::{BusMap, CanFrame, open_log, open_recording};
 use crate::settings::{build_error, keyword_settings, settings_dict};
 use numpy::{PyArrayMethods, PyUntypedArrayMethods};
@@ -18,8 +18,8 @@ use skin_core::LinkSkin;
 use skin_core::image::ImageSize;
 use skin_learn::model::{HandClassifier, PartSegmenter};
 use skin_learn::session::{
-    Event as RustEvent, Flow, InputError, OwnModels, ProcessedFrame, Session as RustSession, SessionConfig,
-    SessionError, Sink,
+    Event as RustEvent, Flow, FromConfig, InputError, OwnModels, ProcessedFrame, Session as RustSession,
+    SessionConfig, SessionError, Sink,
 };
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -27,8 +27,6 @@ use std::sync::{Arc, Mutex};
 /// What the Python session holds.
 struct Inner {
     session: RustSession,
-    /// A callable model's exception, waiting to be re-raised.
-    raised: Raised,
     /// Frames pushed so far (the next frame's number).
     cycle: u64,
     /// The frame's readings, per link (reused).
@@ -100,8 +98,8 @@ impl<'py> ModelChoice<'py> {
 
     /// The callables as the session's own models, taking images of `size`; their classes are
     /// skin-learn's to name ([`OwnModels::classes`]).
-    fn own(self, size: ImageSize, raised: &Raised) -> OwnModels {
-        let callable = |f: Bound<'_, PyAny>, what| Callable::new(f.unbind(), size, Arc::clone(raised), what);
+    fn own(self, size: ImageSize) -> OwnModels {
+        let callable = |f: Bound<'_, PyAny>, what| Callable::new(f.unbind(), size, what);
         OwnModels {
             classifier: self
                 .classifier
@@ -134,16 +132,15 @@ impl Session {
     ) -> PyResult<Session> {
         let choice = ModelChoice::new(classifier, segmenter, classes, hand)?;
         let config = SessionConfig::read(&path).map_err(errors::config)?;
-        let raised: Raised = Arc::default();
         let session = if choice.is_builtin() {
             py.detach(|| RustSession::from_config(&config))
                 .map_err(errors::session)?
         } else {
             let size = config.settings().map_err(errors::config)?.image_size;
-            RustSession::from_config_with_own(&config, choice.own(size, &raised)).map_err(errors::session)?
+            RustSession::from_config_with_own(&config, choice.own(size)).map_err(errors::session)?
         };
         say_setup(py, &session)?;
-        Ok(Session::wrap(session, raised))
+        Ok(Session::wrap(session))
     }
 
     /// A session from code: the links of `layout` (a `Layout`), flattened with the default
@@ -183,9 +180,8 @@ impl Session {
             ("release_frames", release_frames),
         ];
         let settings = keyword_settings(image_size, numbers, polarity, gate)?;
-        let raised: Raised = Arc::default();
         let models = choice
-            .own(settings.image_size, &raised)
+            .own(settings.image_size)
             .into_models()
             .map_err(errors::session)?;
         let links: Vec<LinkSkin> = layout.links.clone();
@@ -196,7 +192,7 @@ impl Session {
             session = session.with_can(&b.inner).map_err(errors::session)?;
         }
         say_setup(py, &session)?;
-        Ok(Session::wrap(session, raised))
+        Ok(Session::wrap(session))
     }
 
     /// One frame: `readings`, per link in layout order (a list of (N_link,) arrays, or a dict by
@@ -554,13 +550,12 @@ fn say_setup(py: Python<'_>, session: &RustSession) -> PyResult<()> {
 }
 
 impl Session {
-    fn wrap(session: RustSession, raised: Raised) -> Session {
+    fn wrap(session: RustSession) -> Session {
         let names: Vec<String> = session.links().iter().map(|l| l.name.clone()).collect();
         let sizes: Vec<usize> = session.links().iter().map(|l| l.taxels.len()).collect();
         Session {
             inner: Mutex::new(Inner {
                 session,
-                raised,
                 cycle: 0,
                 readings: sizes.iter().map(|&n| vec![0.0; n]).collect(),
                 events: Vec::new(),
@@ -701,8 +696,7 @@ fn take(
             } else {
                 format!("{what}: {}", errors::message(&e))
             };
-            let err = errors::session(e);
-            Err(reraise(&inner.raised, err, &context))
+            Err(reraised(&e, &context).unwrap_or_else(|| errors::session(e)))
         }
     }
 }

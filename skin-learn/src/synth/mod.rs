@@ -33,6 +33,7 @@
 //! # Ok::<(), skin_geom::Error>(())
 //! ```
 
+pub mod arm;
 mod degraded;
 pub mod hand;
 pub mod objects;

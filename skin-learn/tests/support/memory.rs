@@ -2,7 +2,7 @@
 //! touches on the bundled forearm (synthetic hands and objects of every size, place and class,
 //! each pressed over a few frames and released).
 
-use skin_learn::session::{Event, Flow, Session, SessionConfig, Sink};
+use skin_learn::session::{Event, Flow, FromConfig, Session, SessionConfig, Sink};
 use skin_learn::synth::{SynthOptions, Synthesizer};
 use std::path::Path;
 

@@ -60,14 +60,6 @@ pub enum TouchError {
         /// Why.
         source: skin_core::Error,
     },
-    /// The classifier and the segmenter take images of different sizes.
-    #[error("the classifier takes {classifier} images, the segmenter {segmenter}: they must agree")]
-    Sizes {
-        /// Classifier input.
-        classifier: ImageSize,
-        /// Segmenter input.
-        segmenter: ImageSize,
-    },
     /// A link index beyond the skin's links.
     #[error("no link {link}: the skin has {links}")]
     NoLink {
@@ -317,11 +309,14 @@ fn most_likely(probabilities: &[f32], classes: &Classes) -> Result<(Class, f32),
             );
     match classes.get(best) {
         Some(c) if probabilities.len() == classes.len() => Ok((c.clone(), probability)),
-        _ => Err(ModelError::Run(format!(
-            "{} class scores from the classifier, for {} classes",
-            probabilities.len(),
-            classes.len()
-        ))),
+        _ => Err(ModelError::Run(
+            format!(
+                "{} class scores from the classifier, for {} classes",
+                probabilities.len(),
+                classes.len()
+            )
+            .into(),
+        )),
     }
 }
 
@@ -741,10 +736,11 @@ impl TouchPipeline {
         {
             let labels = segmenter.segment(image).map_err(decide)?;
             if labels.len() != rows * cols {
-                return Err(decide(ModelError::Run(format!(
+                let why = format!(
                     "the segmenter gave {} labels for a {rows} x {cols} image",
                     labels.len()
-                ))));
+                );
+                return Err(decide(ModelError::Run(why.into())));
             }
             parts = part_contacts(
                 &link.map,

@@ -10,7 +10,7 @@
 //!
 //! ```
 //! use skin_core::image::{ImageSize, ImageView};
-//! use skin_learn::model::{Classes, HandClassifier, ModelError, Models};
+//! use skin_runtime::model::{Classes, HandClassifier, ModelError, Models};
 //!
 //! /// A hand presses a wide area; an object a small one.
 //! struct ByArea;
@@ -28,7 +28,7 @@
 //! let models = Models::new(ByArea, classes);
 //! assert_eq!(models.input_size()?, ImageSize::MODEL_DEFAULT);
 //! assert!(models.classes().get(0).is_some_and(|c| c.is_hand()));
-//! # Ok::<(), skin_learn::touch::TouchError>(())
+//! # Ok::<(), skin_runtime::touch::TouchError>(())
 //! ```
 
 use crate::card::ModelCard;
@@ -73,9 +73,18 @@ pub enum ModelError {
         /// Model input width.
         width: usize,
     },
-    /// The model failed while running.
+    /// The model failed while running: the runtime's own error, kept as the source (a Python
+    /// model's exception reaches the binding as itself); a text says what went wrong otherwise.
     #[error("running the model: {0}")]
-    Run(String),
+    Run(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// The classifier and the segmenter take images of different sizes.
+    #[error("the classifier takes {classifier} images, the segmenter {segmenter}: they must agree")]
+    Sizes {
+        /// Classifier input.
+        classifier: ImageSize,
+        /// Segmenter input.
+        segmenter: ImageSize,
+    },
     /// A model card's `hand_class:` names none of its classes.
     #[error("hand_class {hand:?} is none of the classes ({})", classes.join(", "))]
     HandClass {
@@ -390,16 +399,14 @@ impl Models {
 
     /// The image size the models take ([`ImageSize::MODEL_DEFAULT`] without a model); an
     /// error if the classifier and the segmenter take different sizes.
-    pub fn input_size(&self) -> Result<ImageSize, crate::touch::TouchError> {
+    pub fn input_size(&self) -> Result<ImageSize, ModelError> {
         let c = self.classifier.as_ref().map(|c| c.input_size());
         let s = self.segmenter.as_ref().map(|s| s.input_size());
         match (c, s) {
-            (Some(classifier), Some(segmenter)) if classifier != segmenter => {
-                Err(crate::touch::TouchError::Sizes {
-                    classifier,
-                    segmenter,
-                })
-            }
+            (Some(classifier), Some(segmenter)) if classifier != segmenter => Err(ModelError::Sizes {
+                classifier,
+                segmenter,
+            }),
             (Some(size), _) | (None, Some(size)) => Ok(size),
             (None, None) => Ok(ImageSize::MODEL_DEFAULT),
         }

@@ -225,7 +225,7 @@ impl<S: Sink> Sink for Boxed<S> {
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// use skin_learn::session::{Event, JsonLines, Sink, Sinks};
+/// use skin_runtime::session::{Event, JsonLines, Sink, Sinks};
 ///
 /// let mut lines = JsonLines::new(Vec::new()); // fails with std::io::Error
 /// let mut kept: Vec<Event> = Vec::new(); // cannot fail

@@ -13,7 +13,7 @@
 //! that no scripted touch took is extra.
 //!
 //! ```
-//! use skin_learn::script::{Found, Script};
+//! use skin_runtime::script::{Found, Script};
 //!
 //! let script = Script::parse("0\t1.0\t2.0\thand\tgrasp\n1\t3.0\t4.0\tnon_hand\tball\n", "s.tsv".as_ref())?;
 //! let found = [
@@ -157,7 +157,7 @@ struct Best {
 /// touches. [`Script::score`] is this over a list.
 ///
 /// ```
-/// use skin_learn::script::{Found, Script, Tally};
+/// use skin_runtime::script::{Found, Script, Tally};
 ///
 /// let script = Script::parse("0\t1.0\t2.0\thand\tgrasp\n", "s.tsv".as_ref())?;
 /// let mut tally = Tally::new(script);
