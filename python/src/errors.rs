@@ -3,7 +3,6 @@
 //! is the one the command line prints: the error and its causes, joined by ": ".
 
 use pyo3::prelude::*;
-use pyo3::types::PyType;
 use std::fmt::Display;
 
 /// Which exception a fault raises.
@@ -30,41 +29,39 @@ pub(crate) enum Kind {
     Other,
 }
 
-impl Kind {
-    fn class(self) -> &'static str {
-        match self {
-            Kind::Input => "InputError",
-            Kind::Missing => "MissingFileError",
-            Kind::Config => "ConfigError",
-            Kind::Model => "ModelError",
-            Kind::Array => "ArrayError",
-            Kind::Geometry => "GeometryError",
-            Kind::Session => "SessionError",
-            Kind::Control => "ControlError",
-            Kind::Other => "SkinError",
-        }
-    }
-}
+// The package's exception classes (skin/_errors.py), each looked up once and kept, as PyO3's
+// `import_exception!` does for a class defined in Python.
+pyo3::import_exception!(skin._errors, SkinError);
+pyo3::import_exception!(skin._errors, InputError);
+pyo3::import_exception!(skin._errors, MissingFileError);
+pyo3::import_exception!(skin._errors, ConfigError);
+pyo3::import_exception!(skin._errors, ModelError);
+pyo3::import_exception!(skin._errors, ArrayError);
+pyo3::import_exception!(skin._errors, GeometryError);
+pyo3::import_exception!(skin._errors, SessionError);
+pyo3::import_exception!(skin._errors, ControlError);
+pyo3::import_exception!(skin._errors, SkinWarning);
 
 /// The exception of `kind` with `message`.
 pub(crate) fn error(kind: Kind, message: impl Display) -> PyErr {
     let message = message.to_string();
-    Python::attach(|py| {
-        let class = py
-            .import("skin._errors")
-            .and_then(|m| m.getattr(kind.class()))
-            .and_then(|c| c.cast_into::<PyType>().map_err(PyErr::from));
-        match class {
-            Ok(class) => PyErr::from_type(class, message),
-            Err(e) => e,
-        }
-    })
+    match kind {
+        Kind::Input => InputError::new_err(message),
+        Kind::Missing => MissingFileError::new_err(message),
+        Kind::Config => ConfigError::new_err(message),
+        Kind::Model => ModelError::new_err(message),
+        Kind::Array => ArrayError::new_err(message),
+        Kind::Geometry => GeometryError::new_err(message),
+        Kind::Session => SessionError::new_err(message),
+        Kind::Control => ControlError::new_err(message),
+        Kind::Other => SkinError::new_err(message),
+    }
 }
 
 /// Warns with `message` as a `skin.SkinWarning` (`warnings.warn`), where the command line says
 /// it on its error stream: what the user should know that is no fault.
 pub(crate) fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
-    let category = py.import("skin._errors")?.getattr("SkinWarning")?;
+    let category = py.get_type::<SkinWarning>();
     let text = std::ffi::CString::new(message.replace('\0', " "))?;
     PyErr::warn(py, &category, &text, 1)
 }
