@@ -155,7 +155,7 @@ impl Event {
 }
 
 /// A JSON value as the Python value `json.loads` gives.
-fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
+pub(crate) fn json(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
     use pyo3::IntoPyObjectExt;
     Ok(match v {
         serde_json::Value::Null => py.None(),

@@ -289,26 +289,13 @@ impl TactileMap {
         self.inner.flattening().to_string()
     }
 
-    /// The distortion figures: angles in degrees, ratios map/skin.
+    /// The distortion figures: angles in degrees, ratios map/skin (the fields of skin-geom's
+    /// `DistortionReport`, by name).
     #[getter]
-    fn distortion<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        let d = &self.inner.report.distortion;
-        let out = pyo3::types::PyDict::new(py);
-        for (k, v) in [
-            ("angle_error_mean_deg", d.angle_error_mean_deg),
-            ("angle_error_p95_deg", d.angle_error_p95_deg),
-            ("angle_error_bound_deg", d.angle_error_bound_deg),
-            ("edge_ratio_p5", d.edge_ratio_p5),
-            ("edge_ratio_p50", d.edge_ratio_p50),
-            ("edge_ratio_p95", d.edge_ratio_p95),
-            ("area_ratio", d.area_ratio),
-            ("face_area_ratio_p5", d.face_area_ratio_p5),
-            ("face_area_ratio_p95", d.face_area_ratio_p95),
-        ] {
-            out.set_item(k, v)?;
-        }
-        out.set_item("flipped_faces", d.flipped_faces)?;
-        Ok(out)
+    fn distortion(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let fields = serde_json::to_value(self.inner.report.distortion)
+            .map_err(|e| errors::error(Kind::Other, format!("the distortion report: {e}")))?;
+        crate::event::json(py, &fields)
     }
 
     /// Writes the map: `format` "native" (the JSON of `skin flatten`) or "cyskin". The file
