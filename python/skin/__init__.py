@@ -13,7 +13,8 @@ session, with numpy arrays in and out::
     for event in session.run_log("fixtures/session/session.candump.log"):
         print(event.kind, event.time, getattr(event, "class", None))
 
-Units: metres, seconds, raw counts (pressures above the baseline in events). Errors are
+Units: metres, seconds, raw counts (pressures above the baseline in events); each event
+kind's fields as types in `skin.events`. Errors are
 `SkinError` subclasses carrying the command line's messages; bad arguments are `ArrayError`
 (also a `ValueError`) naming the argument.
 """
@@ -59,6 +60,7 @@ from ._skin import (
     read_sim_config,
     synthesize,
 )
+from . import events
 from .dataset import SynthDataset
 
 __all__ = [
@@ -90,6 +92,7 @@ __all__ = [
     "UnknownNameError",
     "__version__",
     "calibrate",
+    "events",
     "flatten",
     "read_grey",
     "read_layout",

@@ -21,12 +21,13 @@ from typing import (
 import numpy as np
 import numpy.typing as npt
 
+from skin.events import EventDict, EventKind
+from skin.events import GateAction as _GateAction
+
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.ArrayLike
 # (rows, cols): any sequence of two whole numbers (a tuple, a list, an array).
 _Size = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
-# What a gate tells the robot (run.toml's [gate] actions, `Session.gate`).
-_GateAction = Literal["stop", "comply", "slow", "resume"]
 
 # Every class is final (none can be subclassed) and those with a constructor take their arguments
 # in `__new__`, as the native module defines them.
@@ -233,10 +234,11 @@ def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames:
 
 @final
 class Event:
-    """A session event: `kind` and the fields events.jsonl documents, as attributes. Pickles."""
+    """A session event: `kind` and the fields events.jsonl documents, as attributes (their types
+    per kind: `skin.events`). Pickles."""
 
     @property
-    def kind(self) -> str: ...
+    def kind(self) -> EventKind: ...
     @property
     def image(self) -> Optional[npt.NDArray[np.uint8]]: ...
     # The fields as attributes (`event.time`, `event.touch`): the native class looks them up
@@ -244,7 +246,8 @@ class Event:
     def __getattribute__(self, name: str, /) -> Any: ...
     def __getitem__(self, name: str, /) -> Any:
         """A field by name: `event["class"]` (a Python keyword as an attribute); KeyError if none."""
-    def to_dict(self) -> Dict[str, Any]: ...
+    def to_dict(self) -> EventDict:
+        """The line events.jsonl holds: a dict typed by its `"event"` (`skin.events.EventDict`)."""
     def __eq__(self, other: object, /) -> bool: ...
     __hash__: ClassVar[None]  # type: ignore[assignment]  # compared by value: unhashable
 

@@ -42,6 +42,62 @@ def test_events_are_objects_with_the_documented_fields(builtin_session_events):
     assert "appeared" in repr(first)
 
 
+def conforms(line, typed) -> None:
+    """`line` has every key `typed` requires, no key it does not name, values of its types."""
+    import typing
+
+    hints = typing.get_type_hints(typed)
+    assert typed.__required_keys__ <= line.keys(), (typed.__name__, typed.__required_keys__ - line.keys())
+    assert line.keys() <= hints.keys(), (typed.__name__, line.keys() - hints.keys())
+    for key, value in line.items():
+        hint = hints[key]
+        origin = typing.get_origin(hint)
+        if origin is typing.Literal:
+            assert value in typing.get_args(hint), (key, value)
+        elif hint is float:
+            assert isinstance(value, (int, float)) and not isinstance(value, bool), (key, value)
+        elif hint in (int, str, bool):
+            assert type(value) is hint, (key, value)
+        elif isinstance(hint, type) and hasattr(hint, "__required_keys__"):
+            conforms(value, hint)
+        elif origin is list:
+            (item,) = typing.get_args(hint)
+            for v in value:
+                if hasattr(item, "__required_keys__"):
+                    conforms(v, item)
+                else:
+                    assert isinstance(v, item), (key, value)
+
+
+def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
+    from skin import events as typed
+
+    by_kind = {t.__annotations__["event"].__args__[0]: t for t in typing_args(typed.EventDict)}
+    assert set(by_kind) == set(typed.EVENT_KINDS)
+    # Every kind the fixture session, a missing module and the stitched arm's touch across its
+    # joint make (7 of the 9).
+    busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
+    session = skin.Session.from_config(CONFIG)
+    rest = np.full(len(busmap.ids), 100.0)
+    more = [e for k in range(25) for e in session.push_bus(rest, 0.05 * k)]
+    more += session.push_bus(rest, 1.25, [("can0", 5)])
+    arm = skin.Session.from_config(FIXTURES / "arm" / "run.toml")
+    more += arm.run_log(FIXTURES / "arm" / "touch.candump.log")
+    seen = set()
+    for event in list(builtin_session_events) + more:
+        line = event.to_dict()
+        assert event.kind == line["event"] and event.kind in typed.EVENT_KINDS
+        conforms(line, by_kind[event.kind])
+        seen.add(event.kind)
+    assert {"appeared", "classified", "released", "gate", "incomplete", "across_joint", "across_joint_end"} <= seen
+
+
+def typing_args(alias):
+    import typing
+
+    return typing.get_args(alias)
+
+
 def log_frames():
     layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
     busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
