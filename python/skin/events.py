@@ -13,11 +13,12 @@ A type checker then knows each kind's fields::
 
 Units as in events.jsonl: times in seconds from the session's first frame (rounded to 1 ms),
 centroids in metres (to 0.1 mm), areas in cm², pressures in counts above the baseline. The kinds
-are those of the Rust `skin_runtime::session::Event`; `tests/test_session.py` holds every kind a
-session emits to these keys.
+are those of the Rust `skin_runtime::session::Event`; `tests/test_session.py` holds the events
+of the fixture sessions (7 of the 9 kinds: all but `counter_reset` and `baseline_corrected`) to
+these keys and types.
 """
 
-from typing import List, Literal, Optional, TypedDict, Union, get_args
+from typing import List, Literal, TypedDict, Union, get_args
 
 __all__ = [
     "EventKind",
@@ -72,13 +73,17 @@ class Footprint(TypedDict):
     centroid: List[float]
 
 
-class PartContact(TypedDict):
-    """One part of a hand pressing: its taxels and their pressure; `centroid` None without taxels."""
+class _PartCentroid(TypedDict, total=False):
+    centroid: List[float]
+
+
+class PartContact(_PartCentroid):
+    """One part of a hand pressing: its taxels and their pressure, and `centroid` (metres, the
+    link's frame) where the map knows its taxels' 3D positions."""
 
     part: PartName
     taxels: int
     mean_pressure: float
-    centroid: Optional[List[float]]
 
 
 class MissingModule(TypedDict):
@@ -128,14 +133,16 @@ _ClassifiedFields = TypedDict(
         "revised": bool,
         "class": str,
         "probability": float,
-        "border_mm": float,
     },
 )
 
 
 class ClassifiedEvent(_ClassifiedFields, total=False):
-    """A touch was classified on its fullest image so far; `parts` only for a hand, with a segmenter."""
+    """A touch was classified on its fullest image so far: `border_mm`, how near its taxels come
+    to the skin's border (millimetres on the map; left out when the image shows no pressed
+    taxel), and `parts` only for a hand, with a segmenter."""
 
+    border_mm: float
     parts: List[PartContact]
 
 

@@ -4,7 +4,7 @@
 //! array, a list, a tensor on the CPU; logits need a softmax first) or part labels (rows, cols), 0
 //! background then thumb .. palm. An exception it raises travels inside the session's error as
 //! the model's error source ([`Raised`]) and reaches the caller as itself, with the frame, link
-//! and touch added as a note ([`reraise`]).
+//! and touch added as a note ([`reraised`]).
 
 use pyo3::prelude::*;
 use skin_core::image::{ImageSize, ImageView};

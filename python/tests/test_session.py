@@ -67,6 +67,8 @@ def conforms(line, typed) -> None:
                     conforms(v, item)
                 else:
                     assert isinstance(v, item), (key, value)
+        else:
+            raise AssertionError(f"{typed.__name__}[{key!r}]: a type this check does not read: {hint}")
 
 
 def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):

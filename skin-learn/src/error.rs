@@ -33,6 +33,9 @@ pub enum Error {
     /// The per-frame touch pipeline.
     #[error(transparent)]
     Touch(#[from] crate::touch::TouchError),
+    /// The synthetic full arm (`synth::arm`).
+    #[error(transparent)]
+    Arm(#[from] crate::synth::arm::ArmError),
     /// A session: its configuration, its inputs, its frames (boxed: it is the largest).
     #[error(transparent)]
     Session(Box<crate::session::SessionError>),

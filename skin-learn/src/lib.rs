@@ -1,58 +1,29 @@
 //! # skin-learn: touch understanding for robot skin
 //!
-//! What the skin's pressures mean: where each taxel sits (calibration, Ch. 7), and who or what is
-//! touching (Ch. 4). Per frame, the touch path is:
+//! What the skin's pressures mean, learned and judged: where each taxel sits (calibration,
+//! Ch. 7), and who or what is touching (Ch. 4): hand / non-hand classification and hand-part
+//! segmentation by ONNX models run in tract (feature `onnx`), the synthetic data they are trained
+//! on, their datasets, metrics and evaluation.
 //!
-//! ```text
-//! pressures per link --ContactFinder--> contacts --touch tracking--> touches (appeared, released)
-//!   fullest image of a touch --HandClassifier--> hand / non-hand --PartSegmenter--> hand parts
-//! ```
-//! ([`touch`]; the models behind the traits of [`model`], HandsNet and the shipped segmenter
-//! run by tract with feature `onnx`), scored against a script of touches with [`script`].
+//! The per-frame runtime those models serve (the session, touch tracking, events, sinks, the
+//! `HandClassifier` and `PartSegmenter` traits) is skin-runtime's, which a robot stack can link
+//! alone; skin-learn re-exports its modules at the paths they had here ([`session`], [`touch`],
+//! [`model`], [`parts`], [`script`], [`card`]: one definition, two paths) and adds
+//! [`session::FromConfig`]: `Session::from_config` opens the models a `run.toml` names with tract
+//! ([`session::TractRuntime`]). Code written against `skin_learn::session` keeps compiling once
+//! it imports `FromConfig` for `from_config`. A robot stack's loop, frames in and events out, is
+//! the example on skin-runtime's first page; with the shipped models:
 //!
-//! [`session`] is that whole path as one value, built once from `skin run`'s configuration or
-//! from code. A robot stack's loop, frames in and events out (without models here: touches are
-//! tracked, not classified):
+//! ```no_run
+//! use skin_learn::session::{Event, FromConfig, Session, SessionConfig};
 //!
-//! ```
-//! use skin_core::{LinkSkin, Taxel, TaxelId};
-//! use skin_geom::{FlattenOptions, TactileMap};
-//! use skin_learn::model::Models;
-//! use skin_learn::session::{Event, Session, SessionOptions};
-//! use skin_learn::touch::{TouchOptions, TouchPipeline};
-//! use nalgebra::{Point3, Unit, Vector3};
-//!
-//! // A 10 x 10 patch of taxels 5 mm apart, and its tactile map.
-//! let taxels = (0..100u32).map(|i| Taxel {
-//!     id: TaxelId(i),
-//!     position: Point3::new(f64::from(i % 10) * 0.005, f64::from(i / 10) * 0.005, 0.0),
-//!     normal: Unit::new_normalize(Vector3::z()),
-//! }).collect();
-//! let patch = LinkSkin::new("patch", taxels);
-//! let map = TactileMap::flatten(&patch, &FlattenOptions::default())?;
-//! let options = TouchOptions { threshold: 5.0, ..TouchOptions::default() };
-//! let pipeline = TouchPipeline::new(vec![map], Models::none(), options)?;
-//! let mut session = Session::new(vec![patch], pipeline, SessionOptions::default())?;
-//!
-//! // 50 Hz frames: 20 untouched ones teach the baseline, then a press on four taxels.
+//! let config = SessionConfig::read("fixtures/session/run.toml".as_ref())?;
+//! let mut session = Session::from_config(&config)?; // layout, bus map, models, maps (cached)
+//! let path = std::path::Path::new("fixtures/session/session.candump.log");
+//! let log = skin_can::candump::CandumpLog::read(path)?;
 //! let mut events: Vec<Event> = Vec::new();
-//! for k in 0..40u64 {
-//!     let mut readings = vec![100.0f32; 100];
-//!     if (25..30).contains(&k) {
-//!         for i in [44, 45, 54, 55] { readings[i] = 180.0; }
-//!     }
-//!     session.push(k * 20_000, k, &[readings], &mut events)?;
-//! }
-//! session.finish(&mut events)?;
-//! let appeared = events.iter().filter(|e| matches!(e, Event::Appeared { .. })).count();
-//! let released: Vec<_> = events.iter().filter_map(|e| match e {
-//!     Event::Released { touch, .. } => Some(((touch.duration * 1e3).round(), touch.peak.taxels)),
-//!     _ => None,
-//! }).collect();
-//! // Pressed in 5 frames: 80 ms from the first to the last, 4 taxels at the peak.
-//! assert_eq!((appeared, released), (1, vec![(80.0, 4)]));
-//! assert_eq!(session.stats().touches, 1);
-//! # Ok::<(), skin_learn::Error>(())
+//! session.run_log(&log, path, &mut events, &mut |_, _| {})?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! Calibration fits each taxel from a probe's presses. A simulated probe on a flat patch gives
@@ -91,18 +62,12 @@
 //!   `max_pool`, the vectorised 2 x 2 max-pool.
 //! - [`metrics`]: confusion matrices, accuracy, and the segmentation scores of Table 4.8;
 //!   [`segmentation_diagnostics`]: where a segmenter goes wrong (seams, misnamed parts, mirror).
-//! - [`parts`]: per-part contact properties after segmentation (Fig. 4.9).
-//! - [`script`]: scoring a run against a script of touches (found, right class, extra).
 //! - [`synth`]: labelled synthetic contacts (hands of many subjects in the actions of Ch. 4.5,
-//!   objects and other body parts) imaged by the real pipeline, with hand-part masks.
-//! - [`model`]: what the touch path asks of its models ([`model::HandClassifier`],
-//!   [`model::PartSegmenter`]), the classes a model card names, and the bundle a pipeline takes.
-//! - [`session`]: the whole per-frame runtime (CAN frames or readings in, typed events out,
-//!   sinks that write them), what `skin run` drives; its models need feature `onnx` or are
-//!   brought by the caller.
-//! - [`touch`]: the per-frame path of a whole skin, from pressures to contacts,
-//!   touches and their hand / non-hand decisions and hand parts (what `skin run` drives; a
-//!   complete example: `examples/examples/classify_touch.rs`).
+//!   objects and other body parts) imaged by the real pipeline, with hand-part masks; and
+//!   [`synth::arm`], the thesis' full arm (three links, a hand held on the middle one) that the
+//!   benches time the per-frame path on.
+//! - [`session`], [`touch`], [`model`], [`parts`], [`script`], [`card`]: skin-runtime's, re-exported;
+//!   [`session::FromConfig`] and [`session::TractRuntime`] are skin-learn's own.
 //! - `evaluation` (feature `onnx`): a model's scores on a dataset (Tables 4.3-4.9) and the
 //!   robustness study of Ch. 5 (Test A: blind spots; Test B: removed taxels).
 //! - [`dataset`]: the on-disk dataset layout that `skin synth` writes and `skin eval` reads.

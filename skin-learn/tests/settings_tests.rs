@@ -470,3 +470,40 @@ fn a_callers_classifier_is_named_by_skin_learns_rules() {
     assert!(!models.classifies());
     assert_eq!(models.classes(), &Classes::hand_or_not());
 }
+
+#[test]
+fn without_a_model_runtime_a_named_model_is_refused_before_anything_else_of_the_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = fixtures().join("models");
+    let more = format!(
+        "classifier = {:?}\nsegmenter = {:?}\n",
+        models.join("handsnet.onnx").display().to_string(),
+        models.join("handseg.onnx").display().to_string()
+    );
+    let config = SessionConfig::read(&run_toml(dir.path(), &more)).unwrap();
+    // The caller's classifier names a hand that is none of its classes (an error of its own),
+    // and nothing replaces the configuration's segmenter: without a runtime, that segmenter is
+    // what is said, as it was before the runtime had a crate of its own.
+    let own = || OwnModels {
+        classifier: Some(Box::new(InTurn(Vec::new()))),
+        classes: Some(vec!["object".into(), "palm".into()]),
+        hand: Some("thumb".into()),
+        segmenter: None,
+    };
+    let refused = |e: &SessionError| match e {
+        SessionError::Config(c) => match **c {
+            ConfigError::NoModelRuntime { field, .. } => Some(field),
+            _ => None,
+        },
+        _ => None,
+    };
+    let e = Session::from_config_with_runtime(&config, own(), None).unwrap_err();
+    assert_eq!(refused(&e), Some("segmenter"), "{e}");
+    // Nothing named is left unreplaced: the classifier's own fault is said.
+    let none = SessionConfig::read(&run_toml(dir.path(), "")).unwrap();
+    let e = Session::from_config_with_runtime(&none, own(), None).unwrap_err();
+    assert!(matches!(&e, SessionError::Names { field: "hand", .. }), "{e}");
+    // Neither model brought: the classifier, named first, is what is said.
+    let e = Session::from_config_with_runtime(&config, OwnModels::default(), None).unwrap_err();
+    assert_eq!(refused(&e), Some("classifier"), "{e}");
+}

@@ -66,7 +66,8 @@ impl Default for RosOptions {
 /// Arrow length, m: drawn from outside the skin to the contact.
 const ARROW_M: f64 = 0.03;
 
-/// A [`Sink`] that publishes a session as ROS 2 messages (see the [module](self)).
+/// A [`Sink`] that publishes a session as ROS 2 messages: its frames and events, through an
+/// [`Outlet`].
 pub struct RosSink<O: Outlet> {
     outlet: O,
     topics: Topics,

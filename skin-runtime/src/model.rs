@@ -3,7 +3,8 @@
 //! pressed each pixel), with the [`Classes`] a classifier's outputs name, bundled as the
 //! [`Models`] a [`TouchPipeline`](crate::touch::TouchPipeline) takes. Compiled always: tracking
 //! needs no model, and a robot stack may bring its own. The shipped ONNX models implement the
-//! traits with tract (feature `onnx`: `classify::Classifier`, `segment::Segmenter`).
+//! traits with tract in skin-learn (feature `onnx`: `skin_learn::classify::Classifier`,
+//! `skin_learn::segment::Segmenter`).
 //!
 //! Which class is the hand comes from the classifier's model card ([`Classes::from_card`]):
 //! that class is segmented into parts and is what the gate treats as a hand.

@@ -29,7 +29,8 @@ pub type Readings = Vec<Vec<f32>>;
 /// Taxels per link.
 pub const PER_LINK: usize = 1165;
 
-/// Link `k` (`link0`, `link1`, ...).
+/// Link `k` (`link0`, `link1`, ...; the arm has three, and ids stay distinct for `k` below
+/// 2,000,000).
 pub fn link(k: usize) -> LinkSkin {
     let (radius, pitch, around) = (0.08, 0.008, 31);
     let taxels = (0..PER_LINK)
@@ -58,27 +59,60 @@ pub fn links_and_maps() -> skin_geom::Result<(Vec<LinkSkin>, Vec<TactileMap>)> {
     Ok((links, maps))
 }
 
+/// Why the arm's hand cannot be held on the links given.
+#[derive(Debug, thiserror::Error)]
+pub enum ArmError {
+    /// The middle link, `links[1]` (and its map, `maps[1]`), is missing.
+    #[error("the arm needs a middle link: {links} link(s) and {maps} map(s) given")]
+    NoMiddleLink {
+        /// Links given.
+        links: usize,
+        /// Maps given.
+        maps: usize,
+    },
+    /// The generator drew no whole hand in `draws` samples on this map (a map too small for one).
+    #[error("no whole hand in {draws} samples of the generator on the middle link's map")]
+    NoHand {
+        /// Samples drawn.
+        draws: u32,
+    },
+    /// A taxel of the middle link's map is not on the middle link (another link's map).
+    #[error("taxel {taxel} of the middle link's map is not on the middle link ({link})")]
+    NotOnLink {
+        /// The taxel's id.
+        taxel: TaxelId,
+        /// The middle link's name.
+        link: String,
+    },
+    /// The map could not be imaged by the generator.
+    #[error(transparent)]
+    Geom(#[from] skin_geom::Error),
+}
+
 /// Each link's pressures (counts above the baseline, in layout order) with a whole hand from the
-/// synthetic-data generator on the middle link (`links[1]`); `middle` is that link's tactile
-/// map. A taxel of the map that is not on the middle link is left out.
-pub fn hand_on_middle_link(links: &[LinkSkin], middle: &TactileMap) -> skin_geom::Result<Readings> {
-    let mut synth = Synthesizer::new(middle, SynthOptions::default())?;
+/// synthetic-data generator on the middle link (`links[1]`); `middle` is that link's tactile map.
+pub fn hand_on_middle_link(links: &[LinkSkin], middle: &TactileMap) -> Result<Readings, ArmError> {
     let mut pressures: Vec<Vec<f32>> = links.iter().map(|l| vec![0.0; l.taxels.len()]).collect();
+    let (Some(link), Some(on_link)) = (links.get(1), pressures.get_mut(1)) else {
+        return Err(ArmError::NoMiddleLink {
+            links: links.len(),
+            maps: 1,
+        });
+    };
+    let mut synth = Synthesizer::new(middle, SynthOptions::default())?;
     // The first whole hand the generator draws (one in a few samples is).
-    let Some(hand) = (0..1000)
+    const DRAWS: u32 = 1000;
+    let hand = (0..DRAWS)
         .map(|i| synth.sample(3, i, i))
         .find(|s| matches!(s.kind, Kind::Hand(_)) && !s.partial)
-    else {
-        return Ok(pressures);
-    };
-    let (Some(link), Some(on_link)) = (links.get(1), pressures.get_mut(1)) else {
-        return Ok(pressures);
-    };
+        .ok_or(ArmError::NoHand { draws: DRAWS })?;
     let index: HashMap<TaxelId, usize> = link.taxels.iter().enumerate().map(|(i, t)| (t.id, i)).collect();
     for (id, p) in middle.ids.iter().zip(&hand.pressures) {
-        if let Some(&i) = index.get(id) {
-            on_link[i] = *p;
-        }
+        let i = index.get(id).ok_or_else(|| ArmError::NotOnLink {
+            taxel: *id,
+            link: link.name.clone(),
+        })?;
+        on_link[*i] = *p;
     }
     Ok(pressures)
 }
@@ -88,11 +122,12 @@ pub const IDLE: f32 = 1000.0;
 
 /// The arm's raw frames (layout order): untouched, every taxel at [`IDLE`]; and with the hand of
 /// [`hand_on_middle_link`] held on the middle link.
-pub fn idle_and_held(links: &[LinkSkin], maps: &[TactileMap]) -> skin_geom::Result<(Readings, Readings)> {
+pub fn idle_and_held(links: &[LinkSkin], maps: &[TactileMap]) -> Result<(Readings, Readings), ArmError> {
     let idle: Vec<Vec<f32>> = links.iter().map(|l| vec![IDLE; l.taxels.len()]).collect();
-    let Some(middle) = maps.get(1) else {
-        return Ok((idle.clone(), idle));
-    };
+    let middle = maps.get(1).ok_or(ArmError::NoMiddleLink {
+        links: links.len(),
+        maps: maps.len(),
+    })?;
     let held = hand_on_middle_link(links, middle)?
         .into_iter()
         .map(|p| p.into_iter().map(|x| IDLE + x).collect())
@@ -132,5 +167,26 @@ impl Sink for Discard {
     type Error = std::convert::Infallible;
     fn event(&mut self, _: &Event) -> Result<Flow, Self::Error> {
         Ok(std::ops::ControlFlow::Continue(()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn a_hand_needs_the_middle_link() {
+        let (links, maps) = links_and_maps().unwrap();
+        let e = hand_on_middle_link(&links[..1], &maps[0]).unwrap_err();
+        assert!(matches!(e, ArmError::NoMiddleLink { links: 1, .. }), "{e}");
+        let e = idle_and_held(&links, &maps[..1]).unwrap_err();
+        assert!(matches!(e, ArmError::NoMiddleLink { maps: 1, .. }), "{e}");
+        // The first link's map on the middle link: its taxels are not there.
+        let e = hand_on_middle_link(&links, &maps[0]).unwrap_err();
+        assert!(matches!(e, ArmError::NotOnLink { .. }), "{e}");
+        let held = hand_on_middle_link(&links, &maps[1]).unwrap();
+        assert!(held[1].iter().filter(|&&p| p > 0.0).count() > 50);
+        assert!(held[0].iter().chain(&held[2]).all(|&p| p == 0.0));
     }
 }

@@ -127,7 +127,7 @@ impl ZenohReport {
     }
 }
 
-/// The live outlet (see the [module](self)).
+/// The live outlet: a Zenoh peer publishing as rmw_zenoh does.
 pub struct ZenohOutlet {
     frames: Option<SyncSender<Outgoing>>,
     events: Option<Sender<Outgoing>>,

@@ -1,6 +1,7 @@
 //! A session's configuration: the TOML file `skin run` takes (`run.toml`), typed and checked.
 //! Paths in it are relative to the file. [`SessionConfig::parse`] checks every value; the files
-//! are read when a [`Session`](super::Session) is built from it ([`Session::from_config`]).
+//! are read when a [`Session`](super::Session) is built from it
+//! ([`Session::from_config_with_runtime`](super::Session::from_config_with_runtime)).
 //! The settings that are not files (`image_size`, `[baseline]`, `[touch]`, `[gate]`) are a
 //! [`SessionSettings`], whose defaults and bounds these are; the defaults below are theirs.
 //!
@@ -53,8 +54,6 @@
 //! dropout = 0.0                   # chance a module's data is lost in a frame
 //! seed = 1                        # gains, rests and noise are drawn from it
 //! ```
-//!
-//! [`Session::from_config`]: super::Session::from_config
 
 use super::ConfigError;
 use super::settings::{BaselineConfig, SessionSettings, TouchConfig};

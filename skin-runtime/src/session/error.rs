@@ -132,8 +132,10 @@ pub enum ConfigError {
         /// Why.
         source: skin_geom::Error,
     },
-    /// The configuration names a model, and this build runs none (skin-learn's feature
-    /// `onnx` is off): bring the models ([`Session::from_config_with_models`](super::Session::from_config_with_models)).
+    /// The configuration names a model, and the session was built without a model runtime
+    /// (skin-learn's feature `onnx` off, or none given to
+    /// [`Session::from_config_with_runtime`](super::Session::from_config_with_runtime)): give
+    /// one, or bring the models ([`Session::from_config_with_models`](super::Session::from_config_with_models)).
     #[error("{}: {field} = \"{}\": this build has no model runtime (feature onnx); remove the line, or build with it", config.display(), model.display())]
     NoModelRuntime {
         /// The configuration.

@@ -9,9 +9,11 @@
 //!   --ClassGate--> Gate          --Stitching (per posture)--> AcrossJoint
 //! ```
 //!
-//! A [`Session`] is built once, from a configuration file ([`Session::from_config`], the
-//! `run.toml` of `skin run`; its models need feature `onnx`, or bring your own with
-//! [`Session::from_config_with_models`]) or from code ([`Session::new`] and the `with_` methods). Frames
+//! A [`Session`] is built once, from a configuration file (the `run.toml` of `skin run`:
+//! [`Session::from_config_with_runtime`], its models opened by a [`ModelRuntime`] such as
+//! skin-learn's tract one, which skin-learn's `FromConfig::from_config` uses; or
+//! [`Session::from_config_with_models`] with models you bring) or from code
+//! ([`Session::with_settings`], [`Session::new`] and the `with_` methods). Frames
 //! reach it as assembled CAN frames ([`Session::push_can`]), as readings in layout order from
 //! any other source ([`Session::push`]), or as a whole candump log ([`Session::run_log`]). Every
 //! event goes to a [`Sink`] as it happens: [`JsonLines`] and [`PngImages`] are `skin run`'s
@@ -20,8 +22,10 @@
 //! time per stage; [`Session::summary`] gives the run's summary (and its score against a
 //! [`Script`]).
 //!
-//! The code is split by concern: `config` (the run.toml file), `build` (from a configuration:
-//! files, models, map cache), `input` (CAN frames, candump logs, recordings; a bus map's
+//! The code is split by concern: `config` (the run.toml file), `settings` (its settings with
+//! their defaults and bounds), `build` (from a configuration: files, map cache; from code),
+//! `models` (the models a configuration names, opened by a [`ModelRuntime`], or the caller's
+//! [`OwnModels`]), `input` (CAN frames, candump logs, recordings; a bus map's
 //! uncovered taxels are declared dead in [`Session::with_can`]), `restart` (sync-counter
 //! restarts), `frame` (one frame through the path), `emit` (touch events, the gate), `stitching`
 //! (contacts across joints), `event` (what a sink receives), `sink` (the [`Sink`] trait and
@@ -133,7 +137,7 @@ struct Setup {
     stitching: Option<Stitching>,
     /// Names the input in errors (the configuration, or "frames").
     source: PathBuf,
-    /// What reading the layout file did ([`Session::from_config`]).
+    /// What reading the layout file did (a session from a configuration).
     layout_notes: Vec<skin_core::format::Note>,
     /// Each link's dead taxels (no reading: on no bus, or no column of a recording), kept so a
     /// stitching added later bridges them too.

@@ -120,24 +120,32 @@ pub(super) fn load_models(
             })
         }
     };
-    let no_runtime = |field: &'static str| ConfigError::NoModelRuntime {
-        config: config.path.clone(),
-        field,
-        model: match field {
-            "classifier" => config.classifier.clone(),
-            _ => config.segmenter.clone(),
+    // Without a runtime, a model the configuration names and `own` does not replace cannot run:
+    // said before anything else of the models is read, the classifier's first.
+    let named = [
+        ("classifier", &config.classifier, own.classifier.is_some()),
+        ("segmenter", &config.segmenter, own.segmenter.is_some()),
+    ];
+    let unrunnable = named
+        .iter()
+        .find(|(_, model, replaced)| model.is_some() && !replaced);
+    if let (None, Some(&(field, model, _))) = (runtime, unrunnable) {
+        return Err(ConfigError::NoModelRuntime {
+            config: config.path.clone(),
+            field,
+            model: model.clone().unwrap_or_default(),
         }
-        .unwrap_or_default(),
-    };
+        .into());
+    }
+    // A model named and not replaced has a runtime from here on (checked above).
     let classifier = at("classifier", &config.classifier)?;
-    let mut models = match (own.classifier.is_some(), classifier) {
-        (true, replaced) => Models {
+    let mut models = match (own.classifier.is_some(), classifier, runtime) {
+        (true, replaced, _) => Models {
             classes: own.classes(replaced.as_deref())?,
             classifier: own.classifier,
             segmenter: None,
         },
-        (false, Some(p)) => {
-            let runtime = runtime.ok_or_else(|| no_runtime("classifier"))?;
+        (false, Some(p), Some(runtime)) => {
             let (net, outputs) = runtime.classifier(&p).map_err(ConfigError::Model)?;
             check_size(&p, net.input_size())?;
             Models {
@@ -146,17 +154,16 @@ pub(super) fn load_models(
                 segmenter: None,
             }
         }
-        (false, None) => Models::none(),
+        (false, _, _) => Models::none(),
     };
-    match (own.segmenter, at("segmenter", &config.segmenter)?) {
-        (Some(own), _) => models.segmenter = Some(own),
-        (None, Some(p)) => {
-            let runtime = runtime.ok_or_else(|| no_runtime("segmenter"))?;
+    match (own.segmenter, at("segmenter", &config.segmenter)?, runtime) {
+        (Some(own), _, _) => models.segmenter = Some(own),
+        (None, Some(p), Some(runtime)) => {
             let net = runtime.segmenter(&p).map_err(ConfigError::Model)?;
             check_size(&p, net.input_size())?;
             models.segmenter = Some(net);
         }
-        (None, None) => {}
+        (None, _, _) => {}
     }
     Ok(models)
 }

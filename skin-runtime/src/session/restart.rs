@@ -5,7 +5,7 @@ use crate::script::Tally;
 
 impl Session {
     /// This session's skin, maps, models, bus map, stitching and script, with nothing seen yet
-    /// (no baseline, no touch, no count): what [`Session::from_config`] gave, without reading a
+    /// (no baseline, no touch, no count): what building it from its configuration gave, without reading a
     /// file again. A batch builds its session once and restarts it for each input, so every
     /// input meets the same layout and models even if their files change meanwhile.
     pub fn restarted(self) -> Result<Session, SessionError> {

@@ -11,7 +11,8 @@ use skin_control::hri::ClassGate;
 use skin_core::image::ImageSize;
 use skin_core::{Polarity, Separation};
 
-/// A session's settings (see the [module](self)); [`Default`] is what a run.toml that sets
+/// A session's settings: run.toml's `image_size`, `[baseline]`, `[touch]` and `[gate]`, their defaults
+/// and bounds written here once; [`Default`] is what a run.toml that sets
 /// none of them gives.
 #[derive(Debug, Clone, PartialEq, Default, Serialize)]
 pub struct SessionSettings {
