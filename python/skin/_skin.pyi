@@ -34,6 +34,7 @@ _Size = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
 
 __all__ = [
     "__version__",
+    "EVENT_KINDS",
     "Link",
     "Layout",
     "TactileMap",
@@ -231,6 +232,10 @@ class LogFrames(Iterator[CanFrame]):
 
 def read_log(path: _Path, busmap: BusMap, layout: Layout) -> LogFrames:
     """A named pipe's wait for its writer (a thread of this process too) releases the GIL and ends on Ctrl-C."""
+
+# Every event kind as the Rust session names it, in declaration order (`skin.events.EVENT_KINDS`
+# is held to it).
+EVENT_KINDS: Tuple[str, ...]
 
 @final
 class Event:

@@ -54,6 +54,11 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recordings::read_log, m)?)?;
     m.add_class::<session::Session>()?;
     m.add_class::<event::Event>()?;
+    // The event kinds as the Rust session names them (skin.events holds its Literal to these).
+    m.add(
+        "EVENT_KINDS",
+        pyo3::types::PyTuple::new(m.py(), skin_learn::session::Event::KINDS)?,
+    )?;
     m.add_class::<event::Contact>()?;
     m.add_function(wrap_pyfunction!(event::_event, m)?)?;
     m.add_function(wrap_pyfunction!(event::_contact, m)?)?;

@@ -74,6 +74,8 @@ def conforms(line, typed) -> None:
 def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
     from skin import events as typed
 
+    # The Literal is written once in Python; the Rust session's list is the source it must match.
+    assert typed.EVENT_KINDS == tuple(skin._skin.EVENT_KINDS)
     by_kind = {t.__annotations__["event"].__args__[0]: t for t in typing_args(typed.EventDict)}
     assert set(by_kind) == set(typed.EVENT_KINDS)
     # Every kind the fixture session, a missing module and the stitched arm's touch across its

@@ -127,6 +127,37 @@ pub enum Event {
 }
 
 impl Event {
+    /// Every kind's name, as `"event"` holds it in JSON, in the order the variants are declared:
+    /// what a binding or a consumer of events.jsonl matches on (Python's `skin.events.EventKind`
+    /// is held to this list).
+    pub const KINDS: [&'static str; 9] = [
+        "incomplete",
+        "counter_reset",
+        "appeared",
+        "classified",
+        "released",
+        "gate",
+        "across_joint",
+        "across_joint_end",
+        "baseline_corrected",
+    ];
+
+    /// This event's kind, one of [`Event::KINDS`] (its `"event"` in JSON).
+    pub fn kind(&self) -> &'static str {
+        let k = match self {
+            Event::Incomplete { .. } => 0,
+            Event::CounterReset { .. } => 1,
+            Event::Appeared { .. } => 2,
+            Event::Classified { .. } => 3,
+            Event::Released { .. } => 4,
+            Event::Gate { .. } => 5,
+            Event::AcrossJoint { .. } => 6,
+            Event::AcrossJointEnd { .. } => 7,
+            Event::BaselineCorrected { .. } => 8,
+        };
+        Event::KINDS[k]
+    }
+
     /// The event's time, seconds from the session's first frame.
     pub fn time(&self) -> f64 {
         match self {
@@ -389,4 +420,103 @@ fn part_list<S: Serializer>(parts: &[PartContact], s: S) -> Result<S::Ok, S::Err
         seq.serialize_element(&One(p))?;
     }
     seq.end()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use nalgebra::Point3;
+
+    /// One event of every kind, in the order the variants are declared.
+    fn one_of_each() -> Vec<Event> {
+        let footprint = touch::Footprint {
+            contacts: 1,
+            taxels: 4,
+            area_cm2: 1.0,
+            mean_pressure: 50.0,
+            centroid: Point3::new(0.0, 0.1, 0.2),
+        };
+        let decision = touch::Decision {
+            class: crate::model::Classes::hand_or_not().get(0).unwrap().clone(),
+            probability: 0.9,
+            parts: Vec::new(),
+            border_mm: 3.0,
+        };
+        let link = String::from("forearm");
+        vec![
+            Event::Incomplete {
+                time: 0.0,
+                missing: Vec::new(),
+            },
+            Event::CounterReset {
+                time: 0.0,
+                bus: "can0".into(),
+                from: 7,
+                to: 0,
+                cycle: 8,
+            },
+            Event::Appeared {
+                link: link.clone(),
+                touch: touch::Appeared {
+                    link: 0,
+                    id: 0,
+                    time: 0.0,
+                    footprint,
+                },
+            },
+            Event::Classified {
+                link: link.clone(),
+                touch: touch::Classified {
+                    link: 0,
+                    id: 0,
+                    time: 0.0,
+                    decision: decision.clone(),
+                    revised: false,
+                },
+                image: GreyImage::default(),
+            },
+            Event::Released {
+                link: link.clone(),
+                touch: touch::Released {
+                    link: 0,
+                    id: 0,
+                    start: 0.0,
+                    time: 0.0,
+                    duration: 0.0,
+                    frames: 1,
+                    peak: footprint,
+                    decision: Some(decision),
+                },
+            },
+            Event::Gate {
+                time: 0.0,
+                action: GateAction::Stop,
+            },
+            Event::AcrossJoint {
+                time: 0.0,
+                links: vec![link.clone()],
+                taxels: 3,
+                centroid: [0.0; 3],
+            },
+            Event::AcrossJointEnd { time: 0.0 },
+            Event::BaselineCorrected {
+                time: 0.0,
+                since: 0.0,
+                link,
+                taxels: 2,
+            },
+        ]
+    }
+
+    #[test]
+    fn every_kind_is_named_as_its_json_says_in_declaration_order() {
+        let events = one_of_each();
+        assert_eq!(events.len(), Event::KINDS.len());
+        for (event, kind) in events.iter().zip(Event::KINDS) {
+            let json = serde_json::to_value(event).unwrap();
+            assert_eq!(json["event"], kind);
+            assert_eq!(event.kind(), kind);
+        }
+    }
 }
