@@ -398,6 +398,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_page_matches_only_event_kinds_the_session_names() {
+        // Every `kind === "…"` / `event === "…"` the page's script compares with.
+        let mut seen = 0;
+        for key in ["kind === \"", "event === \""] {
+            for (at, _) in PAGE.match_indices(key) {
+                let rest = &PAGE[at + key.len()..];
+                let kind = &rest[..rest.find('"').unwrap_or(0)];
+                assert!(
+                    skin_runtime::session::Event::KINDS.contains(&kind),
+                    "the page compares with {kind:?}, which is no event kind"
+                );
+                seen += 1;
+            }
+        }
+        assert!(seen >= 6, "the page's comparisons were not found ({seen})");
+    }
+
+    #[test]
     fn hosts_are_read_from_host_and_origin_values() {
         assert_eq!(host_of("localhost:8080"), "localhost");
         assert_eq!(host_of("http://127.0.0.1:8080"), "127.0.0.1");
