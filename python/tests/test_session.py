@@ -72,11 +72,13 @@ def conforms(line, typed) -> None:
 
 
 def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
+    import typing
+
     from skin import events as typed
 
     # The Literal is written once in Python; the Rust session's list is the source it must match.
     assert typed.EVENT_KINDS == tuple(skin._skin.EVENT_KINDS)
-    by_kind = {t.__annotations__["event"].__args__[0]: t for t in typing_args(typed.EventDict)}
+    by_kind = {t.__annotations__["event"].__args__[0]: t for t in typing.get_args(typed.EventDict)}
     assert set(by_kind) == set(typed.EVENT_KINDS)
     # Every kind the fixture session, a missing module and the stitched arm's touch across its
     # joint make (7 of the 9).
@@ -94,12 +96,6 @@ def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
         conforms(line, by_kind[event.kind])
         seen.add(event.kind)
     assert {"appeared", "classified", "released", "gate", "incomplete", "across_joint", "across_joint_end"} <= seen
-
-
-def typing_args(alias):
-    import typing
-
-    return typing.get_args(alias)
 
 
 def log_frames():

@@ -105,8 +105,7 @@ pub(super) fn load_models(
 ) -> Result<Models, SessionError> {
     let at =
         |field: &'static str, p: &Option<PathBuf>| p.as_deref().map(|p| config.resolve(field, p)).transpose();
-    // Missing files are named first, with a runtime or without.
-    config.inputs()?;
+    // The configuration's files were resolved (and a missing one named) before the models.
     let size = config.image_size()?;
     let check_size = |model: &Path, takes: ImageSize| {
         if takes == size {
