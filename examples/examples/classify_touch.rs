@@ -44,8 +44,8 @@ impl Sink for Robot {
                     touch.time,
                     touch.id,
                     decision.probability,
-                    image.rows,
-                    image.cols,
+                    image.size().rows,
+                    image.size().cols,
                     parts.join(", ")
                 );
             }

@@ -143,10 +143,14 @@ impl Event {
             _ => String::new(),
         };
         let image = match event {
-            RustEvent::Classified { image, .. } if !image.pixels.is_empty() => Some(
-                crate::arrays::out(py, image.pixels.clone(), &[image.rows, image.cols])?
-                    .into_any()
-                    .unbind(),
+            RustEvent::Classified { image, .. } if !image.is_empty() => Some(
+                crate::arrays::out(
+                    py,
+                    image.pixels().to_vec(),
+                    &[image.size().rows, image.size().cols],
+                )?
+                .into_any()
+                .unbind(),
             ),
             _ => None,
         };

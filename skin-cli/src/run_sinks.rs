@@ -6,9 +6,10 @@ use crate::output::{Inputs, OutputDir};
 use crate::ros_out::{Outlets, RosArgs};
 use crate::view_cmd::View;
 use anyhow::{Context, Result};
+use skin_core::image::ImageView;
 use skin_core::output::{Staged, writing};
 use skin_learn::session::{
-    Event, Flow, FrameView, GreyImage, JsonLines, PngImages, ProcessedFrame, SessionConfig, Sink, SinkError,
+    Event, Flow, FrameView, JsonLines, PngImages, ProcessedFrame, SessionConfig, Sink, SinkError,
 };
 use skin_ros::RosSink;
 use std::fs::File;
@@ -80,7 +81,12 @@ impl Sink for RunSinks {
         self.all().event(event)
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, SinkError> {
         self.all().frame_image(view, cycle, image)
     }
 
@@ -177,7 +183,12 @@ impl Sink for Images {
         self.png.event(event).map_err(|e| self.named(e))
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<Flow> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> std::io::Result<Flow> {
         let _creating = writing();
         self.check()?;
         self.png

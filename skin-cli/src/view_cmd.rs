@@ -204,7 +204,7 @@ impl Sink for View {
         &mut self,
         view: skin_learn::session::FrameView<'_>,
         cycle: u64,
-        image: &skin_learn::session::GreyImage,
+        image: skin_core::image::ImageView<'_, u8>,
     ) -> Result<Flow, Self::Error> {
         self.sink.frame_image(view, cycle, image)
     }

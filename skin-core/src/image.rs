@@ -1,5 +1,6 @@
 //! Tactile images as the crates hand them to each other: one size type with one parser and one
-//! limit, and a borrowed view of row-major pixels.
+//! limit, a borrowed view of row-major pixels, and the owned image a view is taken from (as a
+//! `Vec` is to a slice).
 //!
 //! ```
 //! use skin_core::image::{ImageSize, ImageView};
@@ -149,6 +150,78 @@ impl<'a, T> ImageView<'a, T> {
     }
 }
 
+/// An owned row-major image: its pixels always fill its size, so its [`view`](Image::view) is
+/// never refused. The empty image (0 x 0, no pixels) is its default: no image yet.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Image<T> {
+    pixels: Vec<T>,
+    size: ImageSize,
+}
+
+impl<T> Image<T> {
+    /// `pixels` as an image of `size`; refused unless they fill it exactly.
+    pub fn new(pixels: Vec<T>, size: ImageSize) -> Result<Self, ImageSizeError> {
+        ImageView::new(&pixels, size)?;
+        Ok(Image { pixels, size })
+    }
+
+    /// The image, borrowed.
+    pub fn view(&self) -> ImageView<'_, T> {
+        ImageView {
+            pixels: &self.pixels,
+            size: self.size,
+        }
+    }
+
+    /// The pixels, row-major.
+    pub fn pixels(&self) -> &[T] {
+        &self.pixels
+    }
+
+    /// The image's size.
+    pub fn size(&self) -> ImageSize {
+        self.size
+    }
+
+    /// Whether the image has no pixels (the default: no image yet).
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+
+    /// The pixels, row-major, and the image gone.
+    pub fn into_pixels(self) -> Vec<T> {
+        self.pixels
+    }
+}
+
+impl<T: Clone> Image<T> {
+    /// Makes this image a copy of `view`, reusing its buffer (no allocation once it is large
+    /// enough).
+    pub fn set(&mut self, view: ImageView<'_, T>) {
+        self.pixels.clear();
+        self.pixels.extend_from_slice(view.pixels());
+        self.size = view.size();
+    }
+}
+
+impl<T> Default for Image<T> {
+    fn default() -> Self {
+        Image {
+            pixels: Vec::new(),
+            size: ImageSize { rows: 0, cols: 0 },
+        }
+    }
+}
+
+impl<T: Clone> From<ImageView<'_, T>> for Image<T> {
+    fn from(view: ImageView<'_, T>) -> Self {
+        Image {
+            pixels: view.pixels().to_vec(),
+            size: view.size(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)] // a failed set-up should stop the test
@@ -181,5 +254,22 @@ mod tests {
         assert_eq!(v.row(1), &[4, 5, 6]);
         assert!(ImageView::new(&px[..5], ImageSize { rows: 2, cols: 3 }).is_err());
         assert!(ImageView::new(&px, ImageSize { rows: 3, cols: 3 }).is_err());
+    }
+
+    #[test]
+    fn an_owned_image_is_exactly_its_size() {
+        let size = ImageSize { rows: 2, cols: 3 };
+        let mut image = Image::new(vec![1u8, 2, 3, 4, 5, 6], size).unwrap();
+        assert_eq!(image.view().row(1), &[4, 5, 6]);
+        assert!(Image::new(vec![0u8; 5], size).is_err());
+        let empty = Image::<u8>::default();
+        assert!(empty.is_empty() && empty.view().pixels().is_empty());
+        let small = [9u8, 8];
+        image.set(ImageView::new(&small, ImageSize { rows: 1, cols: 2 }).unwrap());
+        assert_eq!(
+            (image.size(), image.pixels()),
+            (ImageSize { rows: 1, cols: 2 }, &small[..])
+        );
+        assert_eq!(Image::from(image.view()), image);
     }
 }

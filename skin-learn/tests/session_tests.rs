@@ -58,8 +58,11 @@ fn the_fixture_session_decides_every_scripted_touch_with_typed_events() {
                 let class = &touch.decision.class;
                 // The shipped card's hand class is "hand", and the image is the model's input.
                 assert_eq!(class.is_hand(), class.name() == "hand", "{e:?}");
-                assert_eq!((image.rows, image.cols, image.pixels.len()), (68, 100, 6800));
-                assert!(image.pixels.iter().any(|&p| p > 0), "the image shows the touch");
+                assert_eq!(
+                    (image.size().to_string(), image.pixels().len()),
+                    ("68x100".to_owned(), 6800)
+                );
+                assert!(image.pixels().iter().any(|&p| p > 0), "the image shows the touch");
                 // The fixture's border rule: a hand under 0.95 within 15 mm of the border stops.
                 let unsure_at_border = touch.decision.probability < 0.95 && touch.decision.border_mm <= 15.0;
                 last_kind = Some((class.kind(), unsure_at_border));
@@ -444,7 +447,7 @@ fn a_dead_taxel_under_a_press_leaves_the_contact_whole() {
 fn stitched_images(can_first: bool) -> Vec<Vec<u8>> {
     use skin_geom::{FlattenOptions, TactileMap};
     use skin_learn::model::Models;
-    use skin_learn::session::{FrameView, GreyImage, SessionOptions, Sink, Stitching};
+    use skin_learn::session::{FrameView, SessionOptions, Sink, Stitching};
     use skin_learn::touch::{TouchOptions, TouchPipeline};
 
     struct Stitched(Vec<Vec<u8>>);
@@ -457,10 +460,10 @@ fn stitched_images(can_first: bool) -> Vec<Vec<u8>> {
             &mut self,
             view: FrameView<'_>,
             _: u64,
-            image: &GreyImage,
+            image: skin_core::image::ImageView<'_, u8>,
         ) -> Result<skin_learn::session::Flow, Self::Error> {
             if matches!(view, FrameView::Stitched) {
-                self.0.push(image.pixels.clone());
+                self.0.push(image.pixels().to_vec());
             }
             Ok(std::ops::ControlFlow::Continue(()))
         }

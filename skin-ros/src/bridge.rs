@@ -16,8 +16,9 @@ use crate::messages::{
 };
 use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
+use skin_core::image::ImageView;
 use skin_runtime::parts::PartContact;
-use skin_runtime::session::{Event, Flow, GreyImage, ProcessedFrame, Sink};
+use skin_runtime::session::{Event, Flow, ProcessedFrame, Sink};
 use skin_runtime::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
@@ -203,7 +204,7 @@ impl<O: Outlet> Sink for RosSink<O> {
         let events = self.topics.events;
         self.outlet.publish(events, stamp_ns, self.w.bytes())?;
         if let Event::Classified { link, image, .. } = event {
-            self.publish_decision_image(link, image, stamp, stamp_ns)?;
+            self.publish_decision_image(link, image.view(), stamp, stamp_ns)?;
         }
         Ok(GO)
     }
@@ -307,7 +308,7 @@ impl<O: Outlet> RosSink<O> {
     fn publish_decision_image(
         &mut self,
         link: &str,
-        image: &GreyImage,
+        image: ImageView<'_, u8>,
         stamp: Stamp,
         stamp_ns: u64,
     ) -> std::io::Result<()> {
@@ -319,9 +320,9 @@ impl<O: Outlet> RosSink<O> {
             &mut self.w,
             stamp,
             frame_id,
-            image.rows,
-            image.cols,
-            &image.pixels,
+            image.size().rows,
+            image.size().cols,
+            image.pixels(),
         );
         let topic = self.topics.links[l].tactile_image;
         self.publish(topic, stamp_ns)?;

@@ -5,7 +5,8 @@
 use crate::hub::{Hub, writable};
 use crate::scene::{GATE_ACTIONS, Scene};
 use crate::wire::{self, FrameHead, STITCHED, WireContact, WirePlacement};
-use skin_runtime::session::{Event, Flow, FrameView, GreyImage, ProcessedFrame, Sink};
+use skin_core::image::ImageView;
+use skin_runtime::session::{Event, Flow, FrameView, ProcessedFrame, Sink};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -192,7 +193,7 @@ impl ViewSink {
                 link, image, touch, ..
             } => {
                 if let Some(&k) = self.geometry.links.get(link) {
-                    self.put_image(k, true, touch.time, image);
+                    self.put_image(k, true, touch.time, image.view());
                 }
             }
             _ => {}
@@ -200,15 +201,15 @@ impl ViewSink {
         self.hub.put_event(Arc::from(line));
     }
 
-    fn put_image(&mut self, view: u32, decision: bool, time: f64, image: &GreyImage) {
+    fn put_image(&mut self, view: u32, decision: bool, time: f64, image: ImageView<'_, u8>) {
         wire::encode_image(
             writable(&mut self.image),
             view,
             decision,
             time,
-            image.rows,
-            image.cols,
-            &image.pixels,
+            image.size().rows,
+            image.size().cols,
+            image.pixels(),
         );
         let slot = if view == STITCHED {
             self.links
@@ -237,7 +238,7 @@ impl Sink for ViewSink {
         &mut self,
         view: FrameView<'_>,
         cycle: u64,
-        image: &GreyImage,
+        image: ImageView<'_, u8>,
     ) -> Result<Flow, Self::Error> {
         let _ = cycle;
         let v = match view {

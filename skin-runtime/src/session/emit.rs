@@ -1,8 +1,9 @@
 //! The touch pipeline's events to the sinks, with the link's name (and the image a decision was
 //! made on), and the gate's action when it changes.
 
-use super::{Event, GreyImage, Session, SessionError, Sink, send};
+use super::{Event, Session, SessionError, Sink, send};
 use crate::touch::TouchEvent;
+use skin_core::image::Image;
 
 impl Session {
     /// The pipeline's events of this frame, to the sink.
@@ -24,10 +25,11 @@ impl Session {
                 touch: touch.clone(),
             },
             TouchEvent::Classified(touch) => {
-                let mut image = GreyImage::default();
-                if let Some(view) = self.pipeline.last_image(touch.link) {
-                    image.set(view);
-                }
+                let image = self
+                    .pipeline
+                    .last_image(touch.link)
+                    .map(Image::from)
+                    .unwrap_or_default();
                 Event::Classified {
                     link: name(touch.link),
                     touch: touch.clone(),

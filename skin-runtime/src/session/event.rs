@@ -14,7 +14,7 @@ use crate::touch::{self, Footprint};
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 use skin_control::hri::GateAction;
-use skin_core::image::{ImageSize, ImageView};
+use skin_core::image::{Image, ImageView};
 
 /// Something that happened in a session, as it happened.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -66,7 +66,7 @@ pub enum Event {
         /// The tactile image the decision was made on (model input size); not in JSON
         /// ([`PngImages`](super::PngImages) writes it).
         #[serde(skip)]
-        image: GreyImage,
+        image: Image<u8>,
     },
     /// A touch ended (or the session did, with the touch still open). In JSON: `time` (its last
     /// frame of contact), `link`, `touch`, `duration`, `frames`, the `peak` footprint and, once
@@ -189,36 +189,6 @@ pub struct MissingModule {
     pub bus: String,
     /// Its address on the bus.
     pub address: u32,
-}
-
-/// A grey image, row-major, 0 = no pressure.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct GreyImage {
-    /// Rows.
-    pub rows: usize,
-    /// Columns.
-    pub cols: usize,
-    /// `rows * cols` pixels.
-    pub pixels: Vec<u8>,
-}
-
-impl GreyImage {
-    /// The image as a view; none if its pixels do not fill `rows * cols`.
-    pub fn view(&self) -> Option<ImageView<'_, u8>> {
-        let size = ImageSize {
-            rows: self.rows,
-            cols: self.cols,
-        };
-        ImageView::new(&self.pixels, size).ok()
-    }
-
-    /// Copies `image` into this one, reusing its buffer.
-    pub fn set(&mut self, image: ImageView<'_, u8>) {
-        self.rows = image.size().rows;
-        self.cols = image.size().cols;
-        self.pixels.clear();
-        self.pixels.extend_from_slice(image.pixels());
-    }
 }
 
 /// One frame after the baseline, as the session processed it ([`Sink::frame`](super::Sink)):
@@ -474,7 +444,7 @@ mod tests {
                     decision: decision.clone(),
                     revised: false,
                 },
-                image: GreyImage::default(),
+                image: Image::default(),
             },
             Event::Released {
                 link: link.clone(),

@@ -93,11 +93,9 @@ impl Session {
         if self.setup.options.frame_images {
             for l in 0..self.setup.links.len() {
                 if self.pipeline.touching(l) {
-                    self.image.set(self.pipeline.frame_image(l, &self.pressures[l])?);
+                    let image = self.pipeline.frame_image(l, &self.pressures[l])?;
                     let view = FrameView::Link(&self.setup.links[l].name);
-                    send(&mut self.stopped, sink, |s| {
-                        s.frame_image(view, cycle, &self.image)
-                    })?;
+                    send(&mut self.stopped, sink, |s| s.frame_image(view, cycle, image))?;
                 }
             }
         }
@@ -176,9 +174,9 @@ impl Session {
         }
         st.joined = !spans.is_empty();
         if self.setup.options.frame_images && (0..links.len()).any(|l| self.pipeline.touching(l)) {
-            self.image.set(st.image()?);
+            let image = st.image()?;
             send(&mut self.stopped, sink, |s| {
-                s.frame_image(FrameView::Stitched, cycle, &self.image)
+                s.frame_image(FrameView::Stitched, cycle, image)
             })?;
         }
         Ok(())

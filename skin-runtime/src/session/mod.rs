@@ -52,7 +52,7 @@ mod summary;
 
 pub use config::{SessionConfig, SimConfig, StitchConfig};
 pub use error::{ConfigError, InputError, SessionError};
-pub use event::{Event, FrameView, GreyImage, MissingModule, ProcessedFrame};
+pub use event::{Event, FrameView, MissingModule, ProcessedFrame};
 pub use models::{ModelRuntime, OwnModels};
 pub use settings::{BaselineConfig, ContactRule, SessionSettings, SettingError, SplitConfig, TouchConfig};
 pub use sink::{Flow, JsonLines, PngImages, Sink, SinkError, Sinks};
@@ -164,7 +164,6 @@ pub struct Session {
     gate: Option<GateAction>,
     /// Lines for the summary about the traffic itself (skipped or odd CAN frames).
     notes: Vec<String>,
-    image: GreyImage,
     /// A sink said stop: nothing more reaches the sinks, frames are refused.
     stopped: bool,
 }
@@ -230,7 +229,6 @@ impl Session {
             stats: SessionStats::default(),
             gate: None,
             notes: Vec::new(),
-            image: GreyImage::default(),
             stopped: false,
         })
     }

@@ -9,7 +9,8 @@
 //! Sinks combine whatever their error types: a pair `(A, B)` is a sink, and so is a [`Sinks`]
 //! list of any number; either fails with a [`SinkError`], the failing sink's own error inside.
 
-use super::event::{Event, FrameView, GreyImage, ProcessedFrame};
+use super::event::{Event, FrameView, ProcessedFrame};
+use skin_core::image::ImageView;
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -45,7 +46,7 @@ pub trait Sink {
         &mut self,
         view: FrameView<'_>,
         cycle: u64,
-        image: &GreyImage,
+        image: ImageView<'_, u8>,
     ) -> Result<Flow, Self::Error> {
         let _ = (view, cycle, image);
         Ok(GO)
@@ -117,20 +118,12 @@ impl PngImages {
         Ok(PngImages { dir: dir.to_owned() })
     }
 
-    fn write(&self, relative: &str, image: &GreyImage) -> std::io::Result<()> {
+    fn write(&self, relative: &str, image: ImageView<'_, u8>) -> std::io::Result<()> {
         let path = self.dir.join(relative);
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)?;
         }
-        let Some(view) = image.view() else {
-            return Err(std::io::Error::other(format!(
-                "{relative}: {} pixels do not fill a {}x{} image",
-                image.pixels.len(),
-                image.rows,
-                image.cols
-            )));
-        };
-        skin_geom::write_png(&path, view).map_err(|e| std::io::Error::other(format!("{relative}: {e}")))
+        skin_geom::write_png(&path, image).map_err(|e| std::io::Error::other(format!("{relative}: {e}")))
     }
 }
 
@@ -140,12 +133,17 @@ impl Sink for PngImages {
     fn event(&mut self, event: &Event) -> std::io::Result<Flow> {
         if let Event::Classified { touch, image, .. } = event {
             let (id, class) = (touch.id, &touch.decision.class);
-            self.write(&format!("touches/touch_{id:03}_{class}.png"), image)?;
+            self.write(&format!("touches/touch_{id:03}_{class}.png"), image.view())?;
         }
         Ok(GO)
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> std::io::Result<Flow> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> std::io::Result<Flow> {
         let folder = match view {
             FrameView::Link(name) => name,
             FrameView::Stitched => "stitched",
@@ -205,7 +203,12 @@ impl<S: Sink> Sink for Boxed<S> {
         self.0.event(event).map_err(SinkError::new)
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, SinkError> {
         self.0.frame_image(view, cycle, image).map_err(SinkError::new)
     }
 
@@ -303,7 +306,12 @@ impl Sink for Sinks<'_> {
         self.each(|s| s.event(event))
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, SinkError> {
         self.each(|s| s.frame_image(view, cycle, image))
     }
 
@@ -326,7 +334,12 @@ impl<A: Sink, B: Sink> Sink for (A, B) {
         Ok(both(a, self.1.event(event).map_err(SinkError::new)?))
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, SinkError> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, SinkError> {
         let a = self.0.frame_image(view, cycle, image).map_err(SinkError::new)?;
         let b = self.1.frame_image(view, cycle, image).map_err(SinkError::new)?;
         Ok(both(a, b))
@@ -351,7 +364,12 @@ impl<S: Sink> Sink for Option<S> {
         self.as_mut().map_or(Ok(GO), |s| s.event(event))
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, S::Error> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, S::Error> {
         self.as_mut()
             .map_or(Ok(GO), |s| s.frame_image(view, cycle, image))
     }
@@ -382,7 +400,12 @@ impl<S: Sink + ?Sized> Sink for &mut S {
         (**self).event(event)
     }
 
-    fn frame_image(&mut self, view: FrameView<'_>, cycle: u64, image: &GreyImage) -> Result<Flow, S::Error> {
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: ImageView<'_, u8>,
+    ) -> Result<Flow, S::Error> {
         (**self).frame_image(view, cycle, image)
     }
 
