@@ -11,6 +11,8 @@
 //! - [`Baseline`]: raw readings to pressures, per-taxel noise thresholds, drift tracking, and the
 //!   dead or stuck taxels found while learning it;
 //! - [`ContactFinder`] and [`Contact`]: the connected patches of pressed taxels in a frame;
+//! - [`force`]: newtons from counts (a response curve, per-taxel gains and areas) and a link's
+//!   [`Wrench`](force::Wrench);
 //! - [`image`]: tactile images as the crates hand them to each other (one size type with its
 //!   parser and limit, a borrowed row-major view).
 //!
@@ -50,6 +52,7 @@ mod by_name;
 mod contact;
 mod contact_peaks;
 mod error;
+pub mod force;
 pub mod format;
 mod frame;
 pub mod image;
