@@ -126,12 +126,18 @@ pub enum Error {
         source: Box<Error>,
     },
     /// Writing an output file failed.
-    #[error("{path}: {message}")]
+    #[error("{}: {source}", path.display())]
     Output {
         /// The file.
-        path: String,
-        /// What went wrong.
-        message: String,
+        path: std::path::PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// An image could not be encoded (PNG).
+    #[error("encoding a PNG: {source}")]
+    Encode {
+        /// What the encoder said.
+        source: image::ImageError,
     },
 }
 

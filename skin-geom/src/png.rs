@@ -20,17 +20,14 @@ pub fn encode_png(image: ImageView<'_, u8>) -> Result<Vec<u8>> {
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(grey, w, h, image::ExtendedColorType::L8)
-        .map_err(|e| Error::Output {
-            path: "PNG".into(),
-            message: e.to_string(),
-        })?;
+        .map_err(|source| Error::Encode { source })?;
     Ok(png)
 }
 
 /// Writes an 8-bit grey image as a PNG file.
 pub fn write_png(path: &std::path::Path, image: ImageView<'_, u8>) -> Result<()> {
-    std::fs::write(path, encode_png(image)?).map_err(|e| Error::Output {
-        path: path.display().to_string(),
-        message: e.to_string(),
+    std::fs::write(path, encode_png(image)?).map_err(|source| Error::Output {
+        path: path.to_owned(),
+        source,
     })
 }
