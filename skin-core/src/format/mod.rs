@@ -5,6 +5,7 @@
 //! | [`native`] | the project's JSON layout (`skin-layout/1`), metres | yes | yes |
 //! | [`cyskin`] | Cyskin calibration JSON (`skin`: taxels, faces, parent frame), metres | yes | yes |
 //! | [`icub`] | iCub `positions/*.txt` taxel files, metres | yes | no |
+//! | [`load`] | known loads over time (a load cell's CSV, or masses held), newtons | yes | no |
 //! | [`recording`] | Cyskin raw recordings (ids line, then index, time, counts) | yes | yes |
 //! | [`poses`] | link poses over time (`skin-poses/1`), metres | yes | no |
 //! | [`urdf_tactile`] | a URDF's tactile sensors (arrays, taxel lists), one skin per link, metres | yes | no |
@@ -13,6 +14,7 @@
 
 pub mod cyskin;
 pub mod icub;
+pub mod load;
 pub mod native;
 pub mod poses;
 pub mod recording;
