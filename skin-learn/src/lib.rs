@@ -80,6 +80,7 @@ pub mod dataset;
 mod error;
 #[cfg(feature = "onnx")]
 pub mod evaluation;
+pub mod force_calibration;
 #[cfg(feature = "onnx")]
 mod image_model;
 // The 2 x 2 max-pool sits with the other operators of the tract plan; its path stays.
