@@ -28,7 +28,7 @@ pub struct Common {
     duration: Option<f64>,
 }
 
-/// Read skin traffic live from SocketCAN: frames assembled, a status line every second.
+/// Read skin traffic live from SocketCAN: frames assembled, a status line a second.
 ///
 /// The status line gives the frames, complete and partial, and the modules missing. Linux only (SocketCAN). skin16 skins need a master sending the sync: pass --master unless
 /// another node does. An interface that goes down (unplugged adapter, bus-off) is reported and

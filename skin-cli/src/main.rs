@@ -23,6 +23,7 @@ mod degrade_cmd;
 #[cfg(feature = "onnx")]
 mod eval_cmd;
 mod flatten_cmd;
+mod force_cmd;
 mod image_cmd;
 mod live_cmd;
 mod numbers;
@@ -71,6 +72,7 @@ enum Command {
     Degrade(degrade_cmd::Args),
     Calibrate(calibrate_cmd::CalibrateArgs),
     ProbeSim(calibrate_cmd::ProbeSimArgs),
+    CalibrateForce(force_cmd::Args),
     Reach(reach_cmd::Args),
     Phri(phri_cmd::Args),
     Synth(synth_cmd::Args),
@@ -104,6 +106,7 @@ fn main() -> ExitCode {
         Command::Degrade(args) => degrade_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::calibrate_cmd(args),
         Command::ProbeSim(args) => calibrate_cmd::probe_sim(args),
+        Command::CalibrateForce(args) => force_cmd::run(args),
         Command::Reach(args) => reach_cmd::run(args),
         Command::Phri(args) => phri_cmd::run(args),
         Command::Synth(args) => synth_cmd::run(args),

@@ -94,6 +94,8 @@ pub enum Kind {
     Svg,
     /// A candump log.
     CandumpLog,
+    /// A force calibration (`skin-force/1`).
+    ForceCalibration,
     /// A text table whose first line starts with this header.
     Table(&'static str),
 }
@@ -107,6 +109,7 @@ impl Kind {
             Kind::Probes => "a probe dataset".into(),
             Kind::Svg => "an SVG drawing".into(),
             Kind::CandumpLog => "a candump log".into(),
+            Kind::ForceCalibration => "a force calibration".into(),
             Kind::Table(header) => format!("a table starting \"{header}\""),
         }
     }
@@ -132,6 +135,7 @@ impl Kind {
                 skin_can::candump::CandumpLog::parse(first, path)
                     .is_ok_and(|l| l.frames.len() + l.error_frames == 1)
             }
+            Kind::ForceCalibration => skin_core::format::force_file::ForceCalibration::read(path).is_ok(),
             Kind::Table(header) => head().starts_with(header),
         }
     }

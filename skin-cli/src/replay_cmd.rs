@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Replay a candump log through a bus map into skin frames, and say what was missing.
+/// Replay a candump log through a bus map into skin frames; say what was missing.
 ///
 /// One frame of the whole skin is assembled per cycle. LOG is a candump log (can-utils `candump -l` or python-can; gzip-compressed too), of any
 /// length: it is read as it goes, the CSV written row by row. MAP is the bus map (TOML: wire

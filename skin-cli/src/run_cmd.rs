@@ -19,7 +19,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Run the whole pipeline on a log, a recording or a live bus: touches and decisions.
+/// Run the whole pipeline on a log, recording or live bus: touches and decisions.
 ///
 /// Frames, contacts, tactile images, hand / non-hand decisions and hand parts, per link.
 ///

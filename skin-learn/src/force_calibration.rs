@@ -20,6 +20,11 @@
 //! fit equally well.
 
 use skin_core::force::{ForceError, ForceModel, ResponseCurve};
+use skin_core::format::force_file::LinkForce;
+
+mod collect;
+
+pub use collect::{CollectError, LoadedFrames};
 
 /// How the fit runs.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,15 +81,15 @@ pub enum ForceFitError {
     },
     /// The loads all the same size, with the full scale unknown.
     #[error(
-        "the loads span {min_n:.3} to {max_n:.3} N and the largest reading is {top_percent:.0}% of the fitted full scale: they do not reach the response curve's bend, so its full scale and half-scale stress cannot be told apart. Press harder (to above half of full scale), with loads over a wider range, or give the sensor's full scale in counts"
+        "the loads span {min_n:.3} to {max_n:.3} N and the largest reading is {top:.0} counts: they do not reach the response curve's bend, so its full scale and half-scale stress cannot be told apart. Press harder (towards the sensor's full scale), with loads over a wider range, or give the sensor's full scale in counts"
     )]
     Undetermined {
         /// The smallest load, N.
         min_n: f64,
         /// The largest load, N.
         max_n: f64,
-        /// The largest reading, percent of the full scale the fit reached.
-        top_percent: f64,
+        /// The largest reading, counts above the baseline.
+        top: f64,
     },
     /// A taxel index past the areas given.
     #[error("frame at {time_s} s: taxel {taxel} is past the link's {taxels} taxels")]
@@ -131,8 +136,9 @@ pub struct PressResidual {
 pub struct ForceFitReport {
     /// Frames fitted (loaded, or at 0 N within the load's span).
     pub frames: usize,
-    /// Coefficient of determination of the model's force against the loads, over those frames.
-    pub r_squared: f64,
+    /// Coefficient of determination of the model's force against the loads, over those frames;
+    /// none when every frame had the same load (nothing to explain).
+    pub r_squared: Option<f64>,
     /// Root mean square of the force residuals, N.
     pub rms_n: f64,
     /// Each press's residual, in time order.
@@ -157,6 +163,27 @@ pub struct ForceFit {
     pub model: ForceModel,
     /// How it came out.
     pub report: ForceFitReport,
+}
+
+impl ForceFit {
+    /// The fit as a link's entry in a force calibration file: the curve, the gains by the
+    /// link's taxel `ids` (layout order), and the report.
+    pub fn link_force(&self, name: &str, ids: &[skin_core::TaxelId]) -> LinkForce {
+        LinkForce {
+            name: name.to_owned(),
+            curve: self.model.curve(),
+            ids: ids.iter().map(|id| id.0).collect(),
+            gains: self.model.gains().to_vec(),
+            // Plain numbers and lists: serializing does not fail.
+            fit: serde_json::to_value(&self.report).unwrap_or_default(),
+        }
+    }
+}
+
+/// The skin area each taxel of a tactile map's link stands for, m² (layout order), from the
+/// map's triangles in 3D: what a fit and the session's force model are built on.
+pub fn link_areas(map: &skin_geom::TactileMap) -> Result<Vec<f64>, ForceError> {
+    skin_core::force::taxel_areas(&map.positions, &map.faces)
 }
 
 /// Frames with a load and a reading needed at the least.
@@ -230,7 +257,7 @@ pub fn fit_force(
         problem.check_determined(&theta, top)?;
     }
     let curve = ResponseCurve {
-        full_scale: theta[0].exp(),
+        full_scale: options.full_scale.unwrap_or(theta[0].exp()),
         half_scale_kpa: theta[1].exp(),
     };
     let gains: Vec<f64> = (0..n).map(|i| problem.gain(&theta, i)).collect();
@@ -455,11 +482,7 @@ impl Problem<'_> {
         }
         let loads = self.frames.iter().filter(|f| f.force_n > 0.0).map(|f| f.force_n);
         let (min_n, max_n) = loads.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        Err(ForceFitError::Undetermined {
-            min_n,
-            max_n,
-            top_percent: 100.0 * top / theta[0].exp(),
-        })
+        Err(ForceFitError::Undetermined { min_n, max_n, top })
     }
 
     fn report(&self, model: &ForceModel, fitted_taxels: usize, iterations: usize) -> ForceFitReport {
@@ -509,11 +532,7 @@ impl Problem<'_> {
         let min = self.options.min_frames.max(1);
         ForceFitReport {
             frames: self.frames.len(),
-            r_squared: if ss_tot > 0.0 {
-                1.0 - ss_res / ss_tot
-            } else {
-                f64::NAN
-            },
+            r_squared: (ss_tot > 0.0).then(|| 1.0 - ss_res / ss_tot),
             rms_n: (ss_res / count).sqrt(),
             presses,
             fitted_taxels,
@@ -626,7 +645,11 @@ mod tests {
         );
         let well_seen = seen.iter().filter(|&&k| k >= 40).count();
         assert!(well_seen >= 30, "{well_seen} taxels pressed in 40 frames or more");
-        assert!(fit.report.r_squared > 0.999, "{:?}", fit.report);
+        assert!(
+            fit.report.r_squared.is_some_and(|r| r > 0.999),
+            "{:?}",
+            fit.report
+        );
         // Held-out presses elsewhere, with a gain spread the fit knew: within 2%.
         let check = presses(&g, (2.0, 20.0), 100, 1.0, 3);
         for f in &check {

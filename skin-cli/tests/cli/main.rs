@@ -66,6 +66,7 @@ mod control;
 mod degrade;
 mod eval;
 mod flatten;
+mod force;
 mod help;
 mod images;
 mod run;

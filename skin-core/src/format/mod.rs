@@ -4,6 +4,7 @@
 //! |---|---|---|---|
 //! | [`native`] | the project's JSON layout (`skin-layout/1`), metres | yes | yes |
 //! | [`cyskin`] | Cyskin calibration JSON (`skin`: taxels, faces, parent frame), metres | yes | yes |
+//! | [`force_file`] | a skin's force calibration (`skin-force/1`): response curve and gains per link | yes | yes |
 //! | [`icub`] | iCub `positions/*.txt` taxel files, metres | yes | no |
 //! | [`load`] | known loads over time (a load cell's CSV, or masses held), newtons | yes | no |
 //! | [`recording`] | Cyskin raw recordings (ids line, then index, time, counts) | yes | yes |
@@ -13,6 +14,7 @@
 //! [`load_link`] picks the reader from the file's extension and content.
 
 pub mod cyskin;
+pub mod force_file;
 pub mod icub;
 pub mod load;
 pub mod native;
