@@ -281,6 +281,9 @@ class Contact:
     @property
     def peak_pressure(self) -> float:
         """Counts above the baseline."""
+    @property
+    def force_n(self) -> Optional[float]:
+        """Newtons; None on a link without a force calibration (never a guess)."""
     def __eq__(self, other: object, /) -> bool: ...
     __hash__: ClassVar[None]  # type: ignore[assignment]  # compared by value: unhashable
 
@@ -291,6 +294,7 @@ def _contact(
     normal: Optional[Tuple[float, float, float]],
     mean_pressure: float,
     peak_pressure: float,
+    force_n: Optional[float] = None,
 ) -> Contact:
     """An unpickled Contact."""
 
@@ -348,6 +352,12 @@ class Session:
     def run_recording(self, path: _Path) -> List[Event]:
         """As run_log, for a Cyskin recording."""
     def contacts(self, link: Union[int, str]) -> List[Contact]: ...
+    def wrench(
+        self, link: Union[int, str]
+    ) -> Optional[Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], Optional[npt.NDArray[np.float64]]]]:
+        """Force (N) and torque (N m, about the link's origin) of the last frame's contacts, in
+        the link's frame, and their centre of pressure (m; None without contact); None on a link
+        without a force calibration."""
     @property
     def links(self) -> List[str]: ...
     @property

@@ -63,8 +63,12 @@ PartName = Literal["thumb", "index", "middle", "ring", "pinkie", "palm"]
 """A part of the hand, as the segmenter names it."""
 
 
-class Footprint(TypedDict):
-    """A touch's extent in one frame."""
+class _Force(TypedDict, total=False):
+    force_n: float
+
+
+class Footprint(_Force):
+    """A touch's extent in one frame; `force_n` (newtons) on a link with a force calibration."""
 
     contacts: int
     taxels: int
@@ -109,8 +113,9 @@ CounterResetEvent = TypedDict(
 """A bus's sync counter restarted; the frames after it are numbered on by time."""
 
 
-class AppearedEvent(TypedDict):
-    """A touch began on a link: its number and its footprint's fields."""
+class AppearedEvent(_Force):
+    """A touch began on a link: its number and its footprint's fields (`force_n`, newtons, on a
+    link with a force calibration)."""
 
     event: Literal["appeared"]
     time: float

@@ -203,14 +203,17 @@ pub(crate) struct Contact {
     pub(crate) mean_pressure: f32,
     /// Largest pressure, counts above the baseline.
     pub(crate) peak_pressure: f32,
+    /// Its force, newtons; None on a link without a force calibration.
+    pub(crate) force_n: Option<f64>,
 }
 
 #[pymethods]
 impl Contact {
     fn __repr__(&self) -> String {
         let (x, y, z) = self.centroid;
+        let force = self.force_n.map_or(String::new(), |f| format!(", {f:.3} N"));
         format!(
-            "Contact({} taxels at ({:.4}, {:.4}, {:.4}) m, mean {:.1}, peak {:.1} counts)",
+            "Contact({} taxels at ({:.4}, {:.4}, {:.4}) m, mean {:.1}, peak {:.1} counts{force})",
             self.taxels.len(),
             x,
             y,
@@ -236,6 +239,7 @@ impl Contact {
                 self.normal.into_py_any(py)?,
                 self.mean_pressure.into_py_any(py)?,
                 self.peak_pressure.into_py_any(py)?,
+                self.force_n.into_py_any(py)?,
             ],
         )?;
         Ok((restore, args))
@@ -244,6 +248,7 @@ impl Contact {
 
 /// An unpickled [`Contact`].
 #[pyfunction]
+#[pyo3(signature = (taxels, taxel_ids, centroid, normal, mean_pressure, peak_pressure, force_n = None))]
 pub(crate) fn _contact(
     taxels: Vec<usize>,
     taxel_ids: Vec<u32>,
@@ -251,6 +256,7 @@ pub(crate) fn _contact(
     normal: Option<(f64, f64, f64)>,
     mean_pressure: f32,
     peak_pressure: f32,
+    force_n: Option<f64>,
 ) -> PyResult<Contact> {
     if taxels.len() != taxel_ids.len() {
         return Err(arg("taxel_ids", "not one id per taxel: not a pickled Contact"));
@@ -262,5 +268,6 @@ pub(crate) fn _contact(
         normal,
         mean_pressure,
         peak_pressure,
+        force_n,
     })
 }

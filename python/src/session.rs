@@ -407,8 +407,26 @@ impl Session {
                 normal: c.normal.map(|n| (n.x, n.y, n.z)),
                 mean_pressure: c.mean_pressure,
                 peak_pressure: c.peak_pressure,
+                force_n: c.force_n,
             })
             .collect())
+    }
+
+    /// What the last frame's contacts press `link` with, in its frame: force (N) and torque
+    /// about its origin (N m) as arrays of 3, and the centre of pressure (m; None without
+    /// contact); None on a link without a force calibration.
+    fn wrench<'py>(&self, py: Python<'py>, link: &Bound<'_, PyAny>) -> PyResult<Option<WrenchArrays<'py>>> {
+        let k = self.link_index(link)?;
+        let Some((w, _)) = self.lock()?.session.wrench(k) else {
+            return Ok(None);
+        };
+        let vector = |v: [f64; 3]| crate::arrays::out(py, v.to_vec(), &[3]).map(Bound::into_any);
+        let cop = w.cop.map(|p| vector([p.x, p.y, p.z])).transpose()?;
+        Ok(Some((
+            vector([w.force.x, w.force.y, w.force.z])?,
+            vector([w.torque.x, w.torque.y, w.torque.z])?,
+            cop,
+        )))
     }
 
     /// The links' names, in layout order.
@@ -770,3 +788,6 @@ fn check_callable(name: &str, f: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         _ => Ok(()),
     }
 }
+
+/// A wrench as Python gets it: force and torque arrays, and the centre of pressure.
+type WrenchArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Option<Bound<'py, PyAny>>);

@@ -455,3 +455,44 @@ def test_a_keyword_out_of_run_tomls_bounds_is_named(keyword, value, words):
     layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
     with pytest.raises(skin.SkinError, match=words):
         skin.Session.from_layout(layout, **{keyword: value})
+
+
+def test_a_force_calibration_gives_contacts_newtons_and_the_link_a_wrench(tmp_path):
+    import json
+    import pickle
+
+    # A calibration of the forearm with the [sim] table's curve and every gain 1, as
+    # `skin calibrate-force` writes it; run.toml names it in [force].
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    ids = [int(i) for i in layout.links[0].ids]
+    calibration = {
+        "format": "skin-force/1",
+        "links": [{"name": "forearm", "curve": {"full_scale": 4095.0, "half_scale_kpa": 150.0}, "ids": ids, "gains": [1.0] * len(ids)}],
+    }
+    (tmp_path / "force.json").write_text(json.dumps(calibration))
+    text = CONFIG.read_text().replace('"../', f'"{FIXTURES.as_posix()}/').replace('truth = "session.tsv"', f'truth = "{(FIXTURES / "session" / "session.tsv").as_posix()}"')
+    config = tmp_path / "run.toml"
+    config.write_text(text + '\n[force]\ncalibration = "force.json"\n')
+    plain = skin.Session.from_config(CONFIG)
+    session = skin.Session.from_config(config)
+    assert session.wrench("forearm") is not None and plain.wrench("forearm") is None
+    appeared = None
+    for f in log_frames():
+        plain.push_can(f)
+        appeared = next((e for e in session.push_can(f) if e.kind == "appeared"), None)
+        if appeared:
+            break
+    assert appeared is not None and appeared.force_n > 0
+    contacts = session.contacts(0)
+    assert all(c.force_n is not None and c.force_n > 0 for c in contacts)
+    assert all(c.force_n is None for c in plain.contacts(0))
+    assert abs(sum(c.force_n for c in contacts) - appeared.force_n) < 1e-5
+    force, torque, cop = session.wrench(0)
+    assert force.shape == torque.shape == cop.shape == (3,) and force.dtype == np.float64
+    # The load on the link is the contacts' force, along the inward normals: its size is at most
+    # their sum, and the torque about the origin is r x F of a force applied near the cop.
+    assert 0 < np.linalg.norm(force) <= appeared.force_n + 1e-9
+    np.testing.assert_allclose(torque, np.cross(cop, force), rtol=0.1, atol=1e-3)
+    assert pickle.loads(pickle.dumps(contacts[0])) == contacts[0] and "N)" in repr(contacts[0])
+    with pytest.raises(skin.ArrayError, match="link"):
+        session.wrench("elbow")

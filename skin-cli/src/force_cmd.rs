@@ -18,11 +18,13 @@ use std::path::PathBuf;
 /// LOAD.csv's times, and fits the response every taxel shares (full scale, half-scale stress)
 /// and each pressed taxel's gain, so that the taxels' forces (stress times the area each
 /// stands for) add up to the load. Writes the calibration (skin-force/1) that run.toml's
-/// [force] table names, with the fit's report; prints the fit: R², each press's residual,
-/// the taxels never loaded (they get gain 1, the skin's typical taxel, and are listed).
+/// [force] table names, with the fit's report (another link's entry in an existing file
+/// stays); prints the fit: R², each press's residual, the taxels loaded in too few frames
+/// (they get gain 1, the skin's typical taxel, and are named). CONFIG's own [force] is not
+/// read: the run is in counts.
 ///
 /// LOAD.csv is a load cell's samples, `time_s,force_n` (optionally `,x_m,y_m,z_m`, where it
-/// pressed), or the loads held over spans, `start_s,end_s,mass_kg` (or `force_n`). Times are
+/// pressed: read, not used by the fit), or the loads held over spans, `start_s,end_s,mass_kg` (or `force_n`). Times are
 /// seconds on the input's clock: a candump log's stamps (seconds since the epoch), a
 /// recording's time column.
 ///
@@ -73,7 +75,10 @@ pub fn run(args: Args) -> Result<()> {
         .as_ref()
         .or(args.recording.as_ref())
         .context("give --log or --recording")?;
-    let config = SessionConfig::read(&args.config)?;
+    let mut config = SessionConfig::read(&args.config)?;
+    // The calibration being made is not read: the run is in counts (a stale one, of another
+    // layout, would refuse the session), and its file may be the output.
+    config.force = None;
     let mut inputs = Inputs::new([&args.config, input, &args.load]);
     for p in config.inputs()? {
         inputs.add(&p);
@@ -82,10 +87,9 @@ pub fn run(args: Args) -> Result<()> {
     let loads = LoadFile::read(&args.load)?;
     let mut session = Session::from_config(&config)?;
     let link = pick_link(&session, args.link.as_deref())?;
-    let threshold = session.pipeline().options().threshold;
     let frames = match (&args.log, &args.recording) {
         (Some(log), _) => {
-            let mut sink = LoadedFrames::new(&loads, link, threshold, 0.0);
+            let mut sink = LoadedFrames::new(&loads, link, 0.0);
             let reader = skin_can::candump::CandumpReader::new(Input::open(log, Gzip::Read)?, log);
             session.run_log(reader, log, &mut sink, &mut |_, _| {})?;
             sink.finish()?
@@ -94,7 +98,7 @@ pub fn run(args: Args) -> Result<()> {
             // The session's stamps count from the recording's first frame; the loads' are on
             // its time column.
             let first = RecordingReader::open(rec)?.next_frame()?.map_or(0.0, |f| f.time);
-            let mut sink = LoadedFrames::new(&loads, link, threshold, first);
+            let mut sink = LoadedFrames::new(&loads, link, first);
             session.run_recording(RecordingReader::open(rec)?, rec, &mut sink)?;
             sink.finish()?
         }
@@ -119,9 +123,18 @@ pub fn run(args: Args) -> Result<()> {
             map.name
         )
     })?;
-    let calibration = ForceCalibration::new(vec![fit.link_force(&map.name, &map.ids)]);
+    // Another link's calibration in the file stays: a skin is calibrated a link at a time.
+    let mut calibration = match args.output.exists() {
+        true => ForceCalibration::read(&args.output)?,
+        false => ForceCalibration::new(Vec::new()),
+    };
+    let entry = fit.link_force(&map.name, &map.ids);
+    match calibration.links.iter_mut().find(|l| l.name == map.name) {
+        Some(l) => *l = entry,
+        None => calibration.links.push(entry),
+    }
     crate::output::write_file(&args.output, calibration.to_json().as_bytes(), &inputs)?;
-    say_fit(&fit, &map.name);
+    say_fit(&fit, &map.name, &map.ids);
     crate::say!("wrote {}", args.output.display());
     Ok(())
 }
@@ -143,7 +156,7 @@ fn pick_link(session: &Session, name: Option<&str>) -> Result<usize> {
     }
 }
 
-fn say_fit(fit: &skin_learn::force_calibration::ForceFit, link: &str) {
+fn say_fit(fit: &skin_learn::force_calibration::ForceFit, link: &str, ids: &[skin_core::TaxelId]) {
     let r = &fit.report;
     let curve = fit.model.curve();
     crate::say!(
@@ -169,10 +182,31 @@ fn say_fit(fit: &skin_learn::force_calibration::ForceFit, link: &str) {
             100.0 * p.relative
         );
     }
+    const SHOWN: usize = 12;
+    let unloaded: Vec<String> = r
+        .unloaded_taxels
+        .iter()
+        .take(SHOWN)
+        .filter_map(|&i| ids.get(i))
+        .map(|id| id.0.to_string())
+        .collect();
+    let more = r.unloaded_taxels.len().saturating_sub(SHOWN);
     crate::say!(
-        "{} taxels have gains of their own; {} were loaded in too few frames and got gain 1{}",
+        "{} taxels have gains of their own; {} were loaded in too few frames and got gain 1{}{}",
         r.fitted_taxels,
         r.unloaded_taxels.len(),
+        match unloaded.is_empty() {
+            true => String::new(),
+            false => format!(
+                " (taxels {}{})",
+                unloaded.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            ),
+        },
         if r.saturated_readings > 0 {
             format!(
                 "; {} readings were past saturation (lower bounds)",

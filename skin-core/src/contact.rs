@@ -25,6 +25,10 @@ pub struct Contact {
     pub mean_pressure: f32,
     /// Largest pressure, in the frame's units.
     pub peak_pressure: f32,
+    /// Its force, newtons: the sum of its taxels' forces ([`ContactFinder::weigh`], with a
+    /// [`ForceModel`](crate::force::ForceModel)); none on a skin without a force calibration,
+    /// never a guess.
+    pub force_n: Option<f64>,
 }
 
 /// Finds the contacts of a link's frames; built once per link.
@@ -231,6 +235,22 @@ impl ContactFinder {
     pub fn last(&self) -> &[Contact] {
         &self.contacts[..self.found]
     }
+
+    /// Gives each contact of the last frame its force: the sum of its taxels' `forces` (N, one
+    /// per taxel, layout order; see [`ForceModel::forces`](crate::force::ForceModel::forces)).
+    pub fn weigh(&mut self, forces: &[f64]) -> Result<&[Contact]> {
+        if forces.len() != self.positions.len() {
+            return Err(Error::Length {
+                what: "forces for the skin's taxels",
+                got: forces.len(),
+                expected: self.positions.len(),
+            });
+        }
+        for c in &mut self.contacts[..self.found] {
+            c.force_n = Some(c.taxels.iter().map(|&i| forces[i]).sum());
+        }
+        Ok(&self.contacts[..self.found])
+    }
 }
 
 /// Fills a contact's centroid, normal, mean and peak from its taxels (sorted here).
@@ -252,6 +272,7 @@ fn describe(contact: &mut Contact, pressures: &[f32], positions: &[Point3<f64>],
     contact.normal = Unit::try_new(normal, 1e-12);
     contact.mean_pressure = (sum / contact.taxels.len() as f64) as f32;
     contact.peak_pressure = peak;
+    contact.force_n = None;
 }
 
 #[cfg(test)]
@@ -297,6 +318,38 @@ mod tests {
         assert!((c[1].centroid - Point3::new(0.0016, 0.0048, 0.0)).norm() < 1e-12);
         assert!((c[1].mean_pressure - 50.0 / 3.0).abs() < 1e-5);
         assert_eq!(c[1].peak_pressure, 30.0);
+    }
+
+    #[test]
+    fn a_contact_weighs_the_sum_of_its_taxels_forces_and_only_once_weighed() {
+        let (p, f) = strip(10);
+        let mut finder = ContactFinder::new(&p, &[], &f, Path::new("strip")).unwrap();
+        let mut pressure = vec![0.0f32; 20];
+        pressure[0] = 10.0;
+        pressure[1] = 30.0;
+        pressure[14] = 100.0;
+        let found = finder.find(&pressure, 5.0, 1).unwrap();
+        assert!(
+            found.iter().all(|c| c.force_n.is_none()),
+            "no force before weighing"
+        );
+        let mut forces = vec![0.0; 20];
+        forces[0] = 0.25;
+        forces[1] = 0.5;
+        forces[14] = 2.0;
+        forces[9] = 7.0; // not in a contact
+        let c = finder.weigh(&forces).unwrap();
+        assert_eq!(c[0].force_n, Some(2.0));
+        assert_eq!(c[1].force_n, Some(0.75));
+        assert!(finder.weigh(&forces[..3]).is_err());
+        // The next frame's contacts start unweighed.
+        assert!(
+            finder
+                .find(&pressure, 5.0, 1)
+                .unwrap()
+                .iter()
+                .all(|c| c.force_n.is_none())
+        );
     }
 
     #[test]

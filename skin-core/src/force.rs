@@ -18,9 +18,10 @@
 //! sum and their moment about the link frame's origin (Ch. 8.2: a contact's equivalent force is
 //! the sum of its taxels' forces).
 //!
-//! A reading at or past `g_i * C` is past what the curve can invert: it is taken at
-//! [`ForceModel::SATURATION`] of full scale and counted as saturated, so a force built on it is
-//! a lower bound, and says so.
+//! A reading at or past [`ForceModel::SATURATION`] of `g_i * C` is past what the curve can
+//! invert well: it is taken at that fraction of full scale and counted as saturated, so a force
+//! built on it is a lower bound ([`ForceModel::forces`] returns the count, and a session's
+//! wrench carries it).
 //!
 //! ```
 //! use skin_core::force::{ForceModel, ResponseCurve, taxel_areas};
@@ -100,9 +101,9 @@ pub enum ForceError {
         /// Its value.
         value: f64,
     },
-    /// A taxel's gain or area that is not a positive, finite number (an area of 0 is a taxel on
-    /// no triangle).
-    #[error("taxel {taxel}'s {what} is {value}: it must be a positive number")]
+    /// A taxel's gain that is not a positive, finite number, or an area that is negative or
+    /// not finite.
+    #[error("taxel {taxel} (layout index)'s {what} is {value}: {}", if *what == "area" { "it must be a finite number, 0 or more" } else { "it must be a positive number" })]
     Taxel {
         /// Layout index of the taxel.
         taxel: usize,
@@ -134,7 +135,7 @@ pub enum ForceError {
 }
 
 /// The skin area each taxel stands for, m²: a third of the area of every triangle of `faces`
-/// it is a corner of. A taxel on no triangle gets 0 (a [`ForceModel`] refuses it).
+/// it is a corner of. A taxel on no triangle (isolated in the mesh) gets 0: it adds no force.
 pub fn taxel_areas(positions: &[Point3<f64>], faces: &[[usize; 3]]) -> Result<Vec<f64>, ForceError> {
     let n = positions.len();
     let mut areas = vec![0.0; n];
@@ -170,7 +171,8 @@ impl ForceModel {
     /// a newton.
     pub const SATURATION: f64 = 0.95;
 
-    /// A model of `gains.len()` taxels; every gain and area positive and finite.
+    /// A model of `gains.len()` taxels; every gain positive and every area (m²) 0 or more,
+    /// all finite.
     pub fn new(curve: ResponseCurve, gains: Vec<f64>, areas: Vec<f64>) -> Result<ForceModel, ForceError> {
         curve.check()?;
         if areas.len() != gains.len() {
@@ -180,11 +182,11 @@ impl ForceModel {
                 taxels: gains.len(),
             });
         }
-        for (what, values) in [("gain", &gains), ("area", &areas)] {
+        for (what, values, least) in [("gain", &gains, f64::MIN_POSITIVE), ("area", &areas, 0.0)] {
             if let Some((taxel, &value)) = values
                 .iter()
                 .enumerate()
-                .find(|(_, v)| !(v.is_finite() && **v > 0.0))
+                .find(|(_, v)| !(v.is_finite() && **v >= least))
             {
                 return Err(ForceError::Taxel { taxel, what, value });
             }
@@ -392,8 +394,13 @@ mod tests {
                 ..
             })
         ));
-        let e = ForceModel::new(CURVE, vec![1.0, 1.0], vec![1.0, 0.0]).unwrap_err();
-        assert_eq!(e.to_string(), "taxel 1's area is 0: it must be a positive number");
+        let e = ForceModel::new(CURVE, vec![1.0, 1.0], vec![1.0, -1.0]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "taxel 1 (layout index)'s area is -1: it must be a finite number, 0 or more"
+        );
+        let isolated = ForceModel::new(CURVE, vec![1.0, 1.0], vec![1e-5, 0.0]).unwrap();
+        assert_eq!(isolated.force(1, 1000.0).0, 0.0);
         let e = ForceModel::new(CURVE, vec![1.0, -1.0], vec![1.0, 1.0]).unwrap_err();
         assert!(matches!(
             e,

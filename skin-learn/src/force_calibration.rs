@@ -11,8 +11,9 @@
 //! They are solved together by Levenberg-Marquardt on the relative residuals
 //! `(F^_k - F_k) / (F_k + F_0)` (so a 2 N press weighs as much as a 20 N one), each gain held
 //! towards 1 by a prior of standard deviation [`ForceFitOptions::gain_sd`] (a taxel seen in few
-//! frames keeps about the skin's gain rather than one fitted to its noise). A taxel never
-//! pressed during a known load gets gain 1 and is listed as such, never a fitted number.
+//! frames keeps about the skin's gain rather than one fitted to its noise). A taxel pressed in
+//! fewer than [`ForceFitOptions::min_frames`] frames under a known load gets gain 1 and is
+//! listed as such ([`ForceFitReport::unloaded_taxels`]), never a fitted number.
 //!
 //! The curve's bend (where `c` nears `g C`) is what tells `C` from `s_half`: loads that never
 //! reach it determine only their ratio. The fit then refuses, unless the sensor's full scale is

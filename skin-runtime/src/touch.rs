@@ -15,6 +15,8 @@
 //! Frames without contact cost one contact search per link. The buffers are sized when the
 //! pipeline is built; a frame allocates only when a model runs or an event is emitted.
 
+mod weigh;
+
 use crate::model::{Class, Classes, ModelError, Models};
 use crate::parts::{PartContact, part_contacts};
 use nalgebra::Point3;
@@ -23,6 +25,7 @@ use skin_core::{Contact, ContactFinder, Separation};
 use skin_geom::{TactileImager, TactileMap};
 use std::path::Path;
 use std::time::{Duration, Instant};
+use weigh::LinkForce;
 
 /// What can go wrong building or running a [`TouchPipeline`].
 #[derive(Debug, thiserror::Error)]
@@ -67,6 +70,14 @@ pub enum TouchError {
         link: usize,
         /// Links of the skin.
         links: usize,
+    },
+    /// A force model that does not fit its link.
+    #[error("link {link}: {why}")]
+    Force {
+        /// The link.
+        link: String,
+        /// What does not fit.
+        why: String,
     },
     /// A frame does not have one pressure slice per link, or one pressure per taxel.
     #[error("frame at {time} s: {why}")]
@@ -127,6 +138,8 @@ pub struct Footprint {
     pub area_cm2: f64,
     /// Mean pressure over the pressed taxels (frame units).
     pub mean_pressure: f32,
+    /// The contacts' force, newtons; none on a link without a force model.
+    pub force_n: Option<f64>,
     /// Pressure-weighted centroid of the pressed taxels, metres in the link frame.
     pub centroid: Point3<f64>,
 }
@@ -276,7 +289,9 @@ fn footprint_of(contacts: &[Contact], area_per_taxel_cm2: f64) -> Option<(Footpr
     let mut taxels = 0usize;
     let mut total = 0.0f64;
     let mut moment = nalgebra::Vector3::zeros();
+    let mut force_n = Some(0.0);
     for c in contacts {
+        force_n = force_n.zip(c.force_n).map(|(a, b)| a + b);
         let sum = f64::from(c.mean_pressure) * c.taxels.len() as f64;
         taxels += c.taxels.len();
         total += sum;
@@ -290,6 +305,7 @@ fn footprint_of(contacts: &[Contact], area_per_taxel_cm2: f64) -> Option<(Footpr
         taxels,
         area_cm2: taxels as f64 * area_per_taxel_cm2,
         mean_pressure: (total / taxels as f64) as f32,
+        force_n,
         centroid: Point3::from(moment / total),
     };
     Some((footprint, total))
@@ -335,6 +351,8 @@ struct Link {
     dead: Vec<usize>,
     /// Each taxel's distance from the skin's border on the map (as built), millimetres.
     border_mm: Vec<f32>,
+    /// The force model, with a force calibration.
+    force: Option<LinkForce>,
 }
 
 impl Link {
@@ -422,6 +440,7 @@ impl TouchPipeline {
                 touch: None,
                 dead: Vec::new(),
                 border_mm,
+                force: None,
             });
         }
         Ok(TouchPipeline {
@@ -468,12 +487,49 @@ impl TouchPipeline {
             ..
         } = self;
         let dead: Vec<Vec<usize>> = links.iter().map(|l| l.dead.clone()).collect();
+        let mut forces: Vec<Option<LinkForce>> = links.iter().map(|l| l.force.clone()).collect();
         let maps = links.into_iter().map(|l| l.map).collect();
         let mut fresh = TouchPipeline::new(maps, models, options)?;
         for (k, d) in dead.iter().enumerate() {
             fresh.set_dead(k, d)?;
+            fresh.links[k].force = forces[k].take().map(LinkForce::restarted);
         }
         Ok(fresh)
+    }
+
+    /// Gives `link` a force model ([`skin_core::force`]): from then on its contacts carry
+    /// their force ([`Contact::force_n`], [`Footprint::force_n`]) and the link a
+    /// [`wrench`](Self::wrench). `normals` are its taxels' outward normals (layout order).
+    pub fn set_force(
+        &mut self,
+        link: usize,
+        model: skin_core::force::ForceModel,
+        normals: Vec<nalgebra::Vector3<f64>>,
+    ) -> Result<(), TouchError> {
+        let links = self.links.len();
+        let l = self
+            .links
+            .get_mut(link)
+            .ok_or(TouchError::NoLink { link, links })?;
+        l.force = Some(LinkForce::new(model, normals, l.map.ids.len(), &l.name)?);
+        Ok(())
+    }
+
+    /// The force model of `link`, with its taxels' normals; none without a force calibration.
+    pub fn force_model(
+        &self,
+        link: usize,
+    ) -> Option<(&skin_core::force::ForceModel, &[nalgebra::Vector3<f64>])> {
+        let f = self.links.get(link)?.force.as_ref()?;
+        Some((f.model(), f.normals()))
+    }
+
+    /// What the contacts of `link`'s last frame press on it with, in the link's frame (zero
+    /// without contact), and how many of their taxels read past saturation (the wrench is then
+    /// a lower bound); none on a link without a force model.
+    pub fn wrench(&self, link: usize) -> Option<(skin_core::force::Wrench, usize)> {
+        let f = self.links.get(link)?.force.as_ref()?;
+        Some((f.wrench, f.saturated))
     }
 
     /// Link names, in the order frames give their pressures.
@@ -635,13 +691,19 @@ impl TouchPipeline {
         let t0 = Instant::now();
         let o = &self.options;
         let link = &mut self.links[k];
-        let contacts = link
-            .finder
+        let frame_error = |e: skin_core::Error| TouchError::Frame {
+            time,
+            why: format!("link {}: {e}", link.name),
+        };
+        link.finder
             .find(pressures, o.threshold, o.min_taxels)
-            .map_err(|e| TouchError::Frame {
-                time,
-                why: format!("link {}: {e}", link.name),
-            })?;
+            .map_err(frame_error)?;
+        if let Some(force) = &mut link.force {
+            force
+                .frame(pressures, &mut link.finder, &link.map.positions)
+                .map_err(frame_error)?;
+        }
+        let contacts = link.finder.last();
         let Some((footprint, total)) = footprint_of(contacts, link.area_per_taxel_cm2) else {
             self.times.contacts += t0.elapsed();
             if let Some(t) = &mut link.touch {

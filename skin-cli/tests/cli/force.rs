@@ -98,12 +98,27 @@ fn presses_of_known_force_give_back_the_curve() {
         .collect();
     let (config, rec, load) = pressed_forearm(dir.path(), &presses);
     let out = dir.path().join("force.json");
+    // The configuration already names the calibration being made (a stale one, of another
+    // link's taxels too): it is not read, and the other link's entry stays.
+    let mut toml = std::fs::read_to_string(&config).unwrap();
+    toml.push_str("[force]\ncalibration = \"force.json\"\n");
+    std::fs::write(&config, toml).unwrap();
+    let wrist = skin_core::format::force_file::LinkForce {
+        name: "wrist".into(),
+        curve: TRUE,
+        ids: vec![1, 2],
+        gains: vec![1.0, 1.0],
+        fit: serde_json::Value::Null,
+    };
+    std::fs::write(&out, ForceCalibration::new(vec![wrist.clone()]).to_json()).unwrap();
     let o = calibrate(&config, &rec, &load, &out, &[]);
     let (stdout, err) = text(&o);
     assert!(o.status.success(), "{stdout}{err}");
     assert!(stdout.contains("press") && stdout.contains("wrote"), "{stdout}");
     let cal = ForceCalibration::read(&out).unwrap();
-    let link = &cal.links[0];
+    assert_eq!(cal.links.len(), 2);
+    assert_eq!(cal.links[0], wrist);
+    let link = &cal.links[1];
     assert_eq!((link.name.as_str(), link.ids.len()), ("forearm", 715));
     // The shared curve within 10% (the gains absorb a common scale with the full scale).
     let h = link.curve.half_scale_kpa / TRUE.half_scale_kpa;

@@ -213,10 +213,10 @@ mod tests {
             .to_string();
         assert!(e.contains("2 taxels calibrated") && e.contains("has 1"), "{e}");
         let e = f
-            .model(&link(&[16, 17]), vec![1e-5, 0.0], "f.json".as_ref())
+            .model(&link(&[16, 17]), vec![1e-5, f64::NAN], "f.json".as_ref())
             .unwrap_err()
             .to_string();
-        assert!(e.contains("taxel 1's area is 0"), "{e}");
+        assert!(e.contains("taxel 1 (layout index)'s area is NaN"), "{e}");
         let text = c.to_json().replace("skin-force/1", "skin-force/9");
         let e = ForceCalibration::parse(&text, "f.json".as_ref())
             .unwrap_err()

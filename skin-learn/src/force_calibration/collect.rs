@@ -5,12 +5,12 @@ use skin_core::format::load::LoadFile;
 use skin_runtime::session::{Event, Flow, ProcessedFrame, Sink};
 
 /// A [`Sink`] keeping one link's frames that fall within a load file's span, with the load at
-/// each (the pressed taxels above `threshold` counts, layout indices).
+/// each and the taxels of the frame's contacts (layout indices): the taxels a calibrated
+/// session weighs.
 #[derive(Debug)]
 pub struct LoadedFrames<'a> {
     loads: &'a LoadFile,
     link: usize,
-    threshold: f32,
     offset_s: f64,
     frames: Vec<LoadedFrame>,
     /// The first and last frame's times on the load's clock, seconds.
@@ -41,14 +41,13 @@ pub enum CollectError {
 }
 
 impl<'a> LoadedFrames<'a> {
-    /// Frames of link `link` (layout index) under `loads`, taxels above `threshold` counts; a
-    /// frame's time on the load's clock is its stamp (`time_us`) plus `offset_s` (a recording's
-    /// stamps count from its first frame: its first time column's value).
-    pub fn new(loads: &'a LoadFile, link: usize, threshold: f32, offset_s: f64) -> LoadedFrames<'a> {
+    /// Frames of link `link` (layout index) under `loads`; a frame's time on the load's clock
+    /// is its stamp (`time_us`) plus `offset_s` (a recording's stamps count from its first
+    /// frame: its first time column's value).
+    pub fn new(loads: &'a LoadFile, link: usize, offset_s: f64) -> LoadedFrames<'a> {
         LoadedFrames {
             loads,
             link,
-            threshold,
             offset_s,
             frames: Vec::new(),
             seen: None,
@@ -105,11 +104,11 @@ impl Sink for LoadedFrames<'_> {
         else {
             return Ok(Flow::Continue(()));
         };
-        let readings = pressures
+        let readings = frame
+            .contacts(self.link)
             .iter()
-            .enumerate()
-            .filter(|(_, p)| **p > self.threshold)
-            .map(|(i, &p)| (i, p))
+            .flat_map(|c| c.taxels.iter())
+            .filter_map(|&i| Some((i, *pressures.get(i)?)))
             .collect();
         self.frames.push(LoadedFrame {
             time_s: t,

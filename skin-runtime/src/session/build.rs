@@ -19,6 +19,7 @@ struct Files {
     busmap: Option<PathBuf>,
     truth: Option<PathBuf>,
     poses: Option<PathBuf>,
+    force: Option<PathBuf>,
 }
 
 impl Session {
@@ -134,6 +135,10 @@ fn build(
     if let Some(s) = stitching {
         session = session.with_stitching(s)?;
     }
+    if let Some(p) = &files.force {
+        let calibration = skin_core::format::force_file::ForceCalibration::read(p)?;
+        session = session.with_force(&calibration, p)?;
+    }
     if let (Some(busmap), Some(busmap_path)) = (&busmap, &files.busmap) {
         session = session.with_can(busmap).map_err(|e| match e {
             SessionError::Can(skin_can::Error::NotInLayout { taxel }) => ConfigError::NotInLayout {
@@ -182,6 +187,10 @@ fn resolve(config: &SessionConfig) -> Result<Files, ConfigError> {
         busmap: at("busmap", &config.busmap)?,
         truth: at("truth", &config.truth)?,
         poses: at("[stitch] poses", &config.stitch.as_ref().map(|s| s.poses.clone()))?,
+        force: at(
+            "[force] calibration",
+            &config.force.as_ref().map(|f| f.calibration.clone()),
+        )?,
     })
 }
 

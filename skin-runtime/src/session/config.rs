@@ -39,6 +39,9 @@
 //!                                 # (`border` is this rule's key, never a class's)
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time
+//! [force]                         # optional: newtons from counts (skin calibrate-force)
+//! calibration = "force.json"      # skin-force/1: per link, the response curve and gains;
+//!                                 # contacts then carry force_n and links a wrench
 //! [sim]                           # optional: how a simulated skin answers (Python's
 //!                                 # skin.sim, MuJoCo); defaults as shown, see SimConfig
 //! frame_rate_hz = 20.0            # frames a second the skin delivers
@@ -91,6 +94,8 @@ pub struct SessionConfig {
     pub gate: Option<ClassGate>,
     /// Links stitched across joints.
     pub stitch: Option<StitchConfig>,
+    /// Force in newtons, for the links a calibration covers.
+    pub force: Option<ForceConfig>,
     /// How a simulated skin answers (Python's `skin.sim`); the session itself does not read it.
     pub sim: Option<SimConfig>,
     /// The file this came from; paths are relative to its folder.
@@ -104,6 +109,14 @@ pub struct SessionConfig {
 pub struct StitchConfig {
     /// Link poses over time (skin-poses/1), links in the layout's order.
     pub poses: PathBuf,
+}
+
+/// `[force]`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceConfig {
+    /// A force calibration (skin-force/1, as `skin calibrate-force` writes it).
+    pub calibration: PathBuf,
 }
 
 /// `[sim]`: the response model of a simulated skin, from the stress under each taxel to the
@@ -391,6 +404,10 @@ impl SessionConfig {
             ("segmenter", &self.segmenter),
             ("truth", &self.truth),
             ("[stitch] poses", &self.stitch.as_ref().map(|s| s.poses.clone())),
+            (
+                "[force] calibration",
+                &self.force.as_ref().map(|f| f.calibration.clone()),
+            ),
         ] {
             if let Some(p) = p {
                 files.push(self.resolve(field, p)?);

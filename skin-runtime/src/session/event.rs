@@ -294,7 +294,7 @@ fn pressure(p: f32) -> f64 {
 
 impl Serialize for Footprint {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let mut m = s.serialize_map(Some(5))?;
+        let mut m = s.serialize_map(None)?;
         self.entries(&mut m)?;
         m.end()
     }
@@ -309,6 +309,11 @@ impl Footprint {
             &[self.centroid.x, self.centroid.y, self.centroid.z].map(|x| round(x, 4)),
         )?;
         m.serialize_entry("contacts", &self.contacts)?;
+        // Newtons only where the link has a force model: never a guess (to micronewtons: what
+        // a message elsewhere carries can be held to the event to 1e-6 N).
+        if let Some(f) = self.force_n {
+            m.serialize_entry("force_n", &round(f, 6))?;
+        }
         m.serialize_entry("mean_pressure", &pressure(self.mean_pressure))?;
         m.serialize_entry("taxels", &self.taxels)
     }
@@ -405,6 +410,7 @@ mod tests {
             taxels: 4,
             area_cm2: 1.0,
             mean_pressure: 50.0,
+            force_n: None,
             centroid: Point3::new(0.0, 0.1, 0.2),
         };
         let decision = touch::Decision {

@@ -50,7 +50,7 @@ mod stats;
 mod stitching;
 mod summary;
 
-pub use config::{SessionConfig, SimConfig, StitchConfig};
+pub use config::{ForceConfig, SessionConfig, SimConfig, StitchConfig};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, MissingModule, ProcessedFrame};
 pub use models::{ModelRuntime, OwnModels};
@@ -281,6 +281,51 @@ impl Session {
         }
         self.setup.dead = dead;
         Ok(())
+    }
+
+    /// Reports force for the links `calibration` covers (read from `path`, which names it in
+    /// errors): their contacts carry `force_n` ([`skin_core::Contact::force_n`], the events'
+    /// footprints) and each a [`wrench`](Session::wrench). A calibration of a link the layout
+    /// does not have, or of other taxels, is refused by name.
+    pub fn with_force(
+        mut self,
+        calibration: &skin_core::format::force_file::ForceCalibration,
+        path: &Path,
+    ) -> Result<Session, SessionError> {
+        for (k, lf) in calibration.links.iter().enumerate() {
+            let Some(l) = self.setup.links.iter().position(|l| l.name == lf.name) else {
+                let names: Vec<&str> = self.setup.links.iter().map(|l| l.name.as_str()).collect();
+                return Err(skin_core::Error::invalid(
+                    path,
+                    format!("links[{k}].name"),
+                    format!(
+                        "link \"{}\" is not in the layout (its links: {})",
+                        lf.name,
+                        names.join(", ")
+                    ),
+                )
+                .into());
+            };
+            let map = self.pipeline.map(l).ok_or(crate::touch::TouchError::NoLink {
+                link: l,
+                links: self.setup.links.len(),
+            })?;
+            let areas = skin_core::force::taxel_areas(&map.positions, &map.faces)
+                .map_err(|e| skin_core::Error::invalid(path, format!("links[{k}]"), e.to_string()))?;
+            let link = &self.setup.links[l];
+            let model = lf.model(link, areas, path)?;
+            let normals = link.taxels.iter().map(|t| t.normal.into_inner()).collect();
+            self.pipeline.set_force(l, model, normals)?;
+        }
+        Ok(self)
+    }
+
+    /// What the contacts of the last frame press `link` with (layout index), in its frame:
+    /// force (N), torque about its origin (N m) and centre of pressure, and how many of their
+    /// taxels read past saturation (then a lower bound); none for a link without a force
+    /// calibration ([`Session::with_force`]).
+    pub fn wrench(&self, link: usize) -> Option<(skin_core::force::Wrench, usize)> {
+        self.pipeline.wrench(link)
     }
 
     /// Scores the finished touches against a script ([`Session::summary`]).
