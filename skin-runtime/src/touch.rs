@@ -72,12 +72,12 @@ pub enum TouchError {
         links: usize,
     },
     /// A force model that does not fit its link.
-    #[error("link {link}: {why}")]
+    #[error("link {link}: the force model: {source}")]
     Force {
         /// The link.
         link: String,
         /// What does not fit.
-        why: String,
+        source: skin_core::force::ForceError,
     },
     /// A frame does not have one pressure slice per link, or one pressure per taxel.
     #[error("frame at {time} s: {why}")]
@@ -511,7 +511,11 @@ impl TouchPipeline {
             .links
             .get_mut(link)
             .ok_or(TouchError::NoLink { link, links })?;
-        l.force = Some(LinkForce::new(model, normals, l.map.ids.len(), &l.name)?);
+        let force = LinkForce::new(model, normals, l.map.ids.len()).map_err(|source| TouchError::Force {
+            link: l.name.clone(),
+            source,
+        })?;
+        l.force = Some(force);
         Ok(())
     }
 

@@ -2,10 +2,9 @@
 //! and the link's wrench over its contacts' taxels ([`skin_core::force`]). Buffers are sized
 //! once; a frame allocates nothing.
 
-use super::TouchError;
 use nalgebra::{Point3, Vector3};
 use skin_core::ContactFinder;
-use skin_core::force::{ForceModel, Wrench};
+use skin_core::force::{ForceError, ForceModel, Wrench};
 
 /// A calibrated link's force model and what it made of the last frame.
 #[derive(Debug, Clone)]
@@ -25,14 +24,10 @@ impl LinkForce {
         model: ForceModel,
         normals: Vec<Vector3<f64>>,
         taxels: usize,
-        link: &str,
-    ) -> Result<LinkForce, TouchError> {
-        for (what, got) in [("force model", model.len()), ("normals", normals.len())] {
+    ) -> Result<LinkForce, ForceError> {
+        for (what, got) in [("gains", model.len()), ("normals", normals.len())] {
             if got != taxels {
-                return Err(TouchError::Force {
-                    link: link.to_owned(),
-                    why: format!("a {what} of {got} taxels for a link of {taxels}"),
-                });
+                return Err(ForceError::Length { what, got, taxels });
             }
         }
         Ok(LinkForce {
