@@ -267,3 +267,40 @@ fn a_restarted_session_keeps_its_calibration_and_forgets_the_last_wrench() {
     let (w, saturated) = s.wrench(0).expect("the calibration stays");
     assert_eq!((w.magnitude, w.cop, saturated), (0.0, None, 0));
 }
+
+#[test]
+fn a_press_over_a_dead_taxel_keeps_its_force() {
+    use skin_learn::touch::{TouchOptions, TouchPipeline};
+    let link = forearm();
+    let map = skin_geom::TactileMap::flatten(&link, &skin_geom::FlattenOptions::default()).unwrap();
+    let areas = link_areas(&map).unwrap();
+    let n = areas.len();
+    let model = skin_core::force::ForceModel::new(TRUE, (0..n).map(gain).collect(), areas.clone()).unwrap();
+    let normals = link.taxels.iter().map(|t| t.normal.into_inner()).collect();
+    let mut pipeline =
+        TouchPipeline::new(vec![map.clone()], Models::none(), TouchOptions::default()).unwrap();
+    pipeline.set_force(0, model, normals).unwrap();
+    // 10 N spread evenly over the taxels within 12 mm of taxel 300, the middle one dead.
+    let c = map.positions[300];
+    let under: Vec<usize> = (0..n)
+        .filter(|&i| (map.positions[i] - c).norm() <= 0.012)
+        .collect();
+    let stress = 10.0 / under.iter().map(|&i| areas[i]).sum::<f64>() / 1e3;
+    let dead = 300;
+    let share = areas[dead] / under.iter().map(|&i| areas[i]).sum::<f64>();
+    let mut pressures = vec![0.0f32; n];
+    for &i in under.iter().filter(|&&i| i != dead) {
+        pressures[i] = TRUE.counts(stress, gain(i)).round() as f32;
+    }
+    pipeline.set_dead(0, &[dead]).unwrap();
+    let mut events = Vec::new();
+    pipeline.process(1.0, &[pressures], &mut events).unwrap();
+    let (w, _) = pipeline.wrench(0).unwrap();
+    // Without the bridged areas the press would read short by the dead taxel's share.
+    assert!(share > 0.04, "the dead taxel's share {share}");
+    assert!(
+        (w.magnitude / 10.0 - 1.0).abs() < share / 2.0,
+        "{} N of 10 (share {share})",
+        w.magnitude
+    );
+}

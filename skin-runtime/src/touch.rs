@@ -474,6 +474,17 @@ impl TouchPipeline {
         let size = l.imager.output_size();
         (l.finder, l.imager) = search_and_image(&map, &self.options, size)?;
         l.dead = dead.indices().to_vec();
+        // The bridged triangles cover the dead taxels' skin: their neighbours now stand for it,
+        // so a press over a dead taxel keeps its force.
+        if let Some(force) = &mut l.force {
+            let areas = skin_core::force::taxel_areas(&map.positions, &map.faces);
+            areas
+                .and_then(|a| force.set_areas(a))
+                .map_err(|source| TouchError::Force {
+                    link: l.name.clone(),
+                    source,
+                })?;
+        }
         Ok(())
     }
 

@@ -63,6 +63,13 @@ impl LinkForce {
         Ok(())
     }
 
+    /// The same curve and gains over new `areas` (m², layout order): a mesh made again
+    /// without the dead taxels.
+    pub(super) fn set_areas(&mut self, areas: Vec<f64>) -> Result<(), ForceError> {
+        self.model = ForceModel::new(self.model.curve(), self.model.gains().to_vec(), areas)?;
+        Ok(())
+    }
+
     /// The same model with nothing weighed yet (for the next input of a batch).
     pub(super) fn restarted(mut self) -> LinkForce {
         self.wrench = Wrench::default();
