@@ -35,6 +35,17 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
+    /// A force model that does not fit the skin it is for (a calibration's curve or gains, or
+    /// the areas of the skin's mesh): `place` names the link in the file.
+    #[error("{}: {place}: {source}", path.display())]
+    Force {
+        /// The calibration file.
+        path: PathBuf,
+        /// The link, e.g. `link "forearm" model`.
+        place: String,
+        /// What does not fit (boxed: the rare error should not grow every `Result`).
+        source: Box<crate::force::ForceError>,
+    },
     /// A frame or a buffer does not have the length its taxels need.
     #[error("{what}: {got}, expected {expected}")]
     Length {

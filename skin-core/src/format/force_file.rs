@@ -144,8 +144,11 @@ impl LinkForce {
                 ),
             ));
         }
-        ForceModel::new(self.curve, self.gains.clone(), areas)
-            .map_err(|e| Error::invalid(path, place("model"), e.to_string()))
+        ForceModel::new(self.curve, self.gains.clone(), areas).map_err(|source| Error::Force {
+            path: path.to_owned(),
+            place: place("model"),
+            source: Box::new(source),
+        })
     }
 }
 

@@ -310,8 +310,13 @@ impl Session {
                 link: l,
                 links: self.setup.links.len(),
             })?;
-            let areas = skin_core::force::taxel_areas(&map.positions, &map.faces)
-                .map_err(|e| skin_core::Error::invalid(path, format!("links[{k}]"), e.to_string()))?;
+            let areas = skin_core::force::taxel_areas(&map.positions, &map.faces).map_err(|source| {
+                skin_core::Error::Force {
+                    path: path.to_owned(),
+                    place: format!("links[{k}]"),
+                    source: Box::new(source),
+                }
+            })?;
             let link = &self.setup.links[l];
             let model = lf.model(link, areas, path)?;
             let normals = link.taxels.iter().map(|t| t.normal.into_inner()).collect();
