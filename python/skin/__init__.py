@@ -49,6 +49,7 @@ from ._skin import (
     TaskStack,
     __version__,
     calibrate,
+    calibrate_force,
     flatten,
     read_grey,
     read_layout,
@@ -59,6 +60,7 @@ from ._skin import (
     read_session_settings,
     read_sim_config,
     synthesize,
+    write_recording,
 )
 from . import events
 from .dataset import SynthDataset
@@ -92,6 +94,7 @@ __all__ = [
     "UnknownNameError",
     "__version__",
     "calibrate",
+    "calibrate_force",
     "events",
     "flatten",
     "read_grey",
@@ -103,4 +106,5 @@ __all__ = [
     "read_session_settings",
     "read_sim_config",
     "synthesize",
+    "write_recording",
 ]

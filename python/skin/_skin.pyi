@@ -121,6 +121,9 @@ class TactileMap:
     def uv(self) -> npt.NDArray[np.float64]:
         """(N, 2) metres on the map."""
     @property
+    def areas(self) -> npt.NDArray[np.float64]:
+        """(N,) m², the skin area each taxel stands for (its force model's)."""
+    @property
     def border_mm(self) -> npt.NDArray[np.float64]:
         """(N,) each taxel's distance from the skin's border on the map, millimetres."""
     @property
@@ -187,6 +190,9 @@ class Recording:
     def path(self) -> Path: ...
     def for_taxels(self, ids: _Array, threshold: float = 0.0) -> npt.NDArray[np.float32]: ...
     def __len__(self) -> int: ...
+
+def write_recording(path: _Path, ids: _Array, times: _Array, values: _Array) -> None:
+    """Writes a raw recording (ids (N,), times (T,) s increasing, values (T, N) counts), whole or not at all."""
 
 def read_recording(path: _Path) -> Recording:
     """The GIL is released while reading; Ctrl-C ends it (a named pipe's wait for a writer too)."""
@@ -416,6 +422,21 @@ def calibrate(
     max_open_angle_deg: float = 170.0,
     outward: Optional[_Array] = None,  # a direction (x, y, z): any sequence or array of 3
 ) -> Calibration: ...
+def calibrate_force(
+    config: _Path,
+    load: _Path,
+    *,
+    log: Optional[_Path] = None,
+    recording: Optional[_Path] = None,
+    link: Optional[str] = None,
+    full_scale: Optional[float] = None,
+    gain_sd: Optional[float] = None,  # 0.2
+    min_frames: Optional[int] = None,  # 3
+    output: Optional[_Path] = None,
+) -> Dict[str, Any]:
+    """A link's force model fitted from presses with a known load (`skin calibrate-force`): its
+    calibration entry (name, curve, ids, gains, fit); written to `output` when given."""
+
 def synthesize(
     map: TactileMap,
     count: int,

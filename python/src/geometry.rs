@@ -271,6 +271,17 @@ impl TactileMap {
         arrays::out(py, d.into_iter().map(|m| m * 1e3).collect(), &[n])
     }
 
+    /// The skin area each taxel stands for, (N,) m², from the map's triangles in 3D (a third of
+    /// each triangle it is a corner of): what a force model turns its pressure into newtons
+    /// with. 0 for a taxel in no triangle; an error for a map read without 3D positions.
+    #[getter]
+    fn areas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let a = skin_learn::force_calibration::link_areas(&self.inner)
+            .map_err(|e| errors::raise(Kind::Geometry, &e))?;
+        let n = a.len();
+        arrays::out(py, a, &[n])
+    }
+
     /// Each taxel's 3D position, (N, 3) metres (empty for a map read without them).
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {

@@ -17,6 +17,7 @@ mod calibration;
 mod control;
 mod errors;
 mod event;
+mod force;
 mod geometry;
 mod interrupt;
 mod models;
@@ -51,6 +52,7 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<recordings::CanFrame>()?;
     m.add_class::<recordings::LogFrames>()?;
     m.add_function(wrap_pyfunction!(recordings::read_recording, m)?)?;
+    m.add_function(wrap_pyfunction!(recordings::write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(recordings::read_log, m)?)?;
     m.add_class::<session::Session>()?;
     m.add_class::<event::Event>()?;
@@ -67,6 +69,7 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<calibration::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibration::read_probes, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(force::calibrate_force, m)?)?;
     m.add_function(wrap_pyfunction!(synth::synthesize, m)?)?;
     m.add_function(wrap_pyfunction!(synth::read_grey, m)?)?;
     m.add_class::<synth::Dataset>()?;

@@ -5,7 +5,7 @@ use crate::arrays::{self, array, slice};
 use crate::errors::{self, Kind, arg};
 use crate::geometry::Layout;
 use crate::interrupt::{self, Watch};
-use numpy::PyArrayDyn;
+use numpy::{PyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use skin_can::candump::CandumpReader;
 use skin_can::{AssembledFrame, Assembler, BusMap as RustBusMap, LayoutFrames, Missing};
@@ -133,6 +133,88 @@ pub(crate) fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<Recordin
         Ok(inner) => Ok(Recording { inner, path }),
         Err(e) => Err(watch.raised().unwrap_or_else(|| errors::core(e))),
     }
+}
+
+/// Writes a Cyskin raw recording, the form `read_recording` and `skin run --recording` read:
+/// `ids` (N,) taxel ids, `times` (T,) seconds in increasing order, `values` (T, N) raw counts
+/// (whole numbers are written as integers). Frames are numbered from 0. The file appears
+/// complete or not at all; an existing file is replaced only if it is a recording.
+#[pyfunction]
+pub(crate) fn write_recording(
+    path: PathBuf,
+    ids: &Bound<'_, PyAny>,
+    times: &Bound<'_, PyAny>,
+    values: &Bound<'_, PyAny>,
+) -> PyResult<()> {
+    let i = array::<i64>("ids", ids, "int64", 1)?;
+    let taxel_ids = arrays::taxel_ids("ids", slice("ids", &i)?, true)?;
+    let t = array::<f64>("times", times, "float64", 1)?;
+    let times = slice("times", &t)?;
+    arrays::finite64("times", times, t.shape())?;
+    if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(arg(
+            "times",
+            format!(
+                "{} at index {} after {}: times must increase",
+                times[k + 1],
+                k + 1,
+                times[k]
+            ),
+        ));
+    }
+    let v = array::<f32>("values", values, "float32", 2)?;
+    let shape = v.shape().to_vec();
+    if shape != [times.len(), taxel_ids.len()] {
+        return Err(arg(
+            "values",
+            format!(
+                "shape ({}): expected ({}, {}), a row per time and a column per id",
+                arrays::shape(&shape),
+                times.len(),
+                taxel_ids.len()
+            ),
+        ));
+    }
+    let flat = slice("values", &v)?;
+    arrays::finite("values", flat, &shape)?;
+    let limit = skin_core::format::recording::MAX_READING;
+    if let Some(at) = flat.iter().position(|x| x.abs() > limit) {
+        return Err(arg(
+            "values",
+            format!(
+                "{} at row {}, column {}: counts are at most {limit:e}",
+                flat[at],
+                at / shape[1],
+                at % shape[1]
+            ),
+        ));
+    }
+    let rec = skin_core::Recording {
+        taxel_ids,
+        frame_numbers: (0..times.len() as u64).collect(),
+        frames: times
+            .iter()
+            .zip(flat.chunks(shape[1].max(1)))
+            .map(|(&time, row)| skin_core::Frame {
+                time,
+                values: row.to_vec(),
+            })
+            .collect(),
+    };
+    let io = |e: skin_core::output::OutputError| errors::raise(Kind::Input, &e);
+    let is_recording = |p: &Path| {
+        RecordingReader::open(p)
+            .and_then(|mut r| r.next_frame().map(|_| ()))
+            .is_ok()
+    };
+    skin_core::output::check_replaceable(&path, "a recording", is_recording).map_err(io)?;
+    let text = skin_core::format::recording::to_string(&rec);
+    skin_core::output::write_file(
+        &path,
+        text.as_bytes(),
+        &skin_core::output::Inputs::new::<&str>([]),
+    )
+    .map_err(io)
 }
 
 /// A bus map (`busmap.toml`): which module on which bus carries which taxels.

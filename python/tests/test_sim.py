@@ -943,3 +943,132 @@ def test_timesteps_a_skin_cannot_run_at_are_refused():
     with pytest.raises(skin.ArrayError, match="the model's opt.timestep = nan: seconds"):
         SkinLoop(model, data, bridge, skin.Session.from_config(CONFIG))
     assert bare_robot(layout, timestep=MAX_TIMESTEP).option.timestep == MAX_TIMESTEP
+
+
+# --- the force calibration rig (skin.sim.ForceRig) -------------------------------------------
+
+
+def rig_config(tmp_path, calibration):
+    """The fixture's run.toml, its paths made absolute, naming `calibration` as its [force]."""
+    import re
+
+    text = CONFIG.read_text()
+    text = re.sub(
+        r'^(layout|busmap|classifier|segmenter|truth|cache) = "([^"]+)"',
+        lambda m: f'{m[1]} = "{(CONFIG.parent / m[2]).resolve()}"',
+        text,
+        flags=re.M,
+    )
+    text = re.sub(r"^\[force\][^\[]*", "", text, flags=re.M)
+    path = tmp_path / "run.toml"
+    path.write_text(text + f'\n[force]\ncalibration = "{calibration}"\n')
+    return path
+
+
+@pytest.fixture(scope="module")
+def calibrated_rig(tmp_path_factory):
+    """The fixture forearm calibrated by skin.calibrate_force from the rig's files: 30 presses
+    of ball, bar and plate (1-30 N) at half of its taxels."""
+    from skin.sim import ForceRig
+
+    tmp = tmp_path_factory.mktemp("rig")
+    rig = ForceRig(CONFIG)
+    taxels = np.random.default_rng(5).permutation(len(rig.positions))
+    half = (taxels[: len(taxels) // 2], taxels[len(taxels) // 2 :])
+    run = rig.record(rig.script(30, seed=1, places=half[0]), tmp / "cal.txt", tmp / "cal.csv")
+    fit = skin.calibrate_force(CONFIG, tmp / "cal.csv", recording=tmp / "cal.txt", output=tmp / "force.json")
+    return rig, half, run, fit, rig_config(tmp, tmp / "force.json"), tmp
+
+
+def test_the_rig_writes_what_calibrate_force_reads(calibrated_rig):
+    rig, _, run, fit, _, tmp = calibrated_rig
+    # The load file: a sample per frame of the recording, on its clock; a point where pressed.
+    rec = skin.read_recording(tmp / "cal.txt")
+    table = np.genfromtxt(tmp / "cal.csv", delimiter=",", names=True)
+    assert len(rec) == len(table) == run.frames
+    np.testing.assert_allclose(table["time_s"], rec.times, atol=1e-6)
+    pressed = table["force_n"] > 0
+    assert np.isnan(table["x_m"][~pressed]).all() and not np.isnan(table["x_m"][pressed]).any()
+    assert 25 <= table["force_n"].max() <= 31
+    # The fit: the [sim] response's curve (4095 counts, 150 kPa) within 15%, every press explained.
+    assert abs(fit["curve"]["full_scale"] / 4095 - 1) < 0.15, fit["curve"]
+    assert abs(fit["curve"]["half_scale_kpa"] / 150 - 1) < 0.15, fit["curve"]
+    assert fit["fit"]["r_squared"] > 0.99 and len(fit["fit"]["presses"]) == 30
+    assert fit["name"] == "forearm" and len(fit["gains"]) == len(fit["ids"]) == len(rig.positions)
+    on_file = json.loads((tmp / "force.json").read_text())
+    assert on_file["format"] == "skin-force/1" and on_file["links"][0]["gains"] == fit["gains"]
+
+
+def test_a_calibrated_session_reads_held_out_presses_in_newtons(calibrated_rig):
+    from skin.sim import read_with
+
+    rig, half, _, _, config, tmp = calibrated_rig
+    presses = rig.script(12, seed=100, forces=(2.0, 20.0), places=half[1])
+    run = rig.record(presses, tmp / "held.txt", tmp / "held.csv")
+    r = read_with(skin.Session.from_config(config), tmp / "held.txt", tmp / "held.csv")
+    err = r.relative_error((2.0, 20.0))
+    keep = (run.load >= 2.0) & (run.load <= 20.0)
+    ideal = np.abs(run.ideal[keep] - run.load[keep]) / run.load[keep]
+    assert len(err) > 100
+    # Within 12% at the median; no more than 4 points above what a model knowing every taxel's
+    # stress would read (the skin's own floor: its taxels sample a contact coarsely), nor 15
+    # points at the 95th percentile.
+    assert np.median(err) < 0.12, np.median(err)
+    assert np.median(err) < np.median(ideal) + 0.04, (np.median(err), np.median(ideal))
+    assert np.percentile(err, 95) < np.percentile(ideal, 95) + 0.15, (np.percentile(err, 95), np.percentile(ideal, 95))
+    # Where it pressed, across the skin; and the torque is the centre's lever times the force.
+    pressed = keep & ~np.isnan(r.cop[:, 0]) & ~np.isnan(r.point[:, 0])
+    assert np.median(r.cop_error()[pressed]) < 0.003
+    lever = np.cross(r.cop[pressed], r.wrench[pressed])
+    np.testing.assert_array_less(np.linalg.norm(r.torque[pressed] - lever, axis=1), 0.1 * np.linalg.norm(r.torque[pressed], axis=1))
+
+
+def test_a_plate_laid_on_the_skin_is_weighed(calibrated_rig):
+    from skin.sim import RigPress, read_with, weight
+
+    rig, half, _, _, config, tmp = calibrated_rig
+    places = [i for i in rig.places("plate") if i in set(half[1])][:4]
+    presses = [RigPress("plate", tuple(rig.positions[i]), tuple(rig.normals[i]), weight(0.1), 2.0) for i in places]
+    run = rig.record(presses, tmp / "plate.txt", tmp / "plate.csv")
+    r = read_with(skin.Session.from_config(config), tmp / "plate.txt", tmp / "plate.csv")
+    for start, end in run.spans:
+        held = (r.times >= start + 0.5) & (r.times < end - 0.5)
+        assert abs(np.median(r.load[held]) - 0.980665) < 0.03
+        # Read within 10% of what the skin's taxels could tell (`ideal`), and within 30% of its
+        # weight: a plate's edge between two rows of taxels is felt by neither.
+        read, ideal = np.median(r.force[held]), np.median(run.ideal[held])
+        assert abs(read / ideal - 1) < 0.1, (read, ideal)
+        assert abs(read / 0.980665 - 1) < 0.3, read
+
+
+def test_the_rig_refuses_what_it_cannot_do(tmp_path):
+    from skin.sim import ForceRig, RigPress
+
+    rig = ForceRig(CONFIG)
+    with pytest.raises(skin.UnknownNameError, match="no tool 'hammer'"):
+        rig.script(3, tools=("hammer",))
+    with pytest.raises(skin.ArrayError, match="forces"):
+        rig.script(3, forces=(5.0, 1.0))
+    # Not a load file: never overwritten.
+    other = tmp_path / "notes.csv"
+    other.write_text("mine\n")
+    with pytest.raises(skin.ArrayError, match="not replaced"):
+        rig.record([RigPress("ball", tuple(rig.positions[0]), tuple(rig.normals[0]), 2.0)], tmp_path / "r.txt", other)
+    assert other.read_text() == "mine\n" and not (tmp_path / "r.txt").exists()
+
+
+def test_calibrate_force_names_what_is_wrong(calibrated_rig, tmp_path):
+    _, _, _, _, _, tmp = calibrated_rig
+    late = tmp_path / "late.csv"
+    late.write_text("time_s,force_n\n1000,0\n1001,5\n")
+    with pytest.raises(skin.InputError, match="late.csv: no frame of the input falls within"):
+        skin.calibrate_force(CONFIG, late, recording=tmp / "cal.txt")
+    with pytest.raises(skin.ArrayError, match="give one of them"):
+        skin.calibrate_force(CONFIG, late)
+    with pytest.raises(skin.ArrayError, match="link"):
+        skin.calibrate_force(CONFIG, tmp / "cal.csv", recording=tmp / "cal.txt", link="elbow")
+    keep = tmp_path / "keep.json"
+    keep.write_text('{"mine": 1}')
+    with pytest.raises(skin.InputError, match="keep.json"):
+        skin.calibrate_force(CONFIG, tmp / "cal.csv", recording=tmp / "cal.txt", output=keep)
+    assert keep.read_text() == '{"mine": 1}'

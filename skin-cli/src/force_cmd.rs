@@ -1,14 +1,12 @@
 //! `skin calibrate-force`: a link's force model (counts to newtons) fitted from presses with a
 //! known load.
 
-use anyhow::{Context as _, Result, bail};
+use anyhow::{Result, bail};
 use skin_core::format::force_file::ForceCalibration;
 use skin_core::format::load::LoadFile;
-use skin_core::format::recording::RecordingReader;
 use skin_core::output::Inputs;
-use skin_core::text::{Gzip, Input};
-use skin_learn::force_calibration::{ForceFitOptions, LoadedFrames, fit_force, link_areas};
-use skin_learn::session::{FromConfig as _, Session, SessionConfig};
+use skin_learn::force_calibration::{CalibrateForceError, ForceFitOptions, Presses, calibrate_link};
+use skin_learn::session::SessionConfig;
 use std::path::PathBuf;
 
 /// Fit a link's force model from presses with a known load: counts to newtons.
@@ -58,10 +56,10 @@ pub struct Args {
     #[arg(long, value_name = "COUNTS", value_parser = crate::numbers::above(0.0, 1e9))]
     full_scale: Option<f64>,
     /// Standard deviation of the prior holding each gain towards 1.
-    #[arg(long, value_name = "SD", default_value_t = 0.2, value_parser = crate::numbers::above(0.0, 10.0))]
+    #[arg(long, value_name = "SD", default_value_t = ForceFitOptions::default().gain_sd, value_parser = crate::numbers::above(0.0, 10.0))]
     gain_sd: f64,
     /// Frames a taxel must be loaded in to get a gain of its own.
-    #[arg(long, value_name = "N", default_value_t = 3, value_parser = crate::numbers::count::<1, 1_000_000>)]
+    #[arg(long, value_name = "N", default_value_t = ForceFitOptions::default().min_frames, value_parser = crate::numbers::count::<1, 1_000_000>)]
     min_frames: usize,
     /// Where to write the calibration (JSON). An existing force calibration there is replaced;
     /// any other file is refused.
@@ -70,90 +68,57 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let input = args
-        .log
-        .as_ref()
-        .or(args.recording.as_ref())
-        .context("give --log or --recording")?;
+    let presses = match (&args.log, &args.recording) {
+        (Some(log), _) => Presses::Log(log),
+        (None, Some(rec)) => Presses::Recording(rec),
+        (None, None) => bail!("give --log or --recording"),
+    };
     let mut config = SessionConfig::read(&args.config)?;
-    // The calibration being made is not read: the run is in counts (a stale one, of another
-    // layout, would refuse the session), and its file may be the output.
+    // The calibration being made is not read (calibrate_link runs in counts): its file may be
+    // the output, and is no input.
     config.force = None;
-    let mut inputs = Inputs::new([&args.config, input, &args.load]);
+    let mut inputs = Inputs::new([&args.config, presses.path(), &args.load]);
     for p in config.inputs()? {
         inputs.add(&p);
     }
     crate::output::replaceable(&inputs, Some(&args.output), crate::output::Kind::ForceCalibration)?;
     let loads = LoadFile::read(&args.load)?;
-    let mut session = Session::from_config(&config)?;
-    let link = pick_link(&session, args.link.as_deref())?;
-    let frames = match (&args.log, &args.recording) {
-        (Some(log), _) => {
-            let mut sink = LoadedFrames::new(&loads, link, 0.0);
-            let reader = skin_can::candump::CandumpReader::new(Input::open(log, Gzip::Read)?, log);
-            session.run_log(reader, log, &mut sink, &mut |_, _| {})?;
-            sink.finish()?
-        }
-        (None, Some(rec)) => {
-            // The session's stamps count from the recording's first frame; the loads' are on
-            // its time column.
-            let first = RecordingReader::open(rec)?.next_frame()?.map_or(0.0, |f| f.time);
-            let mut sink = LoadedFrames::new(&loads, link, first);
-            session.run_recording(RecordingReader::open(rec)?, rec, &mut sink)?;
-            sink.finish()?
-        }
-        (None, None) => bail!("give --log or --recording"),
-    };
-    let map = session
-        .pipeline()
-        .map(link)
-        .context("the session has no map of the link")?;
-    let areas = link_areas(map).with_context(|| format!("the mesh of link \"{}\"", map.name))?;
     let options = ForceFitOptions {
         full_scale: args.full_scale,
         gain_sd: args.gain_sd,
         min_frames: args.min_frames,
         ..ForceFitOptions::default()
     };
-    let fit = fit_force(&frames, &areas, &options).with_context(|| {
-        format!(
-            "{} with {}: cannot calibrate link \"{}\"",
-            input.display(),
-            args.load.display(),
-            map.name
-        )
+    let calibrated = calibrate_link(
+        &config,
+        presses,
+        &loads,
+        &args.load,
+        args.link.as_deref(),
+        &options,
+    )
+    .map_err(|e| match e {
+        // The command's flag, where the library says "name the one pressed".
+        CalibrateForceError::WhichLink { known } => anyhow::anyhow!(
+            "the layout has {} links ({}): name the one pressed with --link",
+            known.len(),
+            known.join(", ")
+        ),
+        CalibrateForceError::UnknownLink { name, known } => {
+            anyhow::anyhow!("--link {name}: the layout's links are {}", known.join(", "))
+        }
+        e => e.into(),
     })?;
     // Another link's calibration in the file stays: a skin is calibrated a link at a time.
     let mut calibration = match args.output.exists() {
         true => ForceCalibration::read(&args.output)?,
         false => ForceCalibration::new(Vec::new()),
     };
-    let entry = fit.link_force(&map.name, &map.ids);
-    match calibration.links.iter_mut().find(|l| l.name == map.name) {
-        Some(l) => *l = entry,
-        None => calibration.links.push(entry),
-    }
+    calibration.set_link(calibrated.entry());
     crate::output::write_file(&args.output, calibration.to_json().as_bytes(), &inputs)?;
-    say_fit(&fit, &map.name, &map.ids);
+    say_fit(&calibrated.fit, &calibrated.link, &calibrated.ids);
     crate::say!("wrote {}", args.output.display());
     Ok(())
-}
-
-/// The layout index of the link named `name`, or of the only link.
-fn pick_link(session: &Session, name: Option<&str>) -> Result<usize> {
-    let names: Vec<&str> = session.links().iter().map(|l| l.name.as_str()).collect();
-    match name {
-        Some(n) => names
-            .iter()
-            .position(|&m| m == n)
-            .with_context(|| format!("--link {n}: the layout's links are {}", names.join(", "))),
-        None if names.len() == 1 => Ok(0),
-        None => bail!(
-            "the layout has {} links ({}): name the one pressed with --link",
-            names.len(),
-            names.join(", ")
-        ),
-    }
 }
 
 fn say_fit(fit: &skin_learn::force_calibration::ForceFit, link: &str, ids: &[skin_core::TaxelId]) {

@@ -24,8 +24,10 @@ use skin_core::force::{ForceError, ForceModel, ResponseCurve};
 use skin_core::format::force_file::LinkForce;
 
 mod collect;
+mod run;
 
 pub use collect::{CollectError, LoadedFrames};
+pub use run::{CalibrateForceError, LinkCalibration, Presses, calibrate_link};
 
 /// How the fit runs.
 #[derive(Debug, Clone, PartialEq)]

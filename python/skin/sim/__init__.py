@@ -44,17 +44,22 @@ from .arm import PathFollower, two_joint_arm
 from .bridge import SimFrame, SkinBridge, robot_from_urdf
 from .loop import Overpress, SkinLoop, touches
 from .response import Response
+from .rig import ForceRig, RigPress, RigReading, RigRun, read_with, weight
 from .scenes import FINGERS, Action, Kit, Tool, bare_robot
 from .surface import Kernel, Surface, boussinesq, sample_surface
 
 __all__ = [
     "FINGERS",
     "Action",
+    "ForceRig",
     "Kernel",
     "Kit",
     "Overpress",
     "PathFollower",
     "Response",
+    "RigPress",
+    "RigReading",
+    "RigRun",
     "SimFrame",
     "SkinBridge",
     "SkinLoop",
@@ -62,8 +67,10 @@ __all__ = [
     "Tool",
     "bare_robot",
     "boussinesq",
+    "read_with",
     "robot_from_urdf",
     "sample_surface",
     "touches",
     "two_joint_arm",
+    "weight",
 ]

@@ -382,15 +382,16 @@ class SkinBridge:
         """MuJoCo steps in one skin frame."""
         return self._steps_per_frame
 
-    def stress(self, data) -> List[np.ndarray]:
-        """Per link, the stress reaching each taxel (Pa), from the sensor and the contacts of the
-        last step (`mj_step` leaves both as they were at the step's start)."""
+    def _pressing(self, data) -> List[Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+        """Per link, the normal forces (N) of the contacts pressing its skin at the last step,
+        where MuJoCo puts each and where each meets the skin's surface (its frame, metres); None
+        where nothing presses it."""
         mujoco = _mujoco()
         model = self._model
         if model is None:
             raise NotReadyError("bind(model) first")
         body_of = model.geom_bodyid
-        forces: List[List[Tuple[float, np.ndarray]]] = [[] for _ in self._links]
+        forces: List[List[Tuple[float, np.ndarray, np.ndarray]]] = [[] for _ in self._links]
         for i in range(data.ncon):
             c = data.contact[i]
             if c.efc_address < 0 or body_of[c.geom1] == body_of[c.geom2]:
@@ -399,34 +400,64 @@ class SkinBridge:
                 if c.geom1 in link.touched or c.geom2 in link.touched:
                     mujoco.mj_contactForce(model, data, i, self._force)
                     if self._force[0] > 0.0:
-                        forces[k].append((float(self._force[0]), np.array(c.pos)))
-        out = []
+                        # MuJoCo's frame's first axis points from geom1 to geom2: out of the link
+                        # when geom1 is the link's.
+                        out_of = c.frame[:3] if c.geom1 in link.touched else -c.frame[:3]
+                        forces[k].append((float(self._force[0]), np.array(c.pos), np.array(out_of) * abs(c.dist) / 2))
+        out: List[Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]]] = []
         for link, touching in zip(self._links, forces):
             if not touching:
-                # Nothing on the link: no stress at any of its taxels.
-                out.append(np.zeros(len(link.ids)))
+                out.append(None)
                 continue
             # Each contact in the link's frame; one farther from every taxel than the kernel
             # reaches past the samples around a taxel is not on the skin.
             rot = data.xmat[link.body_id].reshape(3, 3)
             origin = data.xpos[link.body_id]
-            fn = np.array([f for f, _ in touching])
-            local = (np.array([p for _, p in touching]) - origin) @ rot
+            fn = np.array([f for f, _, _ in touching])
+            local = (np.array([p for _, p, _ in touching]) - origin) @ rot
+            # MuJoCo puts a contact halfway into the two geoms' overlap: on the skin's surface,
+            # it lies half the overlap further into the link.
+            surface = local - np.array([u for _, _, u in touching]) @ rot
             d2 = ((local[:, None, :] - link.positions[None]) ** 2).sum(axis=2).min(axis=1)
             on_skin = d2 <= link.reach**2
+            out.append((fn[on_skin], local[on_skin], surface[on_skin]) if on_skin.any() else None)
+        return out
+
+    def stress(self, data) -> List[np.ndarray]:
+        """Per link, the stress reaching each taxel (Pa), from the sensor and the contacts of the
+        last step (`mj_step` leaves both as they were at the step's start)."""
+        out = []
+        for link, pressing in zip(self._links, self._pressing(data)):
+            if pressing is None:
+                # Nothing on the link: no stress at any of its taxels.
+                out.append(np.zeros(len(link.ids)))
+                continue
+            fn, local, _ = pressing
             f = np.zeros(len(link.surface.points))
             depth = data.sensordata[link.adr : link.adr + len(link.surface.points)]
             load = depth * link.surface.areas
             s = load.sum()
-            total = float(fn[on_skin].sum())
+            total = float(fn.sum())
             if s > 0.0:
                 f = load * (total / s)
             else:
                 # No point pressed (a touch between the samples): each force where it acts.
-                for force, p in zip(fn[on_skin], local[on_skin]):
+                for force, p in zip(fn, local):
                     f[int(np.argmin(((link.surface.points - p) ** 2).sum(axis=1)))] += force
             out.append(link.kernel.stress(f))
         return out
+
+    def load(self, data, link: Union[int, str] = 0) -> Tuple[float, Optional[np.ndarray]]:
+        """What presses link `link`'s skin at the last step, as a load cell under it would say:
+        the sum of MuJoCo's normal contact forces on it (N; the forces `stress` spreads over the
+        skin) and their centre on the skin's surface, force-weighted (the link's frame, metres;
+        None with nothing pressing)."""
+        pressing = self._pressing(data)[self._index(link)]
+        if pressing is None:
+            return 0.0, None
+        fn, _, surface = pressing
+        total = float(fn.sum())
+        return total, (fn @ surface) / total
 
     def frame(self, data, time: Optional[float] = None) -> SimFrame:
         """The skin's frame now (after the `mj_step` that starts a frame: `SkinLoop` knows when);

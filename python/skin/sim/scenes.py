@@ -1,4 +1,4 @@
-"""A scene kit for tests and examples: a sphere, a bar and a simple hand, pressing, sliding,
+"""A scene kit for tests and examples: a sphere, a bar, a flat plate and a simple hand, pressing, sliding,
 rolling and grasping a skin (`Kit.press`, `slide`, `grasp`, `random_presses`), scripted like
 the fixture session.
 
@@ -235,6 +235,18 @@ class Kit:
         g.rgba = [0.6, 0.6, 0.6, 1]
         self._collide(g)
         self.tools[name].geoms["rod"] = [f"{name}_rod"]
+        return self.tools[name]
+
+    def add_plate(self, name: str = "plate", *, width: float = 0.03, thickness: float = 0.004, mass: float = 0.3) -> Tool:
+        """A flat square plate, `width` metres a side and `thickness` thick, pressing with its
+        face (a weight laid on the skin: `Kit.press` with its weight, `mass * 9.80665` N)."""
+        _positive(width=width, thickness=thickness, mass=mass)
+        mujoco = _mujoco()
+        b = self._body(name, thickness / 2, "plate")
+        g = b.add_geom(name=f"{name}_plate", type=mujoco.mjtGeom.mjGEOM_BOX, size=[width / 2, width / 2, thickness / 2], mass=mass)
+        g.rgba = [0.7, 0.5, 0.3, 1]
+        self._collide(g)
+        self.tools[name].geoms["plate"] = [f"{name}_plate"]
         return self.tools[name]
 
     def add_hand(self, name: str = "hand", *, length: float = 0.18, left: bool = False, mass: float = 0.4) -> Tool:
@@ -503,17 +515,17 @@ class Kit:
     ) -> List[Action]:
         """`count` presses one after the other, each tool of the kit in turn, at random points of
         `points` (world, each with its outward `normals`), random forces (newtons, per kind:
-        hand 8-20, bar 5-20, sphere 3-20 by default), yaws in `yaws` (turned half a turn at
+        hand 8-20, bar 5-20, sphere and plate 3-20 by default), yaws in `yaws` (turned half a turn at
         random) and, for a hand, a random set of fingers (each pressing with probability 0.7).
         Deterministic for `seed`; the skin's first `start` seconds untouched (its baseline)."""
         rng = np.random.default_rng(seed)
-        ranges = {"hand": (8.0, 20.0), "bar": (5.0, 20.0), "sphere": (3.0, 20.0)}
+        ranges = {"hand": (8.0, 20.0), "bar": (5.0, 20.0), "sphere": (3.0, 20.0), "plate": (3.0, 20.0)}
         ranges.update(forces or {})
         points = np.asarray(points, dtype=np.float64)
         normals = np.asarray(normals, dtype=np.float64)
         if len(points) == 0 or points.shape != normals.shape:
             raise ArrayError("points and normals: (N, 3) each, N > 0")
-        names = sorted(self.tools, key=lambda n: ("hand", "bar", "sphere").index(self.tools[n].kind))
+        names = sorted(self.tools, key=lambda n: ("hand", "bar", "sphere", "plate").index(self.tools[n].kind))
         out = []
         t = start
         for k in range(count):

@@ -110,6 +110,15 @@ impl ForceCalibration {
     pub fn link(&self, name: &str) -> Option<&LinkForce> {
         self.links.iter().find(|l| l.name == name)
     }
+
+    /// Puts `entry` in: it replaces the entry of the link of its name, or is added after the
+    /// others (a skin is calibrated a link at a time; the other links' entries stay).
+    pub fn set_link(&mut self, entry: LinkForce) {
+        match self.links.iter_mut().find(|l| l.name == entry.name) {
+            Some(l) => *l = entry,
+            None => self.links.push(entry),
+        }
+    }
 }
 
 impl LinkForce {

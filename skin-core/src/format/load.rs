@@ -4,7 +4,8 @@
 //! Two CSV shapes, told apart by their header line:
 //!
 //! ```text
-//! time_s,force_n[,x_m,y_m,z_m]      a load cell's samples; optionally where it pressed (link frame)
+//! time_s,force_n[,x_m,y_m,z_m]      a load cell's samples; optionally where it pressed (link frame;
+//!                                   left empty where nothing pressed)
 //! 0.00,0.0
 //! 0.05,1.92,0.031,0.002,0.040
 //!
@@ -146,13 +147,20 @@ impl Rows {
 
     /// One row after the header; why it is refused, with the fix.
     fn push(&mut self, fields: &[&str]) -> std::result::Result<(), String> {
-        let v = numbers(fields, self.shape.columns())?;
+        // A sample with nothing pressing has no point: its x_m, y_m, z_m may be left empty.
+        let unplaced = matches!(self.shape, Shape::Cell { point: true })
+            && fields.len() == 5
+            && fields[2..].iter().all(|f| f.is_empty());
+        let v = match unplaced {
+            true => numbers(&fields[..2], 2)?,
+            false => numbers(fields, self.shape.columns())?,
+        };
         match self.shape {
             Shape::Cell { point } => {
                 let sample = LoadSample {
                     time_s: v[0],
                     force_n: force(v[1])?,
-                    point: point.then(|| Point3::new(v[2], v[3], v[4])),
+                    point: (point && !unplaced).then(|| Point3::new(v[2], v[3], v[4])),
                 };
                 if let Some(last) = self.cell.last().map(|l| l.time_s)
                     && sample.time_s <= last
@@ -303,6 +311,15 @@ mod tests {
             Loads::Held(_) => None,
         };
         assert_eq!(point, Some(Point3::new(0.01, 0.02, 0.03)));
+        // Nothing pressing, no point; a point half given is refused.
+        let f = read("time_s,force_n,x_m,y_m,z_m\n0,0,,,\n1,1,0.01,0.02,0.03\n").unwrap();
+        let points: Vec<_> = match &f.loads {
+            Loads::Cell(s) => s.iter().map(|s| s.point.is_some()).collect(),
+            Loads::Held(_) => Vec::new(),
+        };
+        assert_eq!(points, [false, true]);
+        let e = error("time_s,force_n,x_m,y_m,z_m\n0,0,0.01,,\n1,1,0.01,0.02,0.03\n");
+        assert!(e.contains("line 2") && e.contains("field 4"), "{e}");
     }
 
     #[test]
