@@ -1072,3 +1072,27 @@ def test_calibrate_force_names_what_is_wrong(calibrated_rig, tmp_path):
     with pytest.raises(skin.InputError, match="keep.json"):
         skin.calibrate_force(CONFIG, tmp / "cal.csv", recording=tmp / "cal.txt", output=keep)
     assert keep.read_text() == '{"mine": 1}'
+
+
+def test_a_held_press_keeps_its_force_and_drift_is_still_corrected(calibrated_rig, tmp_path):
+    """10 N held 60 s, then nothing for 20 s, the whole skin's rest level rising 0.5 counts a
+    second throughout (as temperature moves it): the press keeps its reading (the baseline does
+    not learn it away) and, once it is gone, the drift is followed (no touch appears)."""
+    from skin.sim import RigPress, read_with
+
+    rig, half, _, _, config, tmp = calibrated_rig
+    i = int(rig.places("ball")[len(rig.places("ball")) // 2])
+    press = RigPress("ball", tuple(rig.positions[i]), tuple(rig.normals[i]), 10.0, 62.0)
+    rig.record([press], tmp_path / "still.txt", tmp_path / "held.csv", settle=1.5, gap=20.0)
+    rec = skin.read_recording(tmp_path / "still.txt")
+    drifting = rec.values + 0.5 * (rec.times - rec.times[0])[:, None].astype(np.float32)
+    skin.write_recording(tmp_path / "held.txt", rec.ids, rec.times, np.rint(drifting))
+    session = skin.Session.from_config(config)
+    r = read_with(session, tmp_path / "held.txt", tmp_path / "held.csv")
+    at = lambda t: int(np.argmin(np.abs(r.times - t)))  # noqa: E731
+    start, end = at(5.0), at(61.0)
+    assert abs(r.load[start] - 10.0) < 0.1 and abs(r.load[end] - 10.0) < 0.1
+    assert r.force[end] >= 0.9 * r.force[start], (r.force[start], r.force[end])
+    after = r.times >= 70.0
+    assert after.sum() > 150 and (r.load[after] == 0).all()
+    assert (r.force[after] == 0).all() and np.isnan(r.cop[after, 0]).all()

@@ -8,7 +8,9 @@
 //! the offset in the direction pressure moves it, zero when within the noise threshold (the
 //! active-set threshold eps of thesis Ch. 9.2.1, per taxel). While a taxel is not in contact
 //! its offset follows the reading slowly, so drift is tracked without eating into a touch (the
-//! iCub skin manager's compensation works the same way).
+//! iCub skin manager's compensation works the same way); a taxel in contact follows the mean
+//! drift of its link's taxels that are not, so that a press held while the rest level moves
+//! keeps its pressure and leaves no phantom touch behind.
 //!
 //! A session can start at any moment, someone leaning on the skin included:
 //! - Frames that are not idle are not learned from. A taxel that moved during the idle frames far
@@ -201,6 +203,8 @@ impl Baseline {
             Polarity::Falling => -1.0,
         };
         let mut reset = 0;
+        // What the taxels not in contact follow this frame, summed: the link's common drift.
+        let (mut followed, mut following) = (0.0f64, 0usize);
         for (i, (((p, &r), o), &eps)) in pressures
             .iter_mut()
             .zip(raw)
@@ -235,7 +239,21 @@ impl Baseline {
                 // Not in contact: follow the reading (both ways, so drift in either direction
                 // is tracked).
                 self.below[i] = 0;
-                *o += self.drift * (r - *o);
+                let step = self.drift * (r - *o);
+                *o += step;
+                followed += f64::from(step);
+                following += 1;
+            }
+        }
+        // A taxel in contact cannot tell drift from pressure, so it follows the link's common
+        // drift (temperature moves a link's taxels together): a press held for minutes while the
+        // rest level rises keeps its pressure, and leaves no phantom touch when it goes.
+        if following > 0 {
+            let common = (followed / following as f64) as f32;
+            for (o, &p) in self.offset.iter_mut().zip(pressures.iter()) {
+                if p > 0.0 {
+                    *o += common;
+                }
             }
         }
         Ok(reset)

@@ -105,6 +105,7 @@ fn drift_is_followed_only_while_there_is_no_contact() {
         ..BaselineOptions::default()
     };
     let (mut b, _) = learn(&idle(40), &options);
+    let before = b.offsets().to_vec();
     let mut p = [0.0f32; 6];
     // The no-contact reading of taxel 0 creeps up by 20 counts over 400 frames...
     for k in 0..400 {
@@ -118,11 +119,50 @@ fn drift_is_followed_only_while_there_is_no_contact() {
     // An exponential follower lags a ramp by slope / rate = (20 / 400) / 0.05 = 1 count.
     let last = 1000.0 + 20.0 * 399.0 / 400.0;
     assert!((b.offsets()[0] - (last - 1.0)).abs() < 0.05, "{}", b.offsets()[0]);
+    // The pressed taxel follows what the others followed, on average (the link's common drift:
+    // here a fifth of taxel 0's), not its own reading.
+    let others = [0, 2, 3, 4, 5];
+    let common = others.iter().map(|&i| b.offsets()[i] - before[i]).sum::<f32>() / others.len() as f32;
+    assert!(common > 3.0 && common < 4.2, "{common}");
     assert!(
-        (b.offsets()[1] - 1010.0).abs() < 1e-3,
-        "a pressed taxel keeps its offset"
+        (b.offsets()[1] - (before[1] + common)).abs() < 1e-2,
+        "a pressed taxel follows the common drift: {} vs {}",
+        b.offsets()[1],
+        before[1] + common
     );
-    assert!((p[1] - 500.0).abs() < 1e-3);
+    assert!((p[1] - (1510.0 - b.offsets()[1])).abs() < 0.1);
+}
+
+#[test]
+fn a_press_held_while_the_whole_link_drifts_keeps_its_pressure_and_leaves_nothing() {
+    let (mut b, _) = learn(&idle(40), &BaselineOptions::default());
+    let mut p = [0.0f32; 6];
+    let mut first = None;
+    // Every taxel's rest rises 40 counts over 1,200 frames (a minute at 20 Hz) while taxel 1
+    // is pressed 500 counts above it.
+    for k in 0..1200 {
+        let mut raw: Vec<f32> = idle(1)[0].clone();
+        let drift = 40.0 * k as f32 / 1200.0;
+        raw.iter_mut().for_each(|r| *r += drift);
+        raw[1] = 1010.0 + drift + 500.0;
+        b.apply(&raw, &mut p).unwrap();
+        first.get_or_insert(p[1]);
+        assert!(
+            p.iter().enumerate().all(|(i, &v)| i == 1 || v == 0.0),
+            "frame {k}: {p:?}"
+        );
+    }
+    let first = first.unwrap();
+    assert!(
+        (p[1] - first).abs() < 0.05 * first,
+        "the held press keeps its pressure: {first} then {}",
+        p[1]
+    );
+    // Released: it reads nothing, at once.
+    let mut raw: Vec<f32> = idle(1)[0].clone();
+    raw.iter_mut().for_each(|r| *r += 40.0);
+    b.apply(&raw, &mut p).unwrap();
+    assert_eq!(p, [0.0; 6], "no phantom touch where the press was");
 }
 
 #[test]
