@@ -458,23 +458,17 @@ def test_a_keyword_out_of_run_tomls_bounds_is_named(keyword, value, words):
 
 
 def test_a_force_calibration_gives_contacts_newtons_and_the_link_a_wrench(tmp_path):
-    import json
     import pickle
+    import re
 
-    # A calibration of the forearm with the [sim] table's curve and every gain 1, as
-    # `skin calibrate-force` writes it; run.toml names it in [force].
-    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
-    ids = [int(i) for i in layout.links[0].ids]
-    calibration = {
-        "format": "skin-force/1",
-        "links": [{"name": "forearm", "curve": {"full_scale": 4095.0, "half_scale_kpa": 150.0}, "ids": ids, "gains": [1.0] * len(ids)}],
-    }
-    (tmp_path / "force.json").write_text(json.dumps(calibration))
+    # The fixture's run.toml names the forearm's calibration (fixtures/forearm/force.md); the
+    # same configuration without its [force] table is in counts.
     text = CONFIG.read_text().replace('"../', f'"{FIXTURES.as_posix()}/').replace('truth = "session.tsv"', f'truth = "{(FIXTURES / "session" / "session.tsv").as_posix()}"')
     config = tmp_path / "run.toml"
-    config.write_text(text + '\n[force]\ncalibration = "force.json"\n')
-    plain = skin.Session.from_config(CONFIG)
-    session = skin.Session.from_config(config)
+    config.write_text(re.sub(r"^\[force\][^\[]*", "", text, flags=re.M))
+    assert "[force]" in text and "[force]" not in config.read_text()
+    plain = skin.Session.from_config(config)
+    session = skin.Session.from_config(CONFIG)
     assert session.wrench("forearm") is not None and plain.wrench("forearm") is None
     appeared = None
     for f in log_frames():

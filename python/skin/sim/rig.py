@@ -316,6 +316,10 @@ def _write_atomically(path: Path, text: str) -> None:
     """`text` into `path`, complete or not at all: a file beside it, renamed over it."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent or ".")
     try:
+        # mkstemp's file is the owner's alone; the file written is as any other the user makes.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.replace(tmp, path)
@@ -325,11 +329,11 @@ def _write_atomically(path: Path, text: str) -> None:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    """`python -m skin.sim.rig`: a rig's two files for a scripted series of presses."""
+    """`python -m skin.sim`: a rig's two files for a scripted series of presses."""
     import argparse
 
     ap = argparse.ArgumentParser(
-        prog="python -m skin.sim.rig",
+        prog="python -m skin.sim",
         description=(
             "Scripted presses of known force on a run configuration's simulated skin (MuJoCo), written as a raw "
             "recording and a load cell's CSV (time_s,force_n,x_m,y_m,z_m: N, and metres in the link's frame): "
@@ -355,6 +359,3 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     print(f"{len(presses)} presses, {run.frames} frames ({run.times[-1]:.1f} s): wrote {a.recording} and {a.load}")
     return 0
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -163,9 +163,12 @@ impl Summary<'_> {
                 "\n  the last {TOUCH_HISTORY} listed (a session keeps no more; the events have every touch)"
             )?;
         }
+        // A column of newtons when a link has a force model (its touches' peak force).
+        let newtons = (0..s.setup.links.len()).any(|l| s.pipeline.force_model(l).is_some());
         write!(
             out,
-            "\n  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}parts",
+            "\n  touch  link        start s   end s  class        prob  taxels  area cm2  mean  {}{}parts",
+            if newtons { "peak N  " } else { "" },
             if s.tally.is_some() {
                 "script               "
             } else {
@@ -195,8 +198,13 @@ impl Summary<'_> {
                 }
                 _ => String::new(),
             };
+            let force = match (newtons, d.peak.force_n) {
+                (false, _) => String::new(),
+                (true, Some(f)) => format!("{f:>6.1}  "),
+                (true, None) => format!("{:>6}  ", "-"),
+            };
             let row = format!(
-                "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {script}{parts}",
+                "  {:>5}  {:<10} {:>7.2} {:>7.2}  {:<10} {:>6}  {:>6}  {:>8.1}  {:>4.0}  {force}{script}{parts}",
                 d.id,
                 s.setup.links[d.link].name,
                 d.start,
