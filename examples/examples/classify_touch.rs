@@ -49,7 +49,7 @@ impl Sink for Robot {
                     parts.join(", ")
                 );
             }
-            Event::Gate { time, action } => {
+            Event::Gate { time, action, .. } => {
                 let say = match action {
                     GateAction::Stop => "stop the arm",
                     GateAction::Comply => "comply: follow the hand",

@@ -168,8 +168,16 @@ class ReleasedEvent(_ReleasedDecision):
     peak: Footprint
 
 
-class GateEvent(TypedDict):
-    """What the robot should do changed."""
+class _OverForce(TypedDict, total=False):
+    link: str
+    touch: int
+    force_n: float
+    limit_n: float
+
+
+class GateEvent(_OverForce):
+    """What the robot should do changed; when it stops because a touch pressed past its class's
+    force limit (`[gate] force_n`), that touch's `link`, `touch`, `force_n` and `limit_n` (N)."""
 
     event: Literal["gate"]
     time: float

@@ -116,6 +116,17 @@ fn setting_error(e: &SettingError) -> PyErr {
             Some((keyword, _)) => arg(keyword, format!("{value}: expected {expected}")),
             None => errors::error(Kind::Array, e),
         },
+        SettingError::ForceLimit {
+            class,
+            value,
+            expected,
+        } => arg(
+            "gate",
+            format!(
+                "force_n[{class:?}] = {}: expected {expected}",
+                crate::arrays::num(*value)
+            ),
+        ),
         SettingError::GateClass { class, classes } => arg(
             "gate",
             format!("{class:?} is none of the classes ({})", classes.join(", ")),

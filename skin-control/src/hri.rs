@@ -88,6 +88,17 @@ pub enum TouchClass {
 /// assert_eq!(gate.decide([unsure]), GateAction::Stop);
 /// assert_eq!(gate.decide([GateTouch { probability: 0.999, ..unsure }]), GateAction::Comply);
 /// assert_eq!(gate.decide([GateTouch { border_mm: 40.0, ..unsure }]), GateAction::Comply);
+///
+/// // A force limit per class (ISO/TS 15066's quasi-static limits are per body region): a
+/// // hand pressing 150 N is stopped, one pressing 40 N guides the arm.
+/// let mut gate = ClassGate::new([("hand", GateAction::Comply), ("non_hand", GateAction::Stop)]);
+/// gate.force_n.insert("hand".into(), 140.0);
+/// let hand = GateTouch { class: "hand", hand: true, probability: 1.0, border_mm: 40.0, force_n: Some(150.0) };
+/// assert_eq!(gate.decide([hand]), GateAction::Stop);
+/// assert_eq!(gate.force_crossed(&hand), Some(140.0));
+/// assert_eq!(gate.decide([GateTouch { force_n: Some(40.0), ..hand }]), GateAction::Comply);
+/// // A touch the skin cannot weigh (no force calibration) is judged by its class alone.
+/// assert_eq!(gate.decide([GateTouch { force_n: None, ..hand }]), GateAction::Comply);
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ClassGate {
@@ -96,7 +107,15 @@ pub struct ClassGate {
     /// What a hand decided with little confidence near the skin's border gets instead (none:
     /// a hand is a hand wherever it touches).
     pub border: Option<BorderRule>,
+    /// Each class's force limit, newtons, by the class's name (`[gate] force_n = { hand = 140 }`):
+    /// a touch of the class pressing harder gets `stop`, whatever its class's action. A class
+    /// without one, or a touch the skin cannot weigh (no force calibration), has no limit.
+    pub force_n: std::collections::BTreeMap<String, f64>,
 }
+
+/// The largest force limit a gate takes, newtons: far beyond any body region's limit, and a
+/// number in a file is checked before it is trusted.
+pub const MAX_FORCE_LIMIT_N: f64 = 1e5;
 
 /// The gate's rule for a touch at the skin's border (`[gate] border = { ... }`): a touch decided
 /// to be the hand with a probability under `hand_below`, some of whose taxels lie within
@@ -163,6 +182,8 @@ pub struct GateTouch<'a> {
     pub probability: f64,
     /// The least distance of the touch's taxels from the skin's border, millimetres.
     pub border_mm: f64,
+    /// The force it presses with now, newtons; none where the skin has no force calibration.
+    pub force_n: Option<f64>,
 }
 
 impl<'a> From<&'a str> for GateTouch<'a> {
@@ -172,6 +193,7 @@ impl<'a> From<&'a str> for GateTouch<'a> {
             hand: false,
             probability: 1.0,
             border_mm: f64::INFINITY,
+            force_n: None,
         }
     }
 }
@@ -182,6 +204,27 @@ impl ClassGate {
         ClassGate {
             actions: actions.into_iter().map(|(c, a)| (c.into(), a)).collect(),
             border: None,
+            force_n: Default::default(),
+        }
+    }
+
+    /// The force limit `touch` presses beyond, newtons, if it does: its class's, when the
+    /// class has one and the touch is weighed.
+    pub fn force_crossed(&self, touch: &GateTouch<'_>) -> Option<f64> {
+        let limit = *self.force_n.get(touch.class)?;
+        (touch.force_n? > limit).then_some(limit)
+    }
+
+    /// The force limits against their bounds (more than 0 and at most [`MAX_FORCE_LIMIT_N`]
+    /// newtons): the first out of them as (its class, its value, what it takes).
+    pub fn check_force(&self) -> Result<(), (&str, f64, &'static str)> {
+        match self
+            .force_n
+            .iter()
+            .find(|&(_, &n)| !(n > 0.0 && n <= MAX_FORCE_LIMIT_N))
+        {
+            Some((class, &n)) => Err((class, n, "newtons, more than 0 and at most 100000")),
+            None => Ok(()),
         }
     }
 
@@ -190,9 +233,12 @@ impl ClassGate {
         self.actions.get(class).copied()
     }
 
-    /// The action for one touch: its class's, or the border rule's for an unsure hand at the
-    /// border.
+    /// The action for one touch: `stop` past its class's force limit, else its class's, or the
+    /// border rule's for an unsure hand at the border.
     pub fn action_for(&self, touch: &GateTouch<'_>) -> Option<GateAction> {
+        if self.force_crossed(touch).is_some() {
+            return Some(GateAction::Stop);
+        }
         match self.border {
             Some(rule)
                 if touch.hand
@@ -433,10 +479,12 @@ mod config {
         }
     }
 
-    /// The key of a `[gate]` table that is not a class's: the border rule.
+    /// The keys of a `[gate]` table that are not a class's: the border rule, the force limits.
     const BORDER: &str = "border";
+    const FORCE: &str = "force_n";
 
-    /// `[gate]`: `border` is the border rule, every other key a class's name and its action.
+    /// `[gate]`: `border` is the border rule, `force_n` the force limits by class, every other
+    /// key a class's name and its action.
     impl<'de> serde::Deserialize<'de> for ClassGate {
         fn deserialize<D: Deserializer<'de>>(d: D) -> Result<ClassGate, D::Error> {
             d.deserialize_map(GateVisitor)
@@ -449,7 +497,9 @@ mod config {
         type Value = ClassGate;
 
         fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            f.write_str("a table of class names and actions (stop, comply, slow or resume), and border")
+            f.write_str(
+                "a table of class names and actions (stop, comply, slow or resume), border and force_n",
+            )
         }
 
         fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ClassGate, A::Error> {
@@ -457,12 +507,58 @@ mod config {
             while let Some(key) = map.next_key::<String>()? {
                 if key == BORDER {
                     gate.border = Some(map.next_value::<BorderRule>()?);
+                } else if key == FORCE {
+                    gate.force_n = map.next_value::<ForceLimits>()?.0;
                 } else {
                     let action = map.next_value_seed(ActionOf(&key))?;
                     gate.actions.insert(key, action);
                 }
             }
             Ok(gate)
+        }
+    }
+
+    /// `force_n = { class = newtons, ... }`, each limit's error naming its class.
+    struct ForceLimits(std::collections::BTreeMap<String, f64>);
+
+    impl<'de> serde::Deserialize<'de> for ForceLimits {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<ForceLimits, D::Error> {
+            d.deserialize_map(LimitsVisitor)
+        }
+    }
+
+    struct LimitsVisitor;
+
+    impl<'de> Visitor<'de> for LimitsVisitor {
+        type Value = ForceLimits;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str(
+                "force_n: a table of class names and force limits in newtons (force_n = { hand = 140 })",
+            )
+        }
+
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ForceLimits, A::Error> {
+            let mut limits = std::collections::BTreeMap::new();
+            while let Some(class) = map.next_key::<String>()? {
+                let n = map.next_value_seed(LimitOf(&class))?;
+                limits.insert(class, n);
+            }
+            Ok(ForceLimits(limits))
+        }
+    }
+
+    /// A class's force limit, its error naming the class.
+    struct LimitOf<'k>(&'k str);
+
+    impl<'de> de::DeserializeSeed<'de> for LimitOf<'_> {
+        type Value = f64;
+
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<f64, D::Error> {
+            <f64 as serde::Deserialize>::deserialize(d).map_err(|e| {
+                let class: String = self.0.chars().take(40).collect();
+                de::Error::custom(format_args!("force_n.{class}: {e} (a force limit in newtons)"))
+            })
         }
     }
 
@@ -482,7 +578,7 @@ mod config {
         }
     }
 
-    /// Written as it is read: the classes' actions, then `border`.
+    /// Written as it is read: the classes' actions, then `border` and `force_n`.
     impl serde::Serialize for ClassGate {
         fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
             let mut map = s.serialize_map(None)?;
@@ -491,6 +587,9 @@ mod config {
             }
             if let Some(border) = &self.border {
                 map.serialize_entry(BORDER, border)?;
+            }
+            if !self.force_n.is_empty() {
+                map.serialize_entry(FORCE, &self.force_n)?;
             }
             map.end()
         }

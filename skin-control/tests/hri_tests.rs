@@ -203,6 +203,7 @@ fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
         hand: true,
         probability,
         border_mm,
+        force_n: None,
     };
     // Within the distance (inclusive) and under the bar: the rule's action.
     assert_eq!(gate.decide([hand(0.6, 0.0)]), GateAction::Stop);
@@ -218,6 +219,7 @@ fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
         hand: false,
         probability: 0.55,
         border_mm: 0.0,
+        force_n: None,
     };
     assert_eq!(gate.decide([other]), GateAction::Slow);
     // The rule's action is weighed with the others': stop still wins.
@@ -225,6 +227,43 @@ fn an_unsure_hand_at_the_border_gets_the_border_rules_action() {
     // Without a rule, a hand is a hand wherever it touches.
     let plain = ClassGate { border: None, ..gate };
     assert_eq!(plain.decide([hand(0.51, 0.0)]), GateAction::Comply);
+}
+
+#[test]
+fn a_touch_past_its_class_force_limit_stops_the_arm() {
+    use skin_control::hri::{ClassGate, GateAction, GateTouch};
+    let mut gate = ClassGate::new([("hand", GateAction::Comply), ("non_hand", GateAction::Slow)]);
+    gate.force_n.insert("hand".into(), 140.0);
+    gate.force_n.insert("non_hand".into(), 65.0);
+    let touch = |class, force_n| GateTouch {
+        class,
+        hand: class == "hand",
+        probability: 1.0,
+        border_mm: 50.0,
+        force_n,
+    };
+    // At the limit the class's action holds; past it, stop, and the limit is named.
+    assert_eq!(gate.decide([touch("hand", Some(140.0))]), GateAction::Comply);
+    assert_eq!(gate.decide([touch("hand", Some(140.5))]), GateAction::Stop);
+    assert_eq!(gate.force_crossed(&touch("hand", Some(140.5))), Some(140.0));
+    assert_eq!(gate.decide([touch("non_hand", Some(70.0))]), GateAction::Stop);
+    assert_eq!(gate.decide([touch("non_hand", Some(60.0))]), GateAction::Slow);
+    // Unweighed, a NaN force, or a class without a limit: the class's action.
+    assert_eq!(gate.decide([touch("hand", None)]), GateAction::Comply);
+    assert_eq!(gate.decide([touch("hand", Some(f64::NAN))]), GateAction::Comply);
+    let other = GateTouch {
+        class: "elbow",
+        ..touch("hand", Some(1e4))
+    };
+    assert_eq!(gate.force_crossed(&other), None);
+    // Stop for force wins over a hand guiding the arm at the same time.
+    assert_eq!(
+        gate.decide([touch("hand", Some(20.0)), touch("non_hand", Some(80.0))]),
+        GateAction::Stop
+    );
+    assert!(gate.check_force().is_ok());
+    gate.force_n.insert("hand".into(), -3.0);
+    assert_eq!(gate.check_force().unwrap_err().0, "hand");
 }
 
 #[test]

@@ -294,7 +294,9 @@ fn touch_split_is_read_with_its_defaults_and_checked() {
 fn the_gates_border_rule_is_read_with_its_defaults_and_checked() {
     use skin_control::hri::{BorderRule, GateAction};
     let path = Path::new("/nowhere/run.toml");
-    let gate = |extra: &str| format!("layout = \"l.json\"\n[gate]\nhand = \"comply\"\n{extra}");
+    let gate = |extra: &str| {
+        format!("layout = \"l.json\"\n[force]\ncalibration = \"f.json\"\n[gate]\nhand = \"comply\"\n{extra}")
+    };
     let plain = SessionConfig::parse(&gate(""), path).unwrap();
     assert_eq!(plain.gate.and_then(|g| g.border), None);
     let default = SessionConfig::parse(&gate("border = {}\n"), path).unwrap();
@@ -324,6 +326,111 @@ fn the_gates_border_rule_is_read_with_its_defaults_and_checked() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("within"), "{e}");
+    // Force limits, newtons, by class.
+    let limits = SessionConfig::parse(&gate("force_n = { hand = 140, non_hand = 65.5 }\n"), path).unwrap();
+    let limits = limits.gate.unwrap().force_n;
+    assert_eq!((limits["hand"], limits["non_hand"]), (140.0, 65.5));
+    for (extra, said) in [
+        ("force_n = { hand = -1 }\n", "[gate] force_n.hand = -1"),
+        ("force_n = { hand = 0 }\n", "[gate] force_n.hand = 0"),
+        ("force_n = { hand = 1e9 }\n", "at most 100000"),
+        ("force_n = { hand = \"a lot\" }\n", "force_n"),
+    ] {
+        let e = SessionConfig::parse(&gate(extra), path).unwrap_err().to_string();
+        assert!(e.contains(said), "{extra}: {e}");
+    }
+    // Limits with nothing to weigh a touch with are refused, not ignored.
+    let unweighed = "layout = \"l.json\"\n[gate]\nhand = \"comply\"\nforce_n = { hand = 140 }\n";
+    let e = SessionConfig::parse(unweighed, path).unwrap_err().to_string();
+    assert!(e.contains("[gate] force_n") && e.contains("[force]"), "{e}");
+}
+
+/// The fixture session (its forearm calibrated in newtons) with a force limit on hands: every
+/// hand pressing past it stops the arm, the event names the touch, its force and the limit, and
+/// the stop holds until that touch is released, however its force goes meanwhile.
+#[test]
+fn a_hand_pressing_past_its_force_limit_stops_the_arm_until_it_lets_go() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/session");
+    let mut config = SessionConfig::read(&root.join("run.toml")).unwrap();
+    let limit = 20.0;
+    config.gate.as_mut().unwrap().force_n.insert("hand".into(), limit);
+    let log_path = root.join("session.candump.log");
+    let log = CandumpLog::read(&log_path).unwrap();
+    let mut session = session_of(&config);
+    let mut events: Vec<Event> = Vec::new();
+    session
+        .run_log(&log, &log_path, &mut events, &mut |_, _| {})
+        .unwrap();
+    let peaks: Vec<(u64, f64, bool)> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Released { touch, .. } => Some((
+                touch.id,
+                touch.peak.force_n.unwrap(),
+                touch.decision.as_ref().is_some_and(|d| d.class.is_hand()),
+            )),
+            _ => None,
+        })
+        .collect();
+    let strong: Vec<u64> = peaks.iter().filter(|p| p.2 && p.1 > limit).map(|p| p.0).collect();
+    let weak = peaks.iter().filter(|p| p.2 && p.1 <= limit).count();
+    assert!(strong.len() >= 3 && weak >= 3, "{peaks:?}");
+    let mut stopped = Vec::new();
+    for (k, e) in events.iter().enumerate() {
+        if let Event::Gate {
+            action,
+            over: Some(o),
+            ..
+        } = e
+        {
+            assert_eq!(*action, GateAction::Stop);
+            assert!(
+                o.force_n > limit && o.limit_n == limit && o.link == "forearm",
+                "{o:?}"
+            );
+            stopped.push(o.touch);
+            // Stopped until the touch is released: the next gate event comes with its release.
+            let next = events[k + 1..]
+                .iter()
+                .position(|e| matches!(e, Event::Gate { .. }))
+                .map(|j| k + 1 + j);
+            let released = events[k + 1..]
+                .iter()
+                .position(|e| matches!(e, Event::Released { touch, .. } if touch.id == o.touch))
+                .map(|j| k + 1 + j)
+                .unwrap();
+            assert!(next.is_none_or(|n| n > released), "{:?}", &events[k..=released]);
+            let mut line = Vec::new();
+            e.write_json(&mut line).unwrap();
+            let line = String::from_utf8(line).unwrap();
+            assert!(
+                line.contains("\"force_n\"") && line.contains("\"limit_n\":20.0"),
+                "{line}"
+            );
+        }
+    }
+    // Each hand that pressed past the limit while decided stopped the arm; none under it did.
+    assert!(
+        !stopped.is_empty() && stopped.iter().all(|t| strong.contains(t)),
+        "{stopped:?} {strong:?}"
+    );
+    // Every decision is as without the limit; only the gate differs.
+    let plain = SessionConfig::read(&root.join("run.toml")).unwrap();
+    let mut plain_events: Vec<Event> = Vec::new();
+    session_of(&plain)
+        .run_log(&log, &log_path, &mut plain_events, &mut |_, _| {})
+        .unwrap();
+    let kinds = |ev: &[Event]| -> Vec<String> {
+        ev.iter()
+            .filter(|e| !matches!(e, Event::Gate { .. }))
+            .map(|e| {
+                let mut line = Vec::new();
+                e.write_json(&mut line).unwrap();
+                String::from_utf8(line).unwrap()
+            })
+            .collect()
+    };
+    assert_eq!(kinds(&events), kinds(&plain_events));
 }
 
 /// Per real recording of `fingers` fingers: the most contacts in one of its touches, with the

@@ -168,6 +168,7 @@ impl Decision {
             hand: self.class.is_hand(),
             probability: f64::from(self.probability),
             border_mm: f64::from(self.border_mm),
+            force_n: None,
         }
     }
 }
@@ -619,6 +620,20 @@ impl TouchPipeline {
         self.links
             .iter()
             .filter_map(|l| l.touch.as_ref()?.decision.as_ref())
+    }
+
+    /// What the gate weighs of each decided touch in progress, with its link and number: its
+    /// decision and, on a link with a force model, the force its contacts press with now (the
+    /// last frame's).
+    pub fn open_gate_touches(
+        &self,
+    ) -> impl Iterator<Item = (usize, u64, skin_control::hri::GateTouch<'_>)> + '_ {
+        self.links.iter().enumerate().filter_map(|(k, l)| {
+            let touch = l.touch.as_ref()?;
+            let gate = touch.decision.as_ref()?.gate_touch();
+            let force_n = l.force.as_ref().map(|f| f.wrench.magnitude);
+            Some((k, touch.id, skin_control::hri::GateTouch { force_n, ..gate }))
+        })
     }
 
     /// The tactile map of `link` as built (every taxel, before dead ones are bridged): where

@@ -124,6 +124,10 @@ pub fn calibrate_link(
 ) -> Result<LinkCalibration, CalibrateForceError> {
     let mut config = config.clone();
     config.force = None;
+    // In counts, no touch has a force to gate on.
+    if let Some(gate) = &mut config.gate {
+        gate.force_n.clear();
+    }
     let mut session = Session::from_config(&config)?;
     let index = pick_link(&session, link)?;
     let frames = match presses {

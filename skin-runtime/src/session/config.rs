@@ -37,6 +37,12 @@
 //!                                 # optional: a hand less sure than hand_below whose taxels
 //!                                 # come within within_mm of the skin's border gets action
 //!                                 # (`border` is this rule's key, never a class's)
+//! force_n = { hand = 140, non_hand = 65 }
+//!                                 # optional, needs [force]: a touch of the class pressing
+//!                                 # harder (newtons, its contacts summed) stops the arm until
+//!                                 # it is released, its force named in the gate event (as
+//!                                 # ISO/TS 15066's quasi-static limits per body region);
+//!                                 # no limit by default (`force_n` is never a class's)
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time
 //! [force]                         # optional: newtons from counts (skin calibrate-force)
@@ -330,6 +336,19 @@ impl SessionConfig {
             })?;
         if let Some(sim) = &config.sim {
             sim.check(path)?;
+        }
+        // A force limit with nothing to weigh a touch with would never stop the arm: refused
+        // rather than trusted.
+        if config.force.is_none()
+            && let Some(class) = config.gate.as_ref().and_then(|g| g.force_n.keys().next())
+        {
+            return Err(ConfigError::Value {
+                file: path.to_owned(),
+                field: "[gate] force_n",
+                value: format!("{{ {} = ... }}", class.chars().take(40).collect::<String>()),
+                expected: "a force calibration to weigh touches with ([force] calibration = \"force.json\", \
+                           made by skin calibrate-force): without one no touch has a force, and no limit could stop the arm",
+            });
         }
         Ok(config)
     }

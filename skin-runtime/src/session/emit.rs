@@ -1,8 +1,9 @@
 //! The touch pipeline's events to the sinks, with the link's name (and the image a decision was
 //! made on), and the gate's action when it changes.
 
-use super::{Event, Session, SessionError, Sink, send};
+use super::{Event, OverForce, Session, SessionError, Sink, send};
 use crate::touch::TouchEvent;
+use skin_control::hri::GateAction;
 use skin_core::image::Image;
 
 impl Session {
@@ -11,12 +12,29 @@ impl Session {
         let events = std::mem::take(&mut self.touch_events);
         let result = events.iter().try_for_each(|e| self.emit_one(e, sink));
         self.touch_events = events;
-        result
+        result?;
+        // Force changes from frame to frame within a touch: with force limits, the gate is
+        // weighed at every frame, not only when a touch is decided or released.
+        if self
+            .setup
+            .options
+            .gate
+            .as_ref()
+            .is_some_and(|g| !g.force_n.is_empty())
+        {
+            self.update_gate(self.last_time, sink)?;
+        }
+        Ok(())
     }
 
     fn emit_one<S: Sink + ?Sized>(&mut self, e: &TouchEvent, sink: &mut S) -> Result<(), SessionError> {
         if let TouchEvent::Released(touch) = e {
             self.ended(touch);
+            if let Some(o) = self.over_force.get_mut(touch.link)
+                && *o == Some(touch.id)
+            {
+                *o = None;
+            }
         }
         let name = |l: usize| self.setup.links[l].name.clone();
         let event = match e {
@@ -49,20 +67,35 @@ impl Session {
         }
     }
 
-    /// The gate: the action of the most severe touch in progress.
+    /// The gate: the action of the most severe touch in progress; `stop` while a touch that
+    /// pressed past its class's force limit lasts (it is named in the event that stops).
     fn update_gate<S: Sink + ?Sized>(&mut self, time: f64, sink: &mut S) -> Result<(), SessionError> {
         let Some(gate) = &self.setup.options.gate else {
             return Ok(());
         };
-        let action = gate.decide(
-            self.pipeline
-                .open_decisions()
-                .map(crate::touch::Decision::gate_touch),
-        );
+        let mut over = None;
+        for (link, id, touch) in self.pipeline.open_gate_touches() {
+            if let Some(limit_n) = gate.force_crossed(&touch)
+                && self.over_force[link] != Some(id)
+            {
+                self.over_force[link] = Some(id);
+                over.get_or_insert_with(|| OverForce {
+                    link: self.setup.links[link].name.clone(),
+                    touch: id,
+                    force_n: touch.force_n.unwrap_or(f64::NAN),
+                    limit_n,
+                });
+            }
+        }
+        let action = match self.over_force.iter().any(Option::is_some) {
+            true => GateAction::Stop,
+            false => gate.decide(self.pipeline.open_gate_touches().map(|(_, _, t)| t)),
+        };
         if self.gate != Some(action) {
             self.gate = Some(action);
+            let over = over.filter(|_| action == GateAction::Stop);
             send(&mut self.stopped, sink, |s| {
-                s.event(&Event::Gate { time, action })
+                s.event(&Event::Gate { time, action, over })
             })?;
         }
         Ok(())

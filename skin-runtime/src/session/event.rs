@@ -87,6 +87,10 @@ pub enum Event {
         /// The action.
         #[serde(serialize_with = "action_name")]
         action: GateAction,
+        /// What pressed past its class's force limit, when that is why the gate stops
+        /// (`[gate] force_n`).
+        #[serde(flatten)]
+        over: Option<OverForce>,
     },
     /// A contact spans a joint (with stitched links); one event per such contact, when the first
     /// one begins.
@@ -271,6 +275,25 @@ pub enum FrameView<'a> {
     Stitched,
 }
 
+/// A touch pressing past its class's force limit (`[gate] force_n`): in events.jsonl,
+/// `"link"`, `"touch"`, `"force_n"` and `"limit_n"` beside the gate's `"action": "stop"`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OverForce {
+    /// The link pressed.
+    pub link: String,
+    /// The touch.
+    pub touch: u64,
+    /// Its force when it crossed the limit, N.
+    #[serde(serialize_with = "micro")]
+    pub force_n: f64,
+    /// Its class's limit, N.
+    pub limit_n: f64,
+}
+
+fn micro<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(round(*x, 6))
+}
+
 fn round(x: f64, digits: i32) -> f64 {
     let k = 10f64.powi(digits);
     (x * k).round() / k
@@ -404,6 +427,15 @@ mod tests {
     use nalgebra::Point3;
 
     /// One event of every kind, in the order the variants are declared.
+    fn over_force(link: &str) -> OverForce {
+        OverForce {
+            link: link.to_owned(),
+            touch: 0,
+            force_n: 150.5,
+            limit_n: 140.0,
+        }
+    }
+
     fn one_of_each() -> Vec<Event> {
         let footprint = touch::Footprint {
             contacts: 1,
@@ -468,6 +500,7 @@ mod tests {
             Event::Gate {
                 time: 0.0,
                 action: GateAction::Stop,
+                over: Some(over_force(&link)),
             },
             Event::AcrossJoint {
                 time: 0.0,

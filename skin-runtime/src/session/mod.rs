@@ -52,7 +52,7 @@ mod summary;
 
 pub use config::{ForceConfig, SessionConfig, SimConfig, StitchConfig};
 pub use error::{ConfigError, InputError, SessionError};
-pub use event::{Event, FrameView, MissingModule, ProcessedFrame};
+pub use event::{Event, FrameView, MissingModule, OverForce, ProcessedFrame};
 pub use models::{ModelRuntime, OwnModels};
 pub use settings::{BaselineConfig, ContactRule, SessionSettings, SettingError, SplitConfig, TouchConfig};
 pub use sink::{Flow, JsonLines, PngImages, Sink, SinkError, Sinks};
@@ -162,6 +162,9 @@ pub struct Session {
     last_time: f64,
     stats: SessionStats,
     gate: Option<GateAction>,
+    /// Per link, the touch that pressed past its class's force limit (`[gate] force_n`): the
+    /// gate stays at `stop` until it is released.
+    over_force: Vec<Option<u64>>,
     /// Lines for the summary about the traffic itself (skipped or odd CAN frames).
     notes: Vec<String>,
     /// A sink said stop: nothing more reaches the sinks, frames are refused.
@@ -228,6 +231,7 @@ impl Session {
             last_time: 0.0,
             stats: SessionStats::default(),
             gate: None,
+            over_force: vec![None; sizes.len()],
             notes: Vec::new(),
             stopped: false,
         })

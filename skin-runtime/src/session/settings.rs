@@ -138,6 +138,16 @@ pub enum SettingError {
         /// What it takes, in words.
         expected: &'static str,
     },
+    /// A force limit out of its range (`[gate] force_n`).
+    #[error("[gate] force_n.{class} = {value}: expected {expected}")]
+    ForceLimit {
+        /// The class it limits.
+        class: String,
+        /// Its value.
+        value: f64,
+        /// What it takes, in words.
+        expected: &'static str,
+    },
     /// A `[gate]` key that names none of the classifier's classes: a misspelt class would
     /// never be gated.
     #[error("[gate] {class}: the classifier has no class {class:?} (its classes: {})", classes.join(", "))]
@@ -242,6 +252,13 @@ impl SessionSettings {
             }
         }
         self.check_split()?;
+        if let Some(Err((class, value, expected))) = self.gate.as_ref().map(|g| g.check_force()) {
+            return Err(SettingError::ForceLimit {
+                class: class.chars().take(40).collect(),
+                value,
+                expected,
+            });
+        }
         match self.gate.as_ref().and_then(|g| g.border).map(|b| b.check()) {
             Some(Err((field, value, expected))) => Err(SettingError::Value {
                 field,
@@ -285,7 +302,7 @@ impl SessionSettings {
             return Ok(());
         };
         let named = |class: &str| classes.iter().any(|c| c.name() == class);
-        match gate.actions.keys().find(|k| !named(k)) {
+        match gate.actions.keys().chain(gate.force_n.keys()).find(|k| !named(k)) {
             Some(class) => Err(SettingError::GateClass {
                 class: class.clone(),
                 classes: classes.iter().map(|c| c.name().to_owned()).collect(),
