@@ -130,9 +130,15 @@ impl RosArgs {
         Ok(self.outlets().check(inputs)?)
     }
 
-    /// Opens the outputs asked for, for a skin of `links` (none: no sink). What the live
-    /// outlet waits for goes to standard error (standard output carries the events when live).
-    pub fn open(&self, links: &[LinkSkin], inputs: &Inputs) -> Result<Option<RosSink<Outlets>>> {
+    /// Opens the outputs asked for, for a skin of `links` (none: no sink), with a wrench topic
+    /// for each link `weighed` says has a force model. What the live outlet waits for goes to
+    /// standard error (standard output carries the events when live).
+    pub fn open(
+        &self,
+        links: &[LinkSkin],
+        weighed: &[bool],
+        inputs: &Inputs,
+    ) -> Result<Option<RosSink<Outlets>>> {
         let options = self.outlets();
         if !options.any() {
             return Ok(None);
@@ -141,7 +147,8 @@ impl RosArgs {
             prefix: self.ros_prefix.clone(),
             pressure_images: self.pressure_images,
         }
-        .topics(links)?;
+        .topics(links)?
+        .with_wrenches(weighed);
         let outlets = skin_ros::Outlets::open(&options, &topics, inputs, &mut |l| eprintln!("{l}"))?;
         let time = match self.ros_time {
             RosTimeArg::Input => RosTime::Input,

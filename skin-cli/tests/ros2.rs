@@ -58,7 +58,7 @@ fn convert(input: &str, config: &str, mcap: &str) -> std::process::Output {
 
 /// `ros2/mcap_check.py` on `mcap` (fails the test on any problem): `events` is the run's
 /// events.jsonl, `None` for `skin convert`; `frames` after the baseline, one cloud of `link` each.
-fn mcap_check(py: &PathBuf, mcap: &Path, events: Option<&Path>, frames: usize, link: &str) {
+fn mcap_check(py: &PathBuf, mcap: &Path, events: Option<&Path>, frames: usize, link: &str) -> String {
     let events = events.map_or(OsStr::new("-"), Path::as_os_str);
     let frames = frames.to_string();
     let said = python::run(
@@ -67,6 +67,7 @@ fn mcap_check(py: &PathBuf, mcap: &Path, events: Option<&Path>, frames: usize, l
         &[mcap.as_os_str(), events, OsStr::new(&frames), OsStr::new(link)],
     );
     eprintln!("{}: {said}", mcap.display());
+    said
 }
 
 #[test]
@@ -82,7 +83,9 @@ fn mcap_of_the_fixture_session_reads_in_python() {
     let Some(py) = python::python_with(PACKAGES) else {
         return;
     };
-    mcap_check(&py, &mcap, Some(&out.join("events.jsonl")), FRAMES, "forearm");
+    let said = mcap_check(&py, &mcap, Some(&out.join("events.jsonl")), FRAMES, "forearm");
+    // The fixture's forearm is calibrated: every touch's force was checked in the file.
+    assert!(said.contains("forces of 20 touches checked"), "{said}");
 }
 
 #[test]
@@ -109,7 +112,7 @@ fn convert_writes_frames_and_contacts_without_models() {
     let Some(py) = python::python_with(PACKAGES) else {
         return;
     };
-    mcap_check(&py, &mcap, None, FRAMES, "forearm");
+    let _ = mcap_check(&py, &mcap, None, FRAMES, "forearm");
 }
 
 /// Real hardware recordings (Cyskin's curved patch, 0, 1 and 2 fingers; `../shared/data`) go
@@ -154,7 +157,7 @@ fn real_recordings_convert_to_ros2() {
             let frames = text.lines().filter(|l| !l.trim().is_empty()).count() - 1 - 5;
             if let Some(py) = &py {
                 eprint!("{}: ", file.display());
-                mcap_check(py, &mcap, None, frames, "UR10_link1_patch3");
+                let _ = mcap_check(py, &mcap, None, frames, "UR10_link1_patch3");
             }
         }
     }

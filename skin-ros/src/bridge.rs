@@ -215,6 +215,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             let topic = self.topics.links[l].pressure;
             let bytes = self.clouds[l].fill(stamp, pressures);
             self.outlet.publish(topic, stamp_ns, bytes)?;
+            self.publish_wrench(l, frame, stamp, stamp_ns)?;
             if self.pending_images[l]
                 && let (Some(topic), Some(image)) = (
                     self.topics.links[l].pressure_image,
@@ -261,6 +262,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             area: (frame.taxel_area_cm2(l).unwrap_or(0.0) * 1e-4 * c.taxels.len() as f64) as f32,
             taxels: &c.taxels,
             ids: &self.ids[l],
+            force: c.force_n.unwrap_or(f64::NAN),
         });
         messages::contacts(&mut self.w, stamp, ExactSize(msgs, count));
         self.outlet
@@ -303,6 +305,28 @@ impl<I: Iterator> Iterator for ExactSize<I> {
 impl<I: Iterator> ExactSizeIterator for ExactSize<I> {}
 
 impl<O: Outlet> RosSink<O> {
+    /// Link `l`'s wrench in this frame, on a link with a wrench topic and a force model.
+    fn publish_wrench(
+        &mut self,
+        l: usize,
+        frame: &ProcessedFrame<'_>,
+        stamp: Stamp,
+        stamp_ns: u64,
+    ) -> std::io::Result<()> {
+        if let (Some(topic), Some(wrench)) = (self.topics.links[l].wrench, frame.wrench(l)) {
+            let frame_id = frame_id(&self.topics.frame_ids, l);
+            messages::wrench_stamped(
+                &mut self.w,
+                stamp,
+                frame_id,
+                wrench.force.into(),
+                wrench.torque.into(),
+            );
+            self.publish(topic, stamp_ns)?;
+        }
+        Ok(())
+    }
+
     /// A decision's tactile image on its link's topic; its pressure image, when asked, follows
     /// with the next frame (the frame that carries it).
     fn publish_decision_image(

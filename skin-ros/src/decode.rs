@@ -279,10 +279,20 @@ pub struct ContactRead {
     pub peak_pressure: f32,
     /// Its taxels' ids.
     pub taxel_ids: Vec<u32>,
+    /// Its force, N; none on a link without a force calibration, or in a file written before
+    /// contacts carried force.
+    pub force: Option<f64>,
 }
 
-/// Reads a `skin_msgs/msg/Contacts`.
-pub fn contacts(bytes: &[u8]) -> Result<(Stamp, Vec<ContactRead>), DecodeError> {
+/// Whether a `skin_msgs/msg/Contacts` schema (its `ros2msg` text, as an MCAP file carries it)
+/// gives each contact its force: files written before newtons do not.
+pub fn contacts_have_force(schema: &str) -> bool {
+    schema.lines().any(|l| l.trim() == "float64 force")
+}
+
+/// Reads a `skin_msgs/msg/Contacts`; `with_force`: its contacts end with their force
+/// ([`contacts_have_force`] of its schema; every message this version writes).
+pub fn contacts(bytes: &[u8], with_force: bool) -> Result<(Stamp, Vec<ContactRead>), DecodeError> {
     let mut r = CdrReader::new(bytes, "skin_msgs/msg/Contacts")?;
     let (stamp, _) = r.header()?;
     let n = r.seq_len(70)?;
@@ -296,12 +306,17 @@ pub fn contacts(bytes: &[u8]) -> Result<(Stamp, Vec<ContactRead>), DecodeError> 
         let _area = r.f32()?;
         let k = r.seq_len(4)?;
         let taxel_ids = (0..k).map(|_| r.u32()).collect::<Result<_, _>>()?;
+        let force = match with_force {
+            true => Some(r.f64()?).filter(|f| f.is_finite()),
+            false => None,
+        };
         out.push(ContactRead {
             link: link.to_owned(),
             position,
             mean_pressure,
             peak_pressure,
             taxel_ids,
+            force,
         });
     }
     Ok((stamp, out))
@@ -395,9 +410,15 @@ mod tests {
             area: 1e-4,
             taxels: &[1, 0],
             ids: &[100, 101],
+            force: 2.5,
         };
-        messages::contacts(&mut w, stamp, [c].into_iter());
-        let (s, back) = contacts(w.bytes()).unwrap();
+        messages::contacts(
+            &mut w,
+            stamp,
+            [c, ContactMsg { force: f64::NAN, ..c }].into_iter(),
+        );
+        let (s, back) = contacts(w.bytes(), true).unwrap();
+        assert_eq!((back[0].force, back[1].force), (Some(2.5), None));
         assert_eq!(s, stamp);
         assert_eq!(back[0].link, "forearm");
         assert_eq!(back[0].taxel_ids, [101, 100]);

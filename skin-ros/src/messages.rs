@@ -177,6 +177,8 @@ pub struct ContactMsg<'a> {
     pub taxels: &'a [usize],
     /// The link's taxel ids, layout order.
     pub ids: &'a [u32],
+    /// Force, N; NaN on a link without a force calibration.
+    pub force: f64,
 }
 
 /// `skin_msgs/msg/Contacts`: the frame's contacts (frame id empty: each names its link).
@@ -197,7 +199,17 @@ pub fn contacts<'a>(
         for &t in c.taxels {
             w.u32(c.ids.get(t).copied().unwrap_or(u32::MAX));
         }
+        w.f64(c.force);
     }
+}
+
+/// `geometry_msgs/msg/WrenchStamped`: the load on a link (its contacts' force and torque about
+/// its frame's origin, N and N m) in the link's frame.
+pub fn wrench_stamped(w: &mut CdrWriter, stamp: Stamp, frame_id: &str, force: [f64; 3], torque: [f64; 3]) {
+    w.start();
+    header(w, stamp, frame_id);
+    point(w, force);
+    point(w, torque);
 }
 
 /// An RViz arrow from `start` to `end`.

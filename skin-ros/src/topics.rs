@@ -5,6 +5,7 @@
 //! | `PREFIX/<link>/pressure` | `sensor_msgs/msg/PointCloud2` | every frame after the baseline |
 //! | `PREFIX/<link>/tactile_image` | `sensor_msgs/msg/Image` (`mono8`) | each decision on the link |
 //! | `PREFIX/<link>/pressure_image` | `sensor_msgs/msg/Image` (`32FC1`) | each decision, when asked |
+//! | `PREFIX/<link>/wrench` | `geometry_msgs/msg/WrenchStamped` | every frame after the baseline, on a link with a force calibration |
 //! | `PREFIX/contacts` | `skin_msgs/msg/Contacts` | every frame with a contact |
 //! | `PREFIX/events` | `skin_msgs/msg/TouchEvent` | every event (one per line of events.jsonl) |
 //! | `PREFIX/markers` | `visualization_msgs/msg/MarkerArray` | every frame with a contact, and the frame after the last |
@@ -124,6 +125,8 @@ pub struct LinkTopics {
     pub tactile_image: usize,
     /// `PREFIX/<link>/pressure_image`, when asked.
     pub pressure_image: Option<usize>,
+    /// `PREFIX/<link>/wrench`, on a link with a force calibration ([`Topics::with_wrenches`]).
+    pub wrench: Option<usize>,
 }
 
 /// `sensor_msgs/msg/PointCloud2`.
@@ -136,6 +139,8 @@ pub const MARKER_ARRAY: &str = "visualization_msgs/msg/MarkerArray";
 pub const CONTACTS: &str = "skin_msgs/msg/Contacts";
 /// `skin_msgs/msg/TouchEvent`.
 pub const TOUCH_EVENT: &str = "skin_msgs/msg/TouchEvent";
+/// `geometry_msgs/msg/WrenchStamped`.
+pub const WRENCH_STAMPED: &str = "geometry_msgs/msg/WrenchStamped";
 
 impl Topics {
     /// The topics of `links` (layout order) under `prefix` (checked with [`check_prefix`]).
@@ -166,6 +171,7 @@ impl Topics {
                 pressure,
                 tactile_image,
                 pressure_image,
+                wrench: None,
             });
         }
         let mut frame_ids: Vec<String> = Vec::with_capacity(links.len());
@@ -193,6 +199,26 @@ impl Topics {
             markers,
             frame_ids,
         })
+    }
+}
+
+impl Topics {
+    /// With `PREFIX/<link>/wrench` for each link `weighed` says (layout order; a link past its
+    /// end has none): the links with a force calibration. Added after the other topics, so
+    /// that a skin without one publishes the same list as before.
+    pub fn with_wrenches(mut self, weighed: &[bool]) -> Topics {
+        for (l, _) in weighed.iter().enumerate().filter(|(_, w)| **w) {
+            let Some(pressure) = self.links.get(l).map(|t| t.pressure) else {
+                continue;
+            };
+            let base = self.list[pressure].name.trim_end_matches("/pressure").to_owned();
+            self.list.push(Topic {
+                name: format!("{base}/wrench"),
+                type_name: WRENCH_STAMPED,
+            });
+            self.links[l].wrench = Some(self.list.len() - 1);
+        }
+        self
     }
 }
 
@@ -274,6 +300,15 @@ mod tests {
             Some("/skin/hand/pressure_image")
         );
         assert_eq!(names[t.events], "/skin/events");
+        let t = t.with_wrenches(&[true, false]);
+        let wrenches: Vec<&str> = t
+            .links
+            .iter()
+            .filter_map(|l| l.wrench)
+            .map(|i| t.list[i].name.as_str())
+            .collect();
+        assert_eq!(wrenches, ["/skin/upper_arm/wrench"]);
+        assert_eq!(t.list.last().map(|t| t.type_name), Some(WRENCH_STAMPED));
         Ok(())
     }
 

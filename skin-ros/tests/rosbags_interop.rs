@@ -150,6 +150,7 @@ fn contacts_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
             area: 2.5e-4,
             taxels: &[0, 2, 3],
             ids: &link_ids,
+            force: 12.75,
         },
         ContactMsg {
             link: "palm",
@@ -160,6 +161,7 @@ fn contacts_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
             area: 1e-5,
             taxels: &[1],
             ids: &link_ids,
+            force: 0.0625,
         },
     ];
     messages::contacts(w, STAMP, contacts.iter().copied());
@@ -168,13 +170,25 @@ fn contacts_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
         .map(|c| {
             json!({"header": header(c.link), "position": xyz(c.position), "normal": xyz(c.normal),
                    "mean_pressure": c.mean_pressure, "peak_pressure": c.peak_pressure, "area": c.area,
-                   "taxels": c.taxels.iter().map(|&t| link_ids[t]).collect::<Vec<_>>()})
+                   "taxels": c.taxels.iter().map(|&t| link_ids[t]).collect::<Vec<_>>(), "force": c.force})
         })
         .collect();
     out.push(case(
         "contacts",
         "skin_msgs/msg/Contacts",
         json!({"header": header(""), "contacts": contact_values}),
+        w.bytes(),
+    ));
+}
+
+/// A link's wrench.
+fn wrench_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
+    let (force, torque) = ([0.5, -1.25, -9.75], [0.125, 0.0, -0.0625]);
+    messages::wrench_stamped(w, STAMP, "upper arm", force, torque);
+    out.push(case(
+        "wrench",
+        "geometry_msgs/msg/WrenchStamped",
+        json!({"header": header("upper arm"), "wrench": {"force": xyz(force), "torque": xyz(torque)}}),
         w.bytes(),
     ));
 }
@@ -249,6 +263,7 @@ fn cases() -> Value {
     image_cases(&mut w, &mut out);
     arrow_case(&mut w, &mut out);
     contacts_case(&mut w, &mut out);
+    wrench_case(&mut w, &mut out);
     event_case(&mut w, &mut out);
     let all = Interfaces::skin().expect("definitions");
     let hashes: serde_json::Map<String, Value> = all

@@ -124,13 +124,14 @@ impl ViewSink {
     }
 
     /// Publishes a frame: `pressures` per link (scene order), `contacts` as `(link, taxels,
-    /// mean, peak)`, the links' placements in the stitched plane (empty: not stitched).
+    /// mean, peak, force in N or NaN)`, the links' placements in the stitched plane (empty: not
+    /// stitched).
     pub(crate) fn publish<'a>(
         &mut self,
         time: f64,
         cycle: u64,
         pressures: &[impl AsRef<[f32]>],
-        contacts: impl Iterator<Item = (usize, &'a [usize], f32, f32)>,
+        contacts: impl Iterator<Item = (usize, &'a [usize], f32, f32, f32)>,
         placements: &[skin_geom::Placement],
     ) {
         self.placements.clear();
@@ -139,7 +140,7 @@ impl ViewSink {
             offset_mm: [(p.offset.x * 1e3) as f32, (p.offset.y * 1e3) as f32],
         }));
         self.contacts.clear();
-        for (link, taxels, mean, peak) in contacts {
+        for (link, taxels, mean, peak, force_n) in contacts {
             let p = pressures.get(link).map_or(&[][..], AsRef::as_ref);
             self.contacts.push(WireContact {
                 link: link as u32,
@@ -147,6 +148,7 @@ impl ViewSink {
                 taxels: taxels.len() as u32,
                 mean,
                 peak,
+                force_n,
             });
         }
         self.head.number = self.head.number.wrapping_add(1);
@@ -256,10 +258,10 @@ impl Sink for ViewSink {
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, Self::Error> {
         let links = frame.pressures.len();
         let contacts = (0..links).flat_map(|k| {
-            frame
-                .contacts(k)
-                .iter()
-                .map(move |c| (k, c.taxels.as_slice(), c.mean_pressure, c.peak_pressure))
+            frame.contacts(k).iter().map(move |c| {
+                let force = c.force_n.map_or(f32::NAN, |f| f as f32);
+                (k, c.taxels.as_slice(), c.mean_pressure, c.peak_pressure, force)
+            })
         });
         self.publish(
             frame.time,

@@ -27,7 +27,7 @@
 //! | 60 | `u32` | N: taxels (the scene's links, in order) |
 //! | 64 | `u32` | P: placements (links stitched across joints: one per link; else 0) |
 //! | 68 | `M x u32` | the missing modules, indices into the scene's `modules` |
-//! | then | `C x 24 B` | each contact: link `u32`, centroid on the map `u`, `v` (`f32`, mm), taxels `u32`, mean and peak pressure (`f32`, counts) |
+//! | then | `C x 28 B` | each contact: link `u32`, centroid on the map `u`, `v` (`f32`, mm), taxels `u32`, mean and peak pressure (`f32`, counts), force (`f32`, N; NaN on a link without a force calibration) |
 //! | then | `P x 12 B` | each link's map in the stitched plane at this frame's posture: angle (`f32`, rad, counter-clockwise) and offset `u`, `v` (`f32`, mm): `p' = R(angle) p + offset` |
 //! | then | `N x f32` | pressures, counts above the baseline, links one after another |
 //!
@@ -53,7 +53,7 @@ pub const FRAME_HEAD: usize = 68;
 /// Bytes before an image's pixels.
 pub const IMAGE_HEAD: usize = 32;
 /// Bytes per contact of a frame.
-pub const CONTACT_BYTES: usize = 24;
+pub const CONTACT_BYTES: usize = 28;
 /// Bytes per placement of a frame.
 pub const PLACEMENT_BYTES: usize = 12;
 /// Where a frame's skipped count sits (patched per browser).
@@ -95,6 +95,8 @@ pub struct WireContact {
     pub mean: f32,
     /// Peak pressure, counts.
     pub peak: f32,
+    /// Force, N; NaN on a link without a force calibration.
+    pub force_n: f32,
 }
 
 /// A link's map in the stitched plane: `p' = R(angle) p + offset`.
@@ -150,6 +152,7 @@ pub fn encode_frame<'a>(
         u32_at(out, c.taxels);
         f32_at(out, c.mean);
         f32_at(out, c.peak);
+        f32_at(out, c.force_n);
     }
     for p in placements {
         f32_at(out, p.angle);
@@ -249,6 +252,7 @@ pub fn decode_frame(bytes: &[u8]) -> Option<DecodedFrame> {
                     taxels: u32_(at + 12)?,
                     mean: f32_(at + 16)?,
                     peak: f32_(at + 20)?,
+                    force_n: f32_(at + 24)?,
                 })
             })
             .collect::<Option<_>>()?,
@@ -290,6 +294,7 @@ mod tests {
             taxels: 14,
             mean: 30.5,
             peak: 80.0,
+            force_n: 4.5,
         }];
         let a = [1.0f32, -2.0];
         let b = [3.5f32];

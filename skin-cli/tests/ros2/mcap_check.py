@@ -5,6 +5,8 @@ Usage: mcap_check.py FILE.mcap EVENTS.jsonl FRAMES LINK...
 FRAMES: frames after the baseline (one PointCloud2 per link each). EVENTS.jsonl may be `-`
 (skin convert: no events file) to check the file and the clouds only.
 """
+import json
+import math
 import sys
 from collections import Counter
 from pathlib import Path
@@ -72,6 +74,7 @@ def main():
         if images[f'/skin/{link}/tactile_image'] != n:
             problems.append(f'{link}: {images[f"/skin/{link}/tactile_image"]} images for {n} decisions')
     problems += as_rosbag2(path, counts)
+    problems += forces(path, parsed, frames, links, counts)
     print(f'{sum(counts.values())} messages on {len(counts)} topics; {len(lines)} events; {sum(decisions.values())} decisions')
     fail(problems)
 
@@ -93,6 +96,50 @@ def as_rosbag2(path, counts):
         decoded = sum(1 for c, _, raw in bag.messages() if bag.deserialize(raw, c.msgtype) is not None)
         if decoded != sum(counts.values()):
             problems.append(f'AnyReader decoded {decoded} of {sum(counts.values())}')
+    return problems
+
+
+def forces(path, parsed, frames, links, counts):
+    """With a force calibration (events carry force_n): a wrench per frame on every link, and
+    at each touch's first frame the contacts' forces, decoded by rosbags from the definitions
+    in the file alone, add up to the appeared event's force_n within 1e-6 N, the wrench's force
+    no larger."""
+    appeared = [e for e in parsed if e['event'] == 'appeared' and 'force_n' in e]
+    if not appeared:
+        return []
+    problems = []
+    for link in links:
+        if counts[f'/skin/{link}/wrench'] != frames:
+            problems.append(f'/skin/{link}/wrench: {counts[f"/skin/{link}/wrench"]} wrenches for {frames} frames')
+    by_stamp = {}
+    with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as bag:
+        wanted = [c for c in bag.connections if c.topic in ('/skin/events', '/skin/contacts') or c.topic.endswith('/wrench')]
+        for c, _, raw in bag.messages(connections=wanted):
+            m = bag.deserialize(raw, c.msgtype)
+            stamp = (m.header.stamp.sec, m.header.stamp.nanosec)
+            if c.topic == '/skin/events':
+                if json.loads(m.json)['event'] == 'appeared':
+                    by_stamp.setdefault(stamp, {})['event'] = json.loads(m.json)
+            elif c.topic == '/skin/contacts':
+                by_stamp.setdefault(stamp, {})['contacts'] = m.contacts
+            elif c.topic.endswith('/wrench'):
+                by_stamp.setdefault(stamp, {})[c.topic] = m.wrench
+    checked = 0
+    for at in by_stamp.values():
+        e = at.get('event')
+        if e is None or 'force_n' not in e:
+            continue
+        mine = [c.force for c in at.get('contacts', []) if c.header.frame_id == e['link']]
+        if abs(sum(mine) - e['force_n']) > 1e-6:
+            problems.append(f'touch {e["touch"]}: contacts {sum(mine)} N, event {e["force_n"]} N')
+        w = at.get(f'/skin/{e["link"]}/wrench')
+        size = math.sqrt(w.force.x ** 2 + w.force.y ** 2 + w.force.z ** 2) if w else -1
+        if not 0 < size <= e['force_n'] + 1e-6:
+            problems.append(f'touch {e["touch"]}: wrench {size} N against {e["force_n"]} N')
+        checked += 1
+    if checked != len(appeared):
+        problems.append(f'{checked} of {len(appeared)} touches found with their contacts and wrench')
+    print(f'forces of {checked} touches checked against the events')
     return problems
 
 

@@ -23,6 +23,7 @@ TYPES = {
     'contacts': 'skin_msgs/msg/Contacts',
     'events': 'skin_msgs/msg/TouchEvent',
     'markers': 'visualization_msgs/msg/MarkerArray',
+    'wrench': 'geometry_msgs/msg/WrenchStamped',
 }
 
 
@@ -109,7 +110,7 @@ def main():
         if not any(f'/{mangled}/{ty}/{type_hash}/' in p for p in publishers):
             problems.append(f'{topic_name}: no publisher token')
     for kind in TYPES:
-        if kind in ('pressure', 'tactile_image'):
+        if kind in ('pressure', 'tactile_image', 'wrench'):
             if not any(t.endswith('/' + kind) for t in seen_topics):
                 problems.append(f'no {kind} topic seen')
         elif f'/skin/{kind}' not in seen_topics:

@@ -244,6 +244,12 @@ impl<'a> ProcessedFrame<'a> {
         self.pipeline.contacts(link)
     }
 
+    /// The load on `link` in this frame (its contacts' force and torque about its origin, in its
+    /// frame); none on a link without a force model.
+    pub fn wrench(&self, link: usize) -> Option<skin_core::force::Wrench> {
+        self.pipeline.wrench(link).map(|(w, _)| w)
+    }
+
     /// Skin area per taxel of `link`, cm².
     pub fn taxel_area_cm2(&self, link: usize) -> Option<f64> {
         self.pipeline.taxel_area_cm2(link)

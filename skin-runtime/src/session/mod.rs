@@ -441,6 +441,14 @@ impl Session {
         &self.pipeline
     }
 
+    /// Per link (layout order), whether it has a force model: its contacts carry newtons and it
+    /// has a wrench.
+    pub fn weighed(&self) -> Vec<bool> {
+        (0..self.setup.links.len())
+            .map(|l| self.pipeline.force_model(l).is_some())
+            .collect()
+    }
+
     /// The bus map frames are taken from, with [`Session::with_can`].
     pub fn busmap(&self) -> Option<&BusMap> {
         self.setup.can.as_ref().map(|c| &c.busmap)

@@ -44,6 +44,8 @@ pub struct Replay {
     clouds: Clouds,
     /// Contacts channel, if the file has one.
     contacts: Option<u16>,
+    /// The contacts' schema gives each its force (files written before newtons do not).
+    contacts_force: bool,
     /// Taxel id -> layout index, per link; link index by frame id.
     index: Vec<HashMap<u32, usize>>,
     links_by_frame: HashMap<String, usize>,
@@ -88,6 +90,10 @@ impl Replay {
                 .any(|b| !b.readable && b.index.chunk_start_offset == c.chunk_start_offset)
         });
         let (pressure, events, contacts) = channels_of(&summary);
+        let contacts_force = contacts
+            .and_then(|id| summary.channels.get(&id))
+            .and_then(|c| c.schema.as_ref())
+            .is_some_and(|s| skin_ros::decode::contacts_have_force(&String::from_utf8_lossy(&s.data)));
         if pressure.is_empty() {
             return Err(err(
                 path,
@@ -127,6 +133,7 @@ impl Replay {
             scene,
             clouds,
             contacts,
+            contacts_force,
             index: maps
                 .iter()
                 .map(|m| m.ids.iter().enumerate().map(|(i, id)| (id.0, i)).collect())

@@ -142,7 +142,7 @@ struct Player<'a> {
 struct Gathered {
     stamp: Option<u64>,
     pressures: Vec<Vec<f32>>,
-    contacts: Vec<(usize, Vec<usize>, f32, f32)>,
+    contacts: Vec<(usize, Vec<usize>, f32, f32, f32)>,
     /// Frames shown in this pass.
     frames: u64,
 }
@@ -206,7 +206,7 @@ impl Player<'_> {
                 let _ = decode::cloud_pressures(data, &layout, p);
             }
         } else if Some(channel) == r.contacts
-            && let Ok((_, list)) = decode::contacts(data)
+            && let Ok((_, list)) = decode::contacts(data, r.contacts_force)
         {
             for c in list {
                 let Some(&link) = r.links_by_frame.get(&c.link) else {
@@ -217,7 +217,9 @@ impl Player<'_> {
                     .iter()
                     .filter_map(|id| r.index[link].get(id).copied())
                     .collect();
-                g.contacts.push((link, taxels, c.mean_pressure, c.peak_pressure));
+                let force = c.force.map_or(f32::NAN, |f| f as f32);
+                g.contacts
+                    .push((link, taxels, c.mean_pressure, c.peak_pressure, force));
             }
         }
     }
@@ -272,7 +274,10 @@ impl Player<'_> {
         g.frames += 1;
         self.state.frames += 1;
         let time = stamp.saturating_sub(self.replay.origin_ns) as f64 / 1e9;
-        let contacts = g.contacts.iter().map(|(l, t, m, p)| (*l, t.as_slice(), *m, *p));
+        let contacts = g
+            .contacts
+            .iter()
+            .map(|(l, t, m, p, f)| (*l, t.as_slice(), *m, *p, *f));
         self.sink
             .publish(time, self.state.frames, &g.pressures, contacts, &[]);
         g.contacts.clear();
