@@ -18,6 +18,8 @@ use nalgebra::{Isometry3, Translation3};
 use skin_can::candump::CanFrame;
 use skin_can::decode::skin16::{encode_module, encode_sync};
 use skin_can::{Assembler, BusMap, WireFormat};
+use skin_core::force::ResponseCurve;
+use skin_core::format::force_file::{ForceCalibration, LinkForce};
 use skin_core::format::poses::{Posture, Postures};
 use skin_core::{LinkSkin, TaxelId};
 use skin_geom::{FlattenOptions, StitchOptions, Stitcher, TactileMap};
@@ -124,6 +126,25 @@ fn stitched_in_a_row(maps: &[TactileMap]) -> Stitching {
     Stitching::new(maps, postures, Path::new("poses")).unwrap()
 }
 
+/// A force calibration of every link of the arm: the `[sim]` response's curve, every gain 1.
+fn every_link_calibrated(arm: &Arm) -> ForceCalibration {
+    ForceCalibration::new(
+        arm.links
+            .iter()
+            .map(|l| LinkForce {
+                name: l.name.clone(),
+                curve: ResponseCurve {
+                    full_scale: 4095.0,
+                    half_scale_kpa: 150.0,
+                },
+                ids: l.taxels.iter().map(|t| t.id.0).collect(),
+                gains: vec![1.0; l.taxels.len()],
+                fit: serde_json::Value::Null,
+            })
+            .collect(),
+    )
+}
+
 /// The arm's session: HandsNet deciding on the first frame of a touch, over the stitched maps.
 fn arm_session(arm: &Arm, maps: Vec<TactileMap>, stitching: Stitching) -> Session {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -145,6 +166,7 @@ fn arm_session(arm: &Arm, maps: Vec<TactileMap>, stitching: Stitching) -> Sessio
         .unwrap()
 }
 
+#[allow(clippy::too_many_lines)] // one arm's set-up, then its four cases, read top to bottom
 fn bench(c: &mut Criterion) {
     let arm = full_arm();
     let ids = arm.map.taxel_ids();
@@ -164,6 +186,11 @@ fn bench(c: &mut Criterion) {
         .map(|(q, h)| q.iter().zip(h).map(|(o, p)| o + p.round() as u16).collect())
         .collect();
 
+    // The same session, and one with a force model on every link (the [sim] response's curve,
+    // every gain 1): what newtons add to a frame with a touch.
+    let mut weighed = arm_session(&arm, maps.clone(), stitched_in_a_row(&maps))
+        .with_force(&every_link_calibrated(&arm), Path::new("force.json"))
+        .unwrap();
     let mut session = arm_session(&arm, maps, stitching);
     let mut sink = Count(0);
     let mut assembler = Assembler::for_map(&arm.map, &arm.interfaces, skin_can::DEFAULT_WINDOW_US);
@@ -183,6 +210,11 @@ fn bench(c: &mut Criterion) {
     while session.pipeline().times().frames == 0 {
         push(&quiet_cycles[(n % 256) as usize], &mut session);
         n += 1;
+    }
+    let mut m = 0u64;
+    while weighed.pipeline().times().frames == 0 {
+        push(&quiet_cycles[(m % 256) as usize], &mut weighed);
+        m += 1;
     }
 
     let mut group = c.benchmark_group(format!(
@@ -221,6 +253,24 @@ fn bench(c: &mut Criterion) {
             spent
         })
     });
+    // A touch held (decided at its first frame, then only followed): its contacts found, and
+    // in newtons their forces and the link's wrench too; one after the other, in the same run.
+    let mut held = |b: &mut criterion::Bencher<'_>, session: &mut Session, n: &mut u64| {
+        b.iter_custom(|iters| {
+            let start = Instant::now();
+            for _ in 0..iters {
+                push(&touched_cycles[(*n % 256) as usize], session);
+                *n += 1;
+            }
+            start.elapsed()
+        })
+    };
+    group.bench_function("held touch", |b| held(b, &mut session, &mut n));
+    group.bench_function("held touch, in newtons", |b| held(b, &mut weighed, &mut m));
+    assert!(
+        weighed.wrench(1).is_some_and(|(w, _)| w.magnitude > 0.0),
+        "the held hand is weighed"
+    );
     group.finish();
     // Where a decision's time goes, over every frame the session saw (quiet frames included in
     // the contact search): the model against the rest, measured in the same run.
