@@ -84,7 +84,7 @@ pub enum TouchClass {
 ///
 /// // A hand at 70% 5 mm from the border: stopped, where a sure one complies.
 /// let gate = ClassGate { border: Some(BorderRule::default()), ..gate };
-/// let unsure = GateTouch { class: "hand", hand: true, probability: 0.7, border_mm: 5.0 };
+/// let unsure = GateTouch { class: "hand", hand: true, probability: 0.7, border_mm: 5.0, force_n: None };
 /// assert_eq!(gate.decide([unsure]), GateAction::Stop);
 /// assert_eq!(gate.decide([GateTouch { probability: 0.999, ..unsure }]), GateAction::Comply);
 /// assert_eq!(gate.decide([GateTouch { border_mm: 40.0, ..unsure }]), GateAction::Comply);
