@@ -173,6 +173,7 @@ class _OverForce(TypedDict, total=False):
     touch: int
     force_n: float
     limit_n: float
+    saturated: bool
 
 
 class GateEvent(_OverForce):

@@ -6,7 +6,9 @@ use pyo3::prelude::*;
 use skin_core::format::force_file::ForceCalibration;
 use skin_core::format::load::LoadFile;
 use skin_core::output::{Inputs, OutputError};
-use skin_learn::force_calibration::{CalibrateForceError, ForceFitOptions, Presses, calibrate_link};
+use skin_learn::force_calibration::{
+    CalibrateForceError, ForceFitOptions, MAX_GAIN_SD, Presses, calibrate_link,
+};
 use skin_learn::session::SessionConfig;
 use std::path::PathBuf;
 
@@ -49,8 +51,24 @@ pub(crate) fn calibrate_force(
     };
     let defaults = ForceFitOptions::default();
     let options = ForceFitOptions {
-        full_scale: full_scale.map(|v| positive("full_scale", v)).transpose()?,
-        gain_sd: positive("gain_sd", gain_sd.unwrap_or(defaults.gain_sd))?,
+        full_scale: match full_scale {
+            Some(v) if v > f64::from(skin_core::format::recording::MAX_READING) => {
+                return Err(arg(
+                    "full_scale",
+                    format!("{}: counts, at most 1e9", crate::arrays::num(v)),
+                ));
+            }
+            v => v.map(|v| positive("full_scale", v)).transpose()?,
+        },
+        gain_sd: match gain_sd.unwrap_or(defaults.gain_sd) {
+            v if v <= MAX_GAIN_SD => positive("gain_sd", v)?,
+            v => {
+                return Err(arg(
+                    "gain_sd",
+                    format!("{}: at most {MAX_GAIN_SD}", crate::arrays::num(v)),
+                ));
+            }
+        },
         min_frames: match min_frames {
             Some(v) => match crate::arrays::count("min_frames", v)? {
                 0 => return Err(arg("min_frames", "0: at least 1")),

@@ -148,6 +148,9 @@ pub(crate) fn write_recording(
 ) -> PyResult<()> {
     let i = array::<i64>("ids", ids, "int64", 1)?;
     let taxel_ids = arrays::taxel_ids("ids", slice("ids", &i)?, true)?;
+    if taxel_ids.is_empty() {
+        return Err(arg("ids", "empty: a recording needs at least one taxel"));
+    }
     let t = array::<f64>("times", times, "float64", 1)?;
     let times = slice("times", &t)?;
     arrays::finite64("times", times, t.shape())?;

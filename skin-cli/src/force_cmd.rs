@@ -4,8 +4,11 @@
 use anyhow::{Result, bail};
 use skin_core::format::force_file::ForceCalibration;
 use skin_core::format::load::LoadFile;
+use skin_core::format::recording::MAX_READING;
 use skin_core::output::Inputs;
-use skin_learn::force_calibration::{CalibrateForceError, ForceFitOptions, Presses, calibrate_link};
+use skin_learn::force_calibration::{
+    CalibrateForceError, ForceFitOptions, MAX_GAIN_SD, Presses, calibrate_link,
+};
 use skin_learn::session::SessionConfig;
 use std::path::PathBuf;
 
@@ -53,10 +56,10 @@ pub struct Args {
     #[arg(long, value_name = "NAME")]
     link: Option<String>,
     /// The sensor's full scale, counts, when known: fixed instead of fitted.
-    #[arg(long, value_name = "COUNTS", value_parser = crate::numbers::above(0.0, 1e9))]
+    #[arg(long, value_name = "COUNTS", value_parser = crate::numbers::above(0.0, f64::from(MAX_READING)))]
     full_scale: Option<f64>,
     /// Standard deviation of the prior holding each gain towards 1.
-    #[arg(long, value_name = "SD", default_value_t = ForceFitOptions::default().gain_sd, value_parser = crate::numbers::above(0.0, 10.0))]
+    #[arg(long, value_name = "SD", default_value_t = ForceFitOptions::default().gain_sd, value_parser = crate::numbers::above(0.0, MAX_GAIN_SD))]
     gain_sd: f64,
     /// Frames a taxel must be loaded in to get a gain of its own.
     #[arg(long, value_name = "N", default_value_t = ForceFitOptions::default().min_frames, value_parser = crate::numbers::count::<1, 1_000_000>)]

@@ -29,6 +29,9 @@ mod run;
 pub use collect::{CollectError, LoadedFrames};
 pub use run::{CalibrateForceError, LinkCalibration, Presses, calibrate_link};
 
+/// The largest [`ForceFitOptions::gain_sd`] taken: a prior that wide holds nothing.
+pub const MAX_GAIN_SD: f64 = 10.0;
+
 /// How the fit runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ForceFitOptions {

@@ -414,23 +414,94 @@ fn a_hand_pressing_past_its_force_limit_stops_the_arm_until_it_lets_go() {
         !stopped.is_empty() && stopped.iter().all(|t| strong.contains(t)),
         "{stopped:?} {strong:?}"
     );
+    // The gate speaks from the first decision on, as without limits (no "resume" before it).
+    let first_gate = events.iter().position(|e| matches!(e, Event::Gate { .. }));
+    let first_decision = events.iter().position(|e| matches!(e, Event::Classified { .. }));
+    assert!(first_gate > first_decision, "{first_gate:?} {first_decision:?}");
     // Every decision is as without the limit; only the gate differs.
     let plain = SessionConfig::read(&root.join("run.toml")).unwrap();
     let mut plain_events: Vec<Event> = Vec::new();
     session_of(&plain)
         .run_log(&log, &log_path, &mut plain_events, &mut |_, _| {})
         .unwrap();
-    let kinds = |ev: &[Event]| -> Vec<String> {
-        ev.iter()
-            .filter(|e| !matches!(e, Event::Gate { .. }))
-            .map(|e| {
-                let mut line = Vec::new();
-                e.write_json(&mut line).unwrap();
-                String::from_utf8(line).unwrap()
-            })
-            .collect()
-    };
-    assert_eq!(kinds(&events), kinds(&plain_events));
+    assert_eq!(not_gate_lines(&events), not_gate_lines(&plain_events));
+}
+
+/// The events.jsonl lines of every event but the gate's.
+fn not_gate_lines(events: &[Event]) -> Vec<String> {
+    events
+        .iter()
+        .filter(|e| !matches!(e, Event::Gate { .. }))
+        .map(|e| {
+            let mut line = Vec::new();
+            e.write_json(&mut line).unwrap();
+            String::from_utf8(line).unwrap()
+        })
+        .collect()
+}
+
+/// Force limits on a skin whose calibration leaves a link out are refused, naming the link: a
+/// touch there could never be stopped.
+#[test]
+fn force_limits_need_every_link_weighed() {
+    use skin_control::hri::{ClassGate, GateAction};
+    use skin_core::format::force_file::ForceCalibration;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
+    let dir = tempfile::tempdir().unwrap();
+    // The fixture forearm's calibration fits the arm's forearm (the same layout); its wrist
+    // has none.
+    let forearm = ForceCalibration::read(&root.join("forearm/force.json")).unwrap();
+    let path = dir.path().join("force.json");
+    std::fs::write(&path, forearm.to_json()).unwrap();
+    let mut config = SessionConfig::read(&root.join("arm/run.toml")).unwrap();
+    config.force = Some(skin_learn::session::ForceConfig { calibration: path });
+    let mut gate = ClassGate::new([("hand", GateAction::Comply)]);
+    gate.force_n.insert("hand".into(), 140.0);
+    config.gate = Some(gate);
+    let e = Session::from_config_with_models(&config, support::rule_models())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("[gate] force_n") && e.contains("wrist") && !e.contains("forearm,"),
+        "{e}"
+    );
+}
+
+/// A force read past the sensor's saturation is a lower bound: with a limit set, the gate takes
+/// it as past the limit, however high the limit, and says so.
+#[test]
+fn a_saturated_reading_counts_as_past_the_force_limit() {
+    use skin_core::format::force_file::ForceCalibration;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
+    let dir = tempfile::tempdir().unwrap();
+    // The forearm's calibration with a full scale of 60 counts: the session's presses pass it.
+    let mut calibration = ForceCalibration::read(&root.join("forearm/force.json")).unwrap();
+    calibration.links[0].curve.full_scale = 60.0;
+    let low = dir.path().join("force.json");
+    std::fs::write(&low, calibration.to_json()).unwrap();
+    let mut config = SessionConfig::read(&root.join("session/run.toml")).unwrap();
+    config.force.as_mut().unwrap().calibration = low;
+    let gate = config.gate.as_mut().unwrap();
+    gate.force_n.insert("hand".into(), 99_999.0);
+    gate.force_n.insert("non_hand".into(), 99_999.0);
+    let log_path = root.join("session/session.candump.log");
+    let log = CandumpLog::read(&log_path).unwrap();
+    let mut events: Vec<Event> = Vec::new();
+    session_of(&config)
+        .run_log(&log, &log_path, &mut events, &mut |_, _| {})
+        .unwrap();
+    let over: Vec<_> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Gate { over: Some(o), .. } => Some(o),
+            _ => None,
+        })
+        .collect();
+    assert!(over.len() >= 10, "{over:?}");
+    assert!(
+        over.iter().all(|o| o.saturated && o.force_n < o.limit_n),
+        "{over:?}"
+    );
 }
 
 /// Per real recording of `fingers` fingers: the most contacts in one of its touches, with the

@@ -211,7 +211,8 @@ impl Topics {
             let Some(pressure) = self.links.get(l).map(|t| t.pressure) else {
                 continue;
             };
-            let base = self.list[pressure].name.trim_end_matches("/pressure").to_owned();
+            let name = &self.list[pressure].name;
+            let base = name.strip_suffix("/pressure").unwrap_or(name).to_owned();
             self.list.push(Topic {
                 name: format!("{base}/wrench"),
                 type_name: WRENCH_STAMPED,

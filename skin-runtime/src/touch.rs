@@ -624,15 +624,22 @@ impl TouchPipeline {
 
     /// What the gate weighs of each decided touch in progress, with its link and number: its
     /// decision and, on a link with a force model, the force its contacts press with now (the
-    /// last frame's).
+    /// last frame's), and whether a taxel of them read past saturation (the force is then a
+    /// lower bound).
     pub fn open_gate_touches(
         &self,
-    ) -> impl Iterator<Item = (usize, u64, skin_control::hri::GateTouch<'_>)> + '_ {
+    ) -> impl Iterator<Item = (usize, u64, skin_control::hri::GateTouch<'_>, bool)> + '_ {
         self.links.iter().enumerate().filter_map(|(k, l)| {
             let touch = l.touch.as_ref()?;
             let gate = touch.decision.as_ref()?.gate_touch();
             let force_n = l.force.as_ref().map(|f| f.wrench.magnitude);
-            Some((k, touch.id, skin_control::hri::GateTouch { force_n, ..gate }))
+            let saturated = l.force.as_ref().is_some_and(|f| f.saturated > 0);
+            Some((
+                k,
+                touch.id,
+                skin_control::hri::GateTouch { force_n, ..gate },
+                saturated,
+            ))
         })
     }
 

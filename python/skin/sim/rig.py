@@ -16,8 +16,8 @@ normal contact forces on the link's skin and their force-weighted centre in the 
 (left empty where nothing presses), what `SkinBridge.load` reads. A press is a `Kit` press
 (ramped up and down over 0.15 s); `weight` gives a mass's weight, for a plate laid on the skin.
 
-The tools (`TOOLS`): a ball of 12 mm radius, a bar 50 mm long and 8 mm in radius, a square plate
-30 mm a side, each of `tool_mass` kg (the scene holds a press of about 110 N per kg of tool:
+The tools (`TOOLS`): a ball of 30 mm radius, a bar 50 mm long and 15 mm in radius, a square plate
+30 mm a side (`BALL_RADIUS`, ...: contacts a few taxels wide), each of `tool_mass` kg (the scene holds a press of about 110 N per kg of tool:
 `Kit.force_limit`). `ForceRig.script` places each press on a taxel far enough from the skin's
 border for the whole tool to lie on the skin (`MARGIN_MM`), so that all of its load is the skin's.
 """
@@ -25,6 +25,7 @@ border for the whole tool to lie on the skin (`MARGIN_MM`), so that all of its l
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _skin
-from .._errors import ArrayError, UnknownNameError
+from .._errors import ArrayError, SkinError, UnknownNameError
 from .bridge import SkinBridge, _mujoco
 from .scenes import Kit, bare_robot
 
@@ -177,13 +178,19 @@ class ForceRig:
         *,
         settle: float = 1.5,
         gap: float = 0.5,
+        overwrite: bool = False,
     ) -> RigRun:
         """Runs `presses` one after the other, `gap` seconds apart, after `settle` seconds with
         nothing touching (the session's baseline), and writes the skin's raw `recording` and
-        the `load` cell's CSV. Each file appears complete or not at all; an existing file is
-        replaced only if it is of its kind (a recording; a load cell's CSV)."""
+        the `load` cell's CSV. Both appear together and complete, or neither (they are written
+        beside their places, then renamed). An existing file is refused, before anything is
+        simulated, unless `overwrite` (and even then only a file of its kind: a recording, a
+        load cell's CSV): a rig's files look like a real rig's, which must never be lost."""
         recording, load = Path(recording), Path(load)
-        _check_replaceable(load)
+        if recording.resolve() == load.resolve():
+            raise ArrayError(f"{recording}: the recording and the load file must be two files")
+        for path, kind in ((recording, "recording"), (load, "load")):
+            _check_replaceable(path, kind, overwrite)
         mujoco = _mujoco()
         bridge = SkinBridge.from_config(self.config)
         spec = bare_robot(bridge.layout)
@@ -229,8 +236,18 @@ class ForceRig:
             where = ",,," if point is None else "," + ",".join(f"{v:.6f}" for v in point)
             lines.append(f"{frame.time:.6f},{force:.6f}{where}")
         ids = np.concatenate([np.asarray(l.ids, dtype=np.int64) for l in bridge.layout.links])
-        _skin.write_recording(recording, ids, np.asarray(times), np.asarray(rows, dtype=np.float32))
-        _write_atomically(load, "\n".join(lines) + "\n")
+        # Both written beside their places first, then renamed: the pair appears together.
+        staged_rec = _partial(recording)
+        staged_load = _partial(load)
+        try:
+            _skin.write_recording(staged_rec, ids, np.asarray(times), np.asarray(rows, dtype=np.float32))
+            _write_atomically(staged_load, "\n".join(lines) + "\n")
+            os.replace(staged_load, load)
+            os.replace(staged_rec, recording)
+        finally:
+            for p in (staged_rec, staged_load):
+                if p.exists():
+                    p.unlink()
         return RigRun(np.asarray(times), np.asarray(loads), np.asarray(ideal), spans)
 
 
@@ -304,12 +321,31 @@ def read_with(session, recording: _PathLike, load: _PathLike, link: Optional[str
     return RigReading(rec.times, table[:, 1], table[:, 2:5], force, wrench, torque, cop)
 
 
-def _check_replaceable(path: Path) -> None:
-    if path.exists():
+def _check_replaceable(path: Path, kind: str, overwrite: bool) -> None:
+    """`path` may be written: it does not exist, or `overwrite` and it is a file of `kind`."""
+    if not path.exists():
+        if not path.parent.is_dir():
+            raise ArrayError(f"{path}: its folder {path.parent} does not exist")
+        return
+    if not overwrite:
+        raise ArrayError(f"{path}: exists; not replaced (give overwrite=True, or --overwrite, to replace a rig's file)")
+    if kind == "load":
         with open(path, "rb") as f:
-            head = f.read(32)
-        if not head.startswith(b"time_s,force_n"):
-            raise ArrayError(f"{path}: exists and is not a load cell's CSV (time_s,force_n...): not replaced")
+            ours = f.read(32).startswith(b"time_s,force_n")
+    else:
+        try:
+            _skin.read_recording(path)
+            ours = True
+        except Exception:
+            ours = False
+    if not ours:
+        what = "a load cell's CSV (time_s,force_n...)" if kind == "load" else "a raw recording"
+        raise ArrayError(f"{path}: exists and is not {what}: not replaced")
+
+
+def _partial(path: Path) -> Path:
+    """Where `path` is written before it is complete: beside it, a name no finished file has."""
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
 
 
 def _write_atomically(path: Path, text: str) -> None:
@@ -348,14 +384,20 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     ap.add_argument("--tools", default=",".join(TOOLS), help=f"tools, comma-separated (default {','.join(TOOLS)})")
     ap.add_argument("--forces", default="1,30", help="lowest and highest force, N (default 1,30; drawn log-uniformly)")
     ap.add_argument("--seed", type=int, default=1, help="the script's seed (default 1)")
+    ap.add_argument("--overwrite", action="store_true", help="replace a recording and a load file a rig wrote before")
     a = ap.parse_args(argv)
     try:
         lo, hi = (float(v) for v in a.forces.split(","))
     except ValueError:
         ap.error(f"--forces {a.forces}: two numbers, low,high (newtons)")
-    rig = ForceRig(a.config, link=a.link)
-    presses = rig.script(a.presses, seed=a.seed, tools=tuple(a.tools.split(",")), forces=(lo, hi))
-    run = rig.record(presses, a.recording, a.load)
+    try:
+        rig = ForceRig(a.config, link=a.link)
+        presses = rig.script(a.presses, seed=a.seed, tools=tuple(a.tools.split(",")), forces=(lo, hi))
+        run = rig.record(presses, a.recording, a.load, overwrite=a.overwrite)
+    except SkinError as e:
+        # (A KeyError's str quotes its message.)
+        print(f"error: {e.args[0] if e.args else e}", file=sys.stderr)
+        return 1
     print(f"{len(presses)} presses, {run.frames} frames ({run.times[-1]:.1f} s): wrote {a.recording} and {a.load}")
     return 0
 

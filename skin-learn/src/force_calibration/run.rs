@@ -43,8 +43,9 @@ pub struct LinkCalibration {
 }
 
 impl LinkCalibration {
-    /// The link's entry in a force calibration file ([`ForceCalibration::set_link`]
-    /// (skin_core::format::force_file::ForceCalibration::set_link) puts it in).
+    /// The link's entry in a force calibration file
+    /// ([`ForceCalibration::set_link`](skin_core::format::force_file::ForceCalibration::set_link)
+    /// puts it in).
     pub fn entry(&self) -> LinkForce {
         self.fit.link_force(&self.link, &self.ids)
     }

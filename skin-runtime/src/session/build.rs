@@ -139,6 +139,22 @@ fn build(
         let calibration = skin_core::format::force_file::ForceCalibration::read(p)?;
         session = session.with_force(&calibration, p)?;
     }
+    // A force limit on a link that cannot be weighed would never stop the arm there.
+    if settings.gate.as_ref().is_some_and(|g| !g.force_n.is_empty()) {
+        let unweighed: Vec<&str> = (session.weighed().iter().zip(session.links()))
+            .filter(|(w, _)| !**w)
+            .map(|(_, l)| l.name.as_str())
+            .collect();
+        if !unweighed.is_empty() {
+            return Err(ConfigError::Value {
+                file: config.path.clone(),
+                field: "[gate] force_n",
+                value: format!("(links without a force calibration: {})", unweighed.join(", ")),
+                expected: "a force calibration ([force]) of every link, so that a touch anywhere is weighed against its limit",
+            }
+            .into());
+        }
+    }
     if let (Some(busmap), Some(busmap_path)) = (&busmap, &files.busmap) {
         session = session.with_can(busmap).map_err(|e| match e {
             SessionError::Can(skin_can::Error::NotInLayout { taxel }) => ConfigError::NotInLayout {

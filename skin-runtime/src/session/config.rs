@@ -38,10 +38,11 @@
 //!                                 # come within within_mm of the skin's border gets action
 //!                                 # (`border` is this rule's key, never a class's)
 //! force_n = { hand = 140, non_hand = 65 }
-//!                                 # optional, needs [force]: a touch of the class pressing
-//!                                 # harder (newtons, its contacts summed) stops the arm until
-//!                                 # it is released, its force named in the gate event (as
-//!                                 # ISO/TS 15066's quasi-static limits per body region);
+//!                                 # optional, needs [force] on every link: a touch of the
+//!                                 # class pressing harder (newtons, its contacts summed; a
+//!                                 # reading past saturation counts as harder) stops the arm
+//!                                 # until it is released, its force named in the gate event
+//!                                 # (as ISO/TS 15066's quasi-static limits per body region);
 //!                                 # no limit by default (`force_n` is never a class's)
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
 //! poses = "poses.json"            # skin-poses/1: every link's pose over time

@@ -14,14 +14,10 @@ impl Session {
         self.touch_events = events;
         result?;
         // Force changes from frame to frame within a touch: with force limits, the gate is
-        // weighed at every frame, not only when a touch is decided or released.
-        if self
-            .setup
-            .options
-            .gate
-            .as_ref()
-            .is_some_and(|g| !g.force_n.is_empty())
-        {
+        // weighed at every frame, not only when a touch is decided or released (from the first
+        // decision on, as without limits).
+        let limits = (self.setup.options.gate.as_ref()).is_some_and(|g| !g.force_n.is_empty());
+        if limits && (self.gate.is_some() || self.pipeline.open_decisions().next().is_some()) {
             self.update_gate(self.last_time, sink)?;
         }
         Ok(())
@@ -68,14 +64,22 @@ impl Session {
     }
 
     /// The gate: the action of the most severe touch in progress; `stop` while a touch that
-    /// pressed past its class's force limit lasts (it is named in the event that stops).
+    /// pressed past its class's force limit lasts. Each touch that crosses its limit is named in
+    /// a gate event, even when the gate was at `stop` already.
     fn update_gate<S: Sink + ?Sized>(&mut self, time: f64, sink: &mut S) -> Result<(), SessionError> {
         let Some(gate) = &self.setup.options.gate else {
             return Ok(());
         };
         let mut over = None;
-        for (link, id, touch) in self.pipeline.open_gate_touches() {
-            if let Some(limit_n) = gate.force_crossed(&touch)
+        for (link, id, touch, saturated) in self.pipeline.open_gate_touches() {
+            // A reading past saturation makes the force a lower bound, and a force that is no
+            // number weighs nothing: with a limit set, either is past it as far as the gate
+            // can tell.
+            let unsure = saturated || touch.force_n.is_some_and(f64::is_nan);
+            let crossed = gate
+                .force_crossed(&touch)
+                .or_else(|| gate.force_n.get(touch.class).copied().filter(|_| unsure));
+            if let Some(limit_n) = crossed
                 && self.over_force[link] != Some(id)
             {
                 self.over_force[link] = Some(id);
@@ -84,14 +88,15 @@ impl Session {
                     touch: id,
                     force_n: touch.force_n.unwrap_or(f64::NAN),
                     limit_n,
+                    saturated,
                 });
             }
         }
         let action = match self.over_force.iter().any(Option::is_some) {
             true => GateAction::Stop,
-            false => gate.decide(self.pipeline.open_gate_touches().map(|(_, _, t)| t)),
+            false => gate.decide(self.pipeline.open_gate_touches().map(|(_, _, t, _)| t)),
         };
-        if self.gate != Some(action) {
+        if self.gate != Some(action) || over.is_some() {
             self.gate = Some(action);
             let over = over.filter(|_| action == GateAction::Stop);
             send(&mut self.stopped, sink, |s| {

@@ -282,7 +282,8 @@ pub enum FrameView<'a> {
 }
 
 /// A touch pressing past its class's force limit (`[gate] force_n`): in events.jsonl,
-/// `"link"`, `"touch"`, `"force_n"` and `"limit_n"` beside the gate's `"action": "stop"`.
+/// `"link"`, `"touch"`, `"force_n"` and `"limit_n"` beside the gate's `"action": "stop"`
+/// (and `"saturated": true` where a reading past saturation made the force a lower bound).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OverForce {
     /// The link pressed.
@@ -294,6 +295,9 @@ pub struct OverForce {
     pub force_n: f64,
     /// Its class's limit, N.
     pub limit_n: f64,
+    /// A taxel of it read past saturation: `force_n` is a lower bound, taken as past the limit.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub saturated: bool,
 }
 
 fn micro<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
@@ -439,6 +443,7 @@ mod tests {
             touch: 0,
             force_n: 150.5,
             limit_n: 140.0,
+            saturated: false,
         }
     }
 
