@@ -359,6 +359,13 @@ class Session:
         KeyboardInterrupt within a frame, the events dropped."""
     def run_recording(self, path: _Path) -> List[Event]:
         """As run_log, for a Cyskin recording."""
+    def tare(self, *, force: bool = False) -> str:
+        """Learns the baseline again over the next baseline frames (they read no pressure).
+        Raises SessionError while a touch is on the skin unless force (touches released first)."""
+    def describe(self) -> Dict[str, Any]:
+        """The skin as skin_msgs/TactileLayout describes it: simulated, source,
+        touch_threshold_counts, and per link name, ids, positions, normals (m), areas (m²),
+        modules, units ("counts" or "N"), calibration_id, dead."""
     def contacts(self, link: Union[int, str]) -> List[Contact]: ...
     def wrench(
         self, link: Union[int, str]

@@ -14,7 +14,7 @@ A type checker then knows each kind's fields::
 Units as in events.jsonl: times in seconds from the session's first frame (rounded to 1 ms),
 centroids in metres (to 0.1 mm), areas in cm², pressures in counts above the baseline. The kinds
 are those of the Rust `skin_runtime::session::Event`; `tests/test_session.py` holds the events
-of the fixture sessions (7 of the 9 kinds: all but `counter_reset` and `baseline_corrected`) to
+of the fixture sessions (7 of the 10 kinds: all but `counter_reset`, `baseline_corrected` and `tare`) to
 these keys and types.
 """
 
@@ -37,6 +37,7 @@ __all__ = [
     "AcrossJointEvent",
     "AcrossJointEndEvent",
     "BaselineCorrectedEvent",
+    "TareEvent",
     "EVENT_KINDS",
 ]
 
@@ -50,6 +51,7 @@ EventKind = Literal[
     "across_joint",
     "across_joint_end",
     "baseline_corrected",
+    "tare",
 ]
 """`Event.kind`: the `"event"` field of events.jsonl."""
 
@@ -212,6 +214,17 @@ class BaselineCorrectedEvent(TypedDict):
     taxels: int
 
 
+class TareEvent(TypedDict):
+    """The skin was tared (`Session.tare`): the baseline is learned again over `frames` frames,
+    which read no pressure; a forced tare released the touches open first."""
+
+    event: Literal["tare"]
+    time: float
+    frames: int
+    forced: bool
+    released: int
+
+
 EventDict = Union[
     IncompleteEvent,
     CounterResetEvent,
@@ -222,5 +235,6 @@ EventDict = Union[
     AcrossJointEvent,
     AcrossJointEndEvent,
     BaselineCorrectedEvent,
+    TareEvent,
 ]
 """`Event.to_dict()`: the line of events.jsonl, by kind (`line["event"]` tells which)."""

@@ -465,6 +465,65 @@ impl Session {
         }
     }
 
+    /// Tares the skin: the baseline is learned again over the next `baseline.frames` frames
+    /// (which read no pressure), as after the rest level moved. Refused with the reason
+    /// (`SessionError`) while a touch is on the skin, unless `force` (the touches open are then
+    /// released first, with the next frame's events). Returns what will happen; the next
+    /// frame's events begin with a "tare" event.
+    #[pyo3(signature = (*, force = false))]
+    fn tare(&self, force: bool) -> PyResult<String> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        if let Some(by) = inner.ended {
+            return Err(errors::error(
+                Kind::Session,
+                format!("tare(): the session was ended by {by}"),
+            ));
+        }
+        inner
+            .session
+            .tare(force)
+            .map(|started| started.to_string())
+            .map_err(|e| errors::error(Kind::Session, format!("tare(): {e}")))
+    }
+
+    /// What the skin is, as `skin_msgs/TactileLayout` publishes it: a dict with "simulated",
+    /// "source", "touch_threshold_counts" and "links", each link a dict of its "name", "ids",
+    /// "positions" and "normals" ((N, 3), m, link frame), "areas" (N,) m², "modules", "units"
+    /// ("counts" or "N"), "calibration_id" and "dead" (taxel indices).
+    fn describe<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = self.lock()?.session.describe();
+        let out = PyDict::new(py);
+        out.set_item("simulated", d.simulated)?;
+        out.set_item("source", &d.source)?;
+        out.set_item("touch_threshold_counts", d.touch_threshold_counts)?;
+        let mut links = Vec::new();
+        for l in &d.links {
+            let link = PyDict::new(py);
+            link.set_item("name", &l.name)?;
+            link.set_item("ids", numpy::PyArray1::from_slice(py, &l.ids))?;
+            let rows = |v: &[[f64; 3]]| {
+                numpy::PyArray2::from_vec2(py, &v.iter().map(|p| p.to_vec()).collect::<Vec<_>>())
+            };
+            link.set_item(
+                "positions",
+                rows(&l.positions).map_err(|e| errors::error(Kind::Other, e))?,
+            )?;
+            link.set_item(
+                "normals",
+                rows(&l.normals).map_err(|e| errors::error(Kind::Other, e))?,
+            )?;
+            link.set_item("areas", numpy::PyArray1::from_slice(py, &l.areas_m2))?;
+            link.set_item("modules", numpy::PyArray1::from_slice(py, &l.modules))?;
+            link.set_item("units", l.units.name())?;
+            link.set_item("calibration_id", &l.calibration_id)?;
+            link.set_item("dead", l.dead.clone())?;
+            links.push(link);
+        }
+        out.set_item("links", links)?;
+        Ok(out)
+    }
+
     /// What the gate says now ("stop", "comply", "slow", "resume"), or None without a gate.
     #[getter]
     fn gate(&self) -> PyResult<Option<&'static str>> {

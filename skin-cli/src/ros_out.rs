@@ -4,6 +4,7 @@
 use crate::output::Inputs;
 use anyhow::{Context, Result};
 use skin_core::LinkSkin;
+use skin_learn::session::Description;
 use skin_ros::{Outlet, OutletOptions, RosOptions, RosSink, RosTime};
 use std::path::Path;
 
@@ -131,12 +132,14 @@ impl RosArgs {
     }
 
     /// Opens the outputs asked for, for a skin of `links` (none: no sink), with a wrench topic
-    /// for each link `weighed` says has a force model. What the live outlet waits for goes to
-    /// standard error (standard output carries the events when live).
+    /// for each link `weighed` says has a force model, publishing `description` as its
+    /// layout. What the live outlet waits for goes to standard error (standard output carries
+    /// the events when live).
     pub fn open(
         &self,
         links: &[LinkSkin],
         weighed: &[bool],
+        description: Description,
         inputs: &Inputs,
     ) -> Result<Option<RosSink<Outlets>>> {
         let options = self.outlets();
@@ -154,7 +157,11 @@ impl RosArgs {
             RosTimeArg::Input => RosTime::Input,
             RosTimeArg::Rebase => RosTime::Rebase,
         };
-        Ok(Some(RosSink::new(links, topics, Outlets(outlets)).ros_time(time)))
+        Ok(Some(
+            RosSink::new(links, topics, Outlets(outlets))
+                .ros_time(time)
+                .describing(description),
+        ))
     }
 }
 

@@ -18,7 +18,7 @@ use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
 use skin_core::image::ImageView;
 use skin_runtime::parts::PartContact;
-use skin_runtime::session::{Event, Flow, ProcessedFrame, Sink};
+use skin_runtime::session::{Description, Event, Flow, ProcessedFrame, Readings, Sink, Units};
 use skin_runtime::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
@@ -83,6 +83,10 @@ pub struct RosSink<O: Outlet> {
     pending_images: Vec<bool>,
     /// Arrows are on screen (a frame without contacts clears them once).
     arrows_shown: bool,
+    /// The skin described, published once at the first frame ([`RosSink::describing`]).
+    description: Option<Description>,
+    /// Per link, its dead taxels (layout indices).
+    dead: Vec<Vec<usize>>,
 }
 
 impl<O: Outlet> std::fmt::Debug for RosSink<O> {
@@ -134,7 +138,22 @@ impl<O: Outlet> RosSink<O> {
             json: Vec::with_capacity(512),
             clock: Clock::new(RosTime::Input),
             arrows_shown: false,
+            description: None,
+            dead: vec![Vec::new(); links.len()],
         }
+    }
+
+    /// Publishes `description` ([`Session::describe`]) as `skin_msgs/TactileLayout` on
+    /// `PREFIX/layout` at the first frame (the first message of an MCAP file), and takes the
+    /// dead taxels of the `tactile_state` topics from it. Set before the first frame.
+    ///
+    /// [`Session::describe`]: skin_runtime::session::Session::describe
+    pub fn describing(mut self, description: Description) -> RosSink<O> {
+        for (l, link) in description.links.iter().enumerate().take(self.dead.len()) {
+            self.dead[l].clone_from(&link.dead);
+        }
+        self.description = Some(description);
+        self
     }
 
     /// Stamps counted as `time` says (the input's clock unless told otherwise). Set before the
@@ -191,6 +210,11 @@ impl<O: Outlet> Sink for RosSink<O> {
 
     fn origin(&mut self, origin_us: u64) -> std::io::Result<Flow> {
         self.clock.set_origin(origin_us).map_err(std::io::Error::other)?;
+        if let Some(d) = &self.description {
+            let (stamp_ns, stamp) = self.clock.frame(origin_us).map_err(std::io::Error::other)?;
+            messages::tactile_layout(&mut self.w, stamp, d, &self.topics.frame_ids);
+            self.publish(self.topics.layout, stamp_ns)?;
+        }
         Ok(GO)
     }
 
@@ -216,6 +240,7 @@ impl<O: Outlet> Sink for RosSink<O> {
             let bytes = self.clouds[l].fill(stamp, pressures);
             self.outlet.publish(topic, stamp_ns, bytes)?;
             self.publish_wrench(l, frame, stamp, stamp_ns)?;
+            self.publish_state(l, frame, stamp, stamp_ns)?;
             if self.pending_images[l]
                 && let (Some(topic), Some(image)) = (
                     self.topics.links[l].pressure_image,
@@ -325,6 +350,39 @@ impl<O: Outlet> RosSink<O> {
             self.publish(topic, stamp_ns)?;
         }
         Ok(())
+    }
+
+    /// Link `l`'s readings in this frame, in its unit, on `PREFIX/<link>/tactile_state`.
+    fn publish_state(
+        &mut self,
+        l: usize,
+        frame: &ProcessedFrame<'_>,
+        stamp: Stamp,
+        stamp_ns: u64,
+    ) -> std::io::Result<()> {
+        let (Some(topics), Some(readings)) = (self.topics.links.get(l), frame.readings(l)) else {
+            return Ok(());
+        };
+        let topic = topics.state;
+        let units = match readings {
+            Readings::Counts(_) => Units::Counts,
+            Readings::Newtons(_) => Units::Newtons,
+        };
+        let names = (
+            frame_id(&self.topics.frame_ids, l),
+            self.names[l].as_str(),
+            units.name(),
+        );
+        match readings {
+            Readings::Counts(p) => {
+                messages::tactile_state(&mut self.w, stamp, names, p.iter().copied(), &self.dead[l]);
+            }
+            Readings::Newtons(f) => {
+                let values = f.iter().map(|&v| v as f32);
+                messages::tactile_state(&mut self.w, stamp, names, values, &self.dead[l]);
+            }
+        }
+        self.publish(topic, stamp_ns)
     }
 
     /// A decision's tactile image on its link's topic; its pressure image, when asked, follows
@@ -442,6 +500,10 @@ fn event_message<'a>(
             m.footprint.centroid = *centroid;
         }
         Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
+        Event::Tare { frames, .. } => {
+            m.kind = EventKind::Tare;
+            m.frames = u32::try_from(*frames).unwrap_or(u32::MAX);
+        }
         Event::BaselineCorrected {
             time,
             since,

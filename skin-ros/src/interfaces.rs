@@ -3,6 +3,11 @@
 //! the `ros2msg` schemas an MCAP file carries ([`Interfaces::schema`]) and the RIHS01 type
 //! hashes rmw_zenoh matches on ([`Interfaces::type_hash`], computed in `type_hash.rs`).
 //!
+//! A service (`.srv`: the request's fields, a line `---`, the response's) becomes the four types
+//! rosidl makes of it, which its type hash covers: `pkg/srv/Name_Request`, `pkg/srv/Name_Response`,
+//! `pkg/srv/Name_Event` (a `service_msgs/ServiceEventInfo` and at most one of each) and
+//! `pkg/srv/Name` holding the three.
+//!
 //! The `.msg` grammar read here: one field a line, `TYPE NAME [DEFAULT]`, or a constant
 //! `TYPE NAME=VALUE`; `#` starts a comment (outside a string constant); TYPE is a primitive
 //! (`bool byte char int8..uint64 float32 float64 string wstring`, a string bounded as
@@ -15,7 +20,7 @@ use std::collections::BTreeMap;
 const STANDARD: &str = include_str!("../msg/standard.msg");
 
 /// The repository's `skin_msgs` package (its `.msg` files, which colcon builds).
-const SKIN_MSGS: [(&str, &str); 6] = [
+const SKIN_MSGS: [(&str, &str); 9] = [
     ("Contact", include_str!("../../skin_msgs/msg/Contact.msg")),
     ("Contacts", include_str!("../../skin_msgs/msg/Contacts.msg")),
     ("Footprint", include_str!("../../skin_msgs/msg/Footprint.msg")),
@@ -25,7 +30,19 @@ const SKIN_MSGS: [(&str, &str); 6] = [
         include_str!("../../skin_msgs/msg/MissingModule.msg"),
     ),
     ("TouchEvent", include_str!("../../skin_msgs/msg/TouchEvent.msg")),
+    ("LinkLayout", include_str!("../../skin_msgs/msg/LinkLayout.msg")),
+    (
+        "TactileLayout",
+        include_str!("../../skin_msgs/msg/TactileLayout.msg"),
+    ),
+    (
+        "TactileState",
+        include_str!("../../skin_msgs/msg/TactileState.msg"),
+    ),
 ];
+
+/// The services of `skin_msgs` (its `.srv` files).
+const SKIN_SRVS: [(&str, &str); 1] = [("Describe", include_str!("../../skin_msgs/srv/Describe.srv"))];
 
 /// A `.msg` that cannot be read.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -101,10 +118,17 @@ impl Interfaces {
     pub fn skin() -> Result<Interfaces, DefinitionError> {
         let mut all = Interfaces::default();
         for (name, text) in split_blocks(STANDARD) {
-            all.add(&name, &text)?;
+            if name.contains("/srv/") {
+                all.add_service(&name, &text)?;
+            } else {
+                all.add(&name, &text)?;
+            }
         }
         for (name, text) in SKIN_MSGS {
             all.add(&format!("skin_msgs/msg/{name}"), text)?;
+        }
+        for (name, text) in SKIN_SRVS {
+            all.add_service(&format!("skin_msgs/srv/{name}"), text)?;
         }
         all.check()?;
         Ok(all)
@@ -114,6 +138,72 @@ impl Interfaces {
     pub fn add(&mut self, name: &str, text: &str) -> Result<(), DefinitionError> {
         let def = parse(name, text)?;
         self.types.insert(def.name.clone(), def);
+        Ok(())
+    }
+
+    /// Adds the service `pkg/srv/Name` from its `.srv` text: its request, response and event
+    /// types, and the service type holding the three (whose hash rmw_zenoh puts in a
+    /// service's key expression).
+    pub fn add_service(&mut self, name: &str, text: &str) -> Result<(), DefinitionError> {
+        let mut request = String::new();
+        let mut response = None::<String>;
+        for line in text.lines() {
+            match &mut response {
+                None if line.trim() == "---" => response = Some(String::new()),
+                None => request.push_str(line),
+                Some(r) => r.push_str(line),
+            }
+            match &mut response {
+                Some(r) if line.trim() != "---" => r.push('\n'),
+                Some(_) => {}
+                None => request.push('\n'),
+            }
+        }
+        let Some(response) = response else {
+            return Err(DefinitionError {
+                type_name: name.to_owned(),
+                line: text.lines().count(),
+                why: "a service needs a line \"---\" between its request and its response".into(),
+            });
+        };
+        // Nested types of a service's fields are messages: parse them as the package's msg.
+        let as_msg = name.replacen("/srv/", "/msg/", 1);
+        let part = |suffix: &str, text: &str| -> Result<Definition, DefinitionError> {
+            let mut def = parse(&format!("{as_msg}{suffix}"), text)?;
+            def.name = format!("{name}{suffix}");
+            Ok(def)
+        };
+        let single = |field: &str, base: String, arity| Field {
+            name: field.to_owned(),
+            base: BaseType::Message(base),
+            arity,
+        };
+        let event = Definition {
+            name: format!("{name}_Event"),
+            fields: vec![
+                single("info", "service_msgs/msg/ServiceEventInfo".into(), Arity::Single),
+                single("request", format!("{name}_Request"), Arity::Bounded(1)),
+                single("response", format!("{name}_Response"), Arity::Bounded(1)),
+            ],
+            constants: Vec::new(),
+        };
+        let service = Definition {
+            name: name.to_owned(),
+            fields: vec![
+                single("request_message", format!("{name}_Request"), Arity::Single),
+                single("response_message", format!("{name}_Response"), Arity::Single),
+                single("event_message", format!("{name}_Event"), Arity::Single),
+            ],
+            constants: Vec::new(),
+        };
+        for def in [
+            part("_Request", &request)?,
+            part("_Response", &response)?,
+            event,
+            service,
+        ] {
+            self.types.insert(def.name.clone(), def);
+        }
         Ok(())
     }
 
@@ -213,13 +303,18 @@ fn body(def: &Definition) -> String {
     text
 }
 
-/// `MSG: pkg/Name` blocks (the line starting with `MSG: `) -> (`pkg/msg/Name`, text).
+/// `MSG: pkg/Name` and `SRV: pkg/Name` blocks (the line starting with `MSG: ` or `SRV: `) ->
+/// (`pkg/msg/Name` or `pkg/srv/Name`, text).
 fn split_blocks(all: &str) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = Vec::new();
     for line in all.lines() {
-        if let Some(head) = line.strip_prefix("MSG: ") {
+        let head = line
+            .strip_prefix("MSG: ")
+            .map(|h| (h, "msg"))
+            .or_else(|| line.strip_prefix("SRV: ").map(|h| (h, "srv")));
+        if let Some((head, kind)) = head {
             let name = match head.trim().split_once('/') {
-                Some((pkg, n)) => format!("{pkg}/msg/{n}"),
+                Some((pkg, n)) => format!("{pkg}/{kind}/{n}"),
                 None => head.trim().to_owned(),
             };
             out.push((name, String::new()));

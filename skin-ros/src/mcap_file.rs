@@ -122,10 +122,7 @@ impl McapOutlet {
             };
             let hash = interfaces.type_hash(ty).ok_or(RosError::UnknownType(ty))?;
             let metadata = BTreeMap::from([
-                (
-                    "offered_qos_profiles".to_owned(),
-                    offered_qos_yaml(k == topics.events),
-                ),
+                ("offered_qos_profiles".to_owned(), offered_qos_yaml(topics.qos(k))),
                 ("topic_type_hash".to_owned(), hash),
             ]);
             channels.push(

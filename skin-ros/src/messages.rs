@@ -337,6 +337,8 @@ pub enum EventKind {
     AcrossJointEnd = 7,
     /// `BASELINE_CORRECTED`.
     BaselineCorrected = 8,
+    /// `TARE`.
+    Tare = 9,
 }
 
 /// A `skin_msgs/msg/TouchEvent` (fields a kind does not use stay empty or zero).
@@ -431,4 +433,73 @@ pub fn touch_event(w: &mut CdrWriter, stamp: Stamp, e: &TouchEventMsg<'_>) {
         w.string(bus).u32(*address);
     }
     w.string(e.bus).u64(e.cycle).string(e.json);
+}
+
+/// `skin_msgs/msg/TactileState`: one link's readings in one frame, in `units`, one per taxel;
+/// a taxel of `dead` (increasing layout indices) reads NaN.
+pub fn tactile_state(
+    w: &mut CdrWriter,
+    stamp: Stamp,
+    (frame_id, link, units): (&str, &str, &str),
+    readings: impl ExactSizeIterator<Item = f32>,
+    dead: &[usize],
+) {
+    w.start();
+    header(w, stamp, frame_id);
+    w.string(link).string(units);
+    w.seq_len(readings.len());
+    let mut next_dead = dead.iter().copied().peekable();
+    for (i, v) in readings.enumerate() {
+        let v = if next_dead.next_if_eq(&i).is_some() {
+            f32::NAN
+        } else {
+            v
+        };
+        w.f32(v);
+    }
+    w.seq_len(dead.len());
+    for &d in dead {
+        w.u32(u32::try_from(d).unwrap_or(u32::MAX));
+    }
+}
+
+/// `skin_msgs/msg/TactileLayout`: the skin described ([`skin_runtime::session::Description`]),
+/// each link in the frame `frame_ids` gives it.
+pub fn tactile_layout(
+    w: &mut CdrWriter,
+    stamp: Stamp,
+    d: &skin_runtime::session::Description,
+    frame_ids: &[String],
+) {
+    w.start();
+    header(w, stamp, "");
+    w.bool(d.simulated).string(&d.source);
+    w.seq_len(d.links.len());
+    for (l, link) in d.links.iter().enumerate() {
+        w.string(&link.name)
+            .string(frame_ids.get(l).map_or(link.name.as_str(), String::as_str));
+        w.seq_len(link.ids.len());
+        for &id in &link.ids {
+            w.u32(id);
+        }
+        w.seq_len(link.positions.len());
+        for &p in &link.positions {
+            point(w, p);
+        }
+        w.seq_len(link.normals.len());
+        for &n in &link.normals {
+            point(w, n);
+        }
+        w.seq_len(link.areas_m2.len());
+        for &a in &link.areas_m2 {
+            w.f32(a as f32);
+        }
+        w.seq_len(link.modules.len());
+        for &m in &link.modules {
+            w.u32(m);
+        }
+        w.string(link.units.name())
+            .string(&link.calibration_id)
+            .f32(d.touch_threshold_counts);
+    }
 }

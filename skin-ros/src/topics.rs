@@ -9,6 +9,8 @@
 //! | `PREFIX/contacts` | `skin_msgs/msg/Contacts` | every frame with a contact |
 //! | `PREFIX/events` | `skin_msgs/msg/TouchEvent` | every event (one per line of events.jsonl) |
 //! | `PREFIX/markers` | `visualization_msgs/msg/MarkerArray` | every frame with a contact, and the frame after the last |
+//! | `PREFIX/<link>/tactile_state` | `skin_msgs/msg/TactileState` | every frame after the baseline: readings in counts, or N on a link with a force calibration |
+//! | `PREFIX/layout` | `skin_msgs/msg/TactileLayout` | once, at the first frame (transient local: a late subscriber gets it) |
 //!
 //! A link name is used as a topic token once mapped to ROS's rules ([`topic_token`]): letters,
 //! digits and `_`, not starting with a digit, no `__`. The frame ids keep the name as it is
@@ -110,6 +112,8 @@ pub struct Topics {
     pub events: usize,
     /// `PREFIX/markers`.
     pub markers: usize,
+    /// `PREFIX/layout`: the skin described, once (transient local).
+    pub layout: usize,
     /// Per link: the frame id of its messages, the link name itself when [`is_frame_id`],
     /// else [`topic_token`] of it (with `_2`, `_3` ... where that is another link's name or
     /// frame id).
@@ -127,6 +131,8 @@ pub struct LinkTopics {
     pub pressure_image: Option<usize>,
     /// `PREFIX/<link>/wrench`, on a link with a force calibration ([`Topics::with_wrenches`]).
     pub wrench: Option<usize>,
+    /// `PREFIX/<link>/tactile_state`.
+    pub state: usize,
 }
 
 /// `sensor_msgs/msg/PointCloud2`.
@@ -141,6 +147,10 @@ pub const CONTACTS: &str = "skin_msgs/msg/Contacts";
 pub const TOUCH_EVENT: &str = "skin_msgs/msg/TouchEvent";
 /// `geometry_msgs/msg/WrenchStamped`.
 pub const WRENCH_STAMPED: &str = "geometry_msgs/msg/WrenchStamped";
+/// `skin_msgs/msg/TactileState`.
+pub const TACTILE_STATE: &str = "skin_msgs/msg/TactileState";
+/// `skin_msgs/msg/TactileLayout`.
+pub const TACTILE_LAYOUT: &str = "skin_msgs/msg/TactileLayout";
 
 impl Topics {
     /// The topics of `links` (layout order) under `prefix` (checked with [`check_prefix`]).
@@ -172,6 +182,7 @@ impl Topics {
                 tactile_image,
                 pressure_image,
                 wrench: None,
+                state: usize::MAX,
             });
         }
         let mut frame_ids: Vec<String> = Vec::with_capacity(links.len());
@@ -191,12 +202,19 @@ impl Topics {
         let contacts = add(format!("{prefix}/contacts"), CONTACTS);
         let events = add(format!("{prefix}/events"), TOUCH_EVENT);
         let markers = add(format!("{prefix}/markers"), MARKER_ARRAY);
+        // After the topics a skin published before it described itself, so those keep their
+        // places.
+        let layout = add(format!("{prefix}/layout"), TACTILE_LAYOUT);
+        for (l, token) in tokens.iter().enumerate() {
+            per_link[l].state = add(format!("{prefix}/{token}/tactile_state"), TACTILE_STATE);
+        }
         Ok(Topics {
             list,
             links: per_link,
             contacts,
             events,
             markers,
+            layout,
             frame_ids,
         })
     }
@@ -227,17 +245,43 @@ impl Topics {
 /// volatile, keep last 10. The events topic keeps all (see [`offered_qos_yaml`]).
 pub const QOS_DEPTH: u32 = 10;
 
+/// The QoS a topic is offered with (every topic is reliable).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Qos {
+    /// Volatile, keep last [`QOS_DEPTH`]: the frame topics.
+    Frames,
+    /// Volatile, keep all: the events, never dropped.
+    Events,
+    /// Transient local, keep last 1: the layout, which a subscriber that joins late still gets.
+    Latched,
+}
+
+impl Topics {
+    /// The QoS topic `k` is offered with.
+    pub fn qos(&self, k: usize) -> Qos {
+        if k == self.events {
+            Qos::Events
+        } else if k == self.layout {
+            Qos::Latched
+        } else {
+            Qos::Frames
+        }
+    }
+}
+
 /// rosbag2's `offered_qos_profiles` channel metadata (YAML, as rosbag2 of Jazzy writes it; zero
-/// durations are the defaults): reliable and volatile for every topic, keep-all history for the
-/// events (`keep_all`, as the live publisher offers them: an event is never dropped) and keep
-/// last [`QOS_DEPTH`] for the frame topics. `ros2 bag play` offers the same QoS again.
-pub fn offered_qos_yaml(keep_all: bool) -> String {
-    let (history, depth) = match keep_all {
-        true => ("keep_all", 0),
-        false => ("keep_last", QOS_DEPTH),
+/// durations are the defaults): reliable for every topic; keep-all history for the events (as
+/// the live publisher offers them: an event is never dropped), keep last [`QOS_DEPTH`] for the
+/// frame topics, and transient local, keep last 1 for the layout. `ros2 bag play` offers the
+/// same QoS again.
+pub fn offered_qos_yaml(qos: Qos) -> String {
+    let (history, depth, durability) = match qos {
+        Qos::Events => ("keep_all", 0, "volatile"),
+        Qos::Frames => ("keep_last", QOS_DEPTH, "volatile"),
+        Qos::Latched => ("keep_last", 1, "transient_local"),
     };
     format!(
-        "- history: {history}\n  depth: {depth}\n  reliability: reliable\n  durability: volatile\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false\n"
+        "- history: {history}\n  depth: {depth}\n  reliability: reliable\n  durability: {durability}\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false\n"
     )
 }
 
@@ -258,9 +302,9 @@ mod tests {
 
     #[test]
     fn events_are_offered_keep_all_and_frames_keep_last() {
-        let events = offered_qos_yaml(true);
+        let events = offered_qos_yaml(Qos::Events);
         assert!(events.starts_with("- history: keep_all\n  depth: 0\n  reliability: reliable\n"));
-        let frames = offered_qos_yaml(false);
+        let frames = offered_qos_yaml(Qos::Frames);
         assert!(frames.starts_with("- history: keep_last\n  depth: 10\n  reliability: reliable\n"));
     }
 

@@ -13,11 +13,13 @@ use crate::interfaces::{Arity, BaseType, Definition, Interfaces};
 use sha2::{Digest, Sha256};
 use std::fmt::Write;
 
-/// `type_description_interfaces/msg/FieldType` ids of the primitives.
+/// `type_description_interfaces/msg/FieldType` ids of the primitives. A `.msg` `char` is
+/// rosidl's `uint8` (the IDL rosidl makes of a `.msg` writes it so): `std_srvs/srv/Trigger`'s
+/// published hash, over `service_msgs/ServiceEventInfo`'s `char[16] client_gid`, holds only so.
 fn primitive_id(name: &str) -> u8 {
     match name {
         "int8" => 2,
-        "uint8" => 3,
+        "uint8" | "char" => 3,
         "int16" => 4,
         "uint16" => 5,
         "int32" => 6,
@@ -26,7 +28,6 @@ fn primitive_id(name: &str) -> u8 {
         "uint64" => 9,
         "float32" => 10,
         "float64" => 11,
-        "char" => 13,
         "bool" => 15,
         "byte" => 16,
         "string" => 17,
@@ -133,6 +134,16 @@ mod tests {
         assert_eq!(
             all.type_hash("builtin_interfaces/msg/Time").as_deref(),
             Some("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197")
+        );
+        // A service's hash covers its request, response and event types (rmw_zenoh's
+        // service key expressions carry it); rmw_zenoh's design document gives Trigger's.
+        assert_eq!(
+            all.type_hash("std_srvs/srv/Trigger").as_deref(),
+            Some("RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f")
+        );
+        assert_eq!(
+            all.type_hash("sensor_msgs/msg/JointState").as_deref(),
+            Some("RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e")
         );
         Ok(())
     }

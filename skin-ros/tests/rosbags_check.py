@@ -6,6 +6,7 @@ Usage: rosbags_check.py CASES.json SKIN_MSGS_DIR
 CASES.json: {"messages": [{"type", "value", "cdr"(hex)}], "hashes": {type: hash}}
 """
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -26,6 +27,14 @@ def typestore(msg_dir):
     added = {}
     for path in sorted(Path(msg_dir).glob('*.msg')):
         added.update(get_types_from_msg(path.read_text(), f'skin_msgs/msg/{path.stem}'))
+    for path in sorted((Path(msg_dir).parent / 'srv').glob('*.srv')):
+        request, response = path.read_text().split('---\n')
+        for part, text in (('Request', request), ('Response', response)):
+            # A bare message name in a .srv is one of the package's messages.
+            text = re.sub(r'^([A-Z]\w*)', r'skin_msgs/\1', text, flags=re.M)
+            types = get_types_from_msg(text, f'skin_msgs/srv/{path.stem}_{part}')
+            # rosbags names them pkg/srv/msg/Name: as rosidl does, pkg/srv/Name.
+            added.update({k.replace('/srv/msg/', '/srv/'): v for k, v in types.items()})
     store.register(added)
     return store
 
@@ -73,6 +82,12 @@ def main():
             store.deserialize_cdr(ours, typ)
             print(f'{case["name"]} ({typ}): {len(ours)} bytes equal')
     for typ, ours in cases['hashes'].items():
+        if typ not in store.types or typ == 'service_msgs/msg/ServiceEventInfo':
+            # Services (rosbags has no service types) and ServiceEventInfo (rosbags hashes its
+            # char[16] as IDL char, rosidl as uint8): held to std_srvs/Trigger's published hash
+            # by skin-ros's own test instead.
+            print(f'{typ}: not hashed by rosbags')
+            continue
         theirs = store.hash_rihs01(typ)
         if ours != theirs:
             bad += 1

@@ -13,6 +13,7 @@ use skin_ros::interfaces::Interfaces;
 use skin_ros::messages::{
     self, Arrow, ContactMsg, EventKind, FootprintMsg, HandPartMsg, PointCloud, Stamp, TouchEventMsg,
 };
+use skin_runtime::session::{Description, LinkDescription, Units};
 
 const STAMP: Stamp = Stamp {
     sec: 1_700_000_123,
@@ -193,6 +194,64 @@ fn wrench_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
     ));
 }
 
+/// A link's readings with a dead taxel (NaN there), and a two-link layout.
+fn tactile_cases(w: &mut CdrWriter, out: &mut Vec<Value>) {
+    messages::tactile_state(
+        w,
+        STAMP,
+        ("upper_arm", "upper arm", "N"),
+        [0.25f32, 7.5, 1.0].into_iter(),
+        &[1],
+    );
+    out.push(case(
+        "tactile_state",
+        "skin_msgs/msg/TactileState",
+        json!({"header": header("upper_arm"), "link": "upper arm", "units": "N",
+               "readings": [0.25, f64::NAN, 1.0], "dead": [1]}),
+        w.bytes(),
+    ));
+    let link = |name: &str, units| LinkDescription {
+        name: name.into(),
+        ids: vec![16, 17, 33],
+        positions: vec![[0.01, 0.02, 0.03], [-0.5, 0.0, 1e-6], [0.0; 3]],
+        normals: vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0; 3]],
+        areas_m2: vec![1.25e-4, 0.5e-4, 0.0],
+        modules: vec![1, 1, 2],
+        units,
+        calibration_id: if units == Units::Newtons {
+            "force.json#forearm sha256:0011".into()
+        } else {
+            String::new()
+        },
+        dead: vec![2],
+    };
+    let d = Description {
+        links: vec![link("forearm", Units::Newtons), link("upper arm", Units::Counts)],
+        simulated: true,
+        source: "run.toml".into(),
+        touch_threshold_counts: 5.0,
+    };
+    messages::tactile_layout(w, STAMP, &d, &["forearm".into(), "upper_arm".into()]);
+    let links: Vec<Value> = d
+        .links
+        .iter()
+        .zip(["forearm", "upper_arm"])
+        .map(|(l, frame)| {
+            json!({"link": l.name, "frame_id": frame, "taxel_ids": l.ids,
+                   "positions": l.positions.iter().map(|p| xyz(*p)).collect::<Vec<_>>(),
+                   "normals": l.normals.iter().map(|p| xyz(*p)).collect::<Vec<_>>(),
+                   "areas": l.areas_m2, "modules": l.modules, "units": l.units.name(),
+                   "calibration_id": l.calibration_id, "touch_threshold_counts": 5.0})
+        })
+        .collect();
+    out.push(case(
+        "tactile_layout",
+        "skin_msgs/msg/TactileLayout",
+        json!({"header": header(""), "simulated": true, "source": "run.toml", "links": links}),
+        w.bytes(),
+    ));
+}
+
 /// A classified touch event with every field set.
 fn event_case(w: &mut CdrWriter, out: &mut Vec<Value>) {
     let event = TouchEventMsg {
@@ -265,6 +324,7 @@ fn cases() -> Value {
     contacts_case(&mut w, &mut out);
     wrench_case(&mut w, &mut out);
     event_case(&mut w, &mut out);
+    tactile_cases(&mut w, &mut out);
     let all = Interfaces::skin().expect("definitions");
     let hashes: serde_json::Map<String, Value> = all
         .names()

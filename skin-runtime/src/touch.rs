@@ -423,6 +423,12 @@ impl TouchPipeline {
         Some((f.wrench, f.saturated))
     }
 
+    /// Each taxel's force in the last frame, N (layout order): its share of the contact it is
+    /// in, zero outside contacts; none on a link without a force model.
+    pub fn taxel_forces(&self, link: usize) -> Option<&[f64]> {
+        Some(self.links.get(link)?.force.as_ref()?.forces())
+    }
+
     /// Link names, in the order frames give their pressures.
     pub fn link_names(&self) -> impl Iterator<Item = &str> {
         self.links.iter().map(|l| l.name.as_str())

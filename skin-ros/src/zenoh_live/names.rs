@@ -4,7 +4,7 @@
 use super::ZenohOptions;
 use crate::RosError;
 use crate::interfaces::Interfaces;
-use crate::topics::{QOS_DEPTH, Topics};
+use crate::topics::{QOS_DEPTH, Qos, Topics};
 use sha2::{Digest, Sha256};
 
 /// `pkg/msg/Name` -> `pkg::msg::dds_::Name_`.
@@ -23,13 +23,14 @@ fn mangle(name: &str) -> String {
     }
 }
 
-/// The rmw_zenoh QoS string of the offered QoS: reliable, volatile, keep all (the events) or
-/// keep last 10, default deadline, lifespan and liveliness.
-fn qos_string(keep_all: bool) -> String {
-    if keep_all {
-        "1:2:2,0:,:,:,,".to_owned()
-    } else {
-        format!("1:2:1,{QOS_DEPTH}:,:,:,,")
+/// The rmw_zenoh QoS string of the offered QoS (`reliability:durability:history,depth:` then
+/// default deadline, lifespan and liveliness): reliable, and volatile keep all (the events),
+/// volatile keep last 10 (frames) or transient local keep last 1 (the layout).
+fn qos_string(qos: Qos) -> String {
+    match qos {
+        Qos::Events => "1:2:2,0:,:,:,,".to_owned(),
+        Qos::Frames => format!("1:2:1,{QOS_DEPTH}:,:,:,,"),
+        Qos::Latched => "1:1:1,1:,:,:,,".to_owned(),
     }
 }
 
@@ -67,7 +68,7 @@ impl Names {
             tokens.push(format!(
                 "@ros2_lv/{domain}/{zid}/0/{id}/MP/%/{namespace}/{node}/{}/{dds}/{hash}/{}",
                 mangle(&topic.name),
-                qos_string(k == topics.events)
+                qos_string(topics.qos(k))
             ));
             let digest = Sha256::digest(format!("{zid}/{id}").as_bytes());
             let mut gid = [0u8; 16];

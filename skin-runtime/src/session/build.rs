@@ -167,6 +167,7 @@ fn build(
         })?;
     }
     session.setup.layout_notes = layout_notes;
+    session.setup.simulated = config.sim.is_some();
     if let Some(p) = &files.truth {
         session = session.with_script(Script::read(p)?);
     }

@@ -128,13 +128,27 @@ pub enum Event {
         /// Taxels whose offset was reset.
         taxels: usize,
     },
+    /// The skin was tared ([`Session::tare`](super::Session::tare)): the baseline is learned
+    /// again over the next `frames` frames, which read no pressure. A forced tare released the
+    /// touches open first (their `released` events come before this one).
+    Tare {
+        /// The frame it began at, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// Frames that learn the baseline again.
+        frames: usize,
+        /// Asked for while a touch was on the skin.
+        forced: bool,
+        /// Touches it released.
+        released: usize,
+    },
 }
 
 impl Event {
     /// Every kind's name, as `"event"` holds it in JSON, in the order the variants are declared:
     /// what a binding or a consumer of events.jsonl matches on (Python's `skin.events.EventKind`
     /// is held to this list).
-    pub const KINDS: [&'static str; 9] = [
+    pub const KINDS: [&'static str; 10] = [
         "incomplete",
         "counter_reset",
         "appeared",
@@ -144,6 +158,7 @@ impl Event {
         "across_joint",
         "across_joint_end",
         "baseline_corrected",
+        "tare",
     ];
 
     /// This event's kind, one of [`Event::KINDS`] (its `"event"` in JSON).
@@ -158,6 +173,7 @@ impl Event {
             Event::AcrossJoint { .. } => 6,
             Event::AcrossJointEnd { .. } => 7,
             Event::BaselineCorrected { .. } => 8,
+            Event::Tare { .. } => 9,
         };
         Event::KINDS[k]
     }
@@ -170,7 +186,8 @@ impl Event {
             | Event::Gate { time, .. }
             | Event::AcrossJoint { time, .. }
             | Event::AcrossJointEnd { time }
-            | Event::BaselineCorrected { time, .. } => *time,
+            | Event::BaselineCorrected { time, .. }
+            | Event::Tare { time, .. } => *time,
             Event::Appeared { touch, .. } => touch.time,
             Event::Classified { touch, .. } => touch.time,
             Event::Released { touch, .. } => touch.time,
@@ -248,6 +265,18 @@ impl<'a> ProcessedFrame<'a> {
     /// frame); none on a link without a force model.
     pub fn wrench(&self, link: usize) -> Option<skin_core::force::Wrench> {
         self.pipeline.wrench(link).map(|(w, _)| w)
+    }
+
+    /// Link `link`'s readings in this frame in its unit: counts above the baseline, or newtons
+    /// per taxel on a link with a force calibration ([`super::Units`]).
+    pub fn readings(&self, link: usize) -> Option<super::Readings<'a>> {
+        match self.pipeline.taxel_forces(link) {
+            Some(forces) => Some(super::Readings::Newtons(forces)),
+            None => self
+                .pressures
+                .get(link)
+                .map(|p| super::Readings::Counts(p.as_slice())),
+        }
     }
 
     /// Skin area per taxel of `link`, cm².

@@ -63,6 +63,7 @@ impl Session {
         let started = Instant::now();
         self.stats.frames += 1;
         self.last_time = time;
+        self.start_tare(time, sink)?;
         if self.base.baselines.is_empty() {
             if complete {
                 self.learn(started)?;
@@ -101,6 +102,13 @@ impl Session {
         }
         self.across_joints(time, cycle, sink)?;
         self.stats.output += t.elapsed();
+        let open = (0..self.setup.links.len())
+            .filter(|&l| self.pipeline.touching(l))
+            .count();
+        self.tares.set_touches(open);
+        if self.stopped {
+            self.tares.stop();
+        }
         Ok(())
     }
 
@@ -113,6 +121,7 @@ impl Session {
                 b.baselines.push(baseline);
                 b.health.push(health);
             }
+            self.learned = true;
         }
         self.stats.baseline += started.elapsed();
         Ok(())
@@ -215,12 +224,17 @@ impl Session {
         if self.stopped {
             return Ok(flow(true));
         }
-        if self.base.baselines.is_empty() {
+        if !self.learned {
             return Err(super::InputError::TooShort {
                 frames: self.stats.frames,
                 needed: self.setup.options.baseline_frames,
             }
             .into());
+        }
+        self.tares.stop();
+        if self.base.baselines.is_empty() {
+            // A tare still learning: nothing is open (it released every touch).
+            return Ok(flow(self.stopped));
         }
         self.end_corrections(self.last_time, 0, sink)?;
         self.touch_events.clear();

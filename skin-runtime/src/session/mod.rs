@@ -37,6 +37,7 @@
 
 mod build;
 mod config;
+mod describe;
 mod emit;
 mod error;
 mod event;
@@ -49,8 +50,10 @@ mod sink;
 mod stats;
 mod stitching;
 mod summary;
+mod tare;
 
 pub use config::{ForceConfig, SessionConfig, SimConfig, StitchConfig};
+pub use describe::{Description, LinkDescription, Readings, Units};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, MissingModule, OverForce, ProcessedFrame};
 pub use models::{ModelRuntime, OwnModels};
@@ -59,6 +62,7 @@ pub use sink::{Flow, JsonLines, PngImages, Sink, SinkError, Sinks};
 pub use stats::SessionStats;
 pub use stitching::{Spanning, Stitching};
 pub use summary::{ScriptScore, Summary, Timings};
+pub use tare::{TareHandle, TareRefused, TareStarted};
 
 use crate::model::Classes;
 use crate::script::{Found, Script, Tally};
@@ -144,6 +148,10 @@ struct Setup {
     dead: Vec<Vec<usize>>,
     /// The settings it was built with ([`Session::with_settings`]).
     settings: Option<SessionSettings>,
+    /// The skin is simulated ([`Session::describe`]).
+    simulated: bool,
+    /// Per link, the force calibration its newtons come from (empty: none).
+    calibration_ids: Vec<String>,
 }
 
 /// The per-frame pipeline of a whole skin, built once (see the [module](self)).
@@ -169,6 +177,11 @@ pub struct Session {
     notes: Vec<String>,
     /// A sink said stop: nothing more reaches the sinks, frames are refused.
     stopped: bool,
+    /// Tares asked for ([`Session::tare`], [`TareHandle`]).
+    tares: tare::Tares,
+    /// The baseline was learned once: a tare learning it again does not make the input too
+    /// short.
+    learned: bool,
 }
 
 impl std::fmt::Debug for Session {
@@ -200,6 +213,7 @@ impl Session {
             });
         }
         let sizes: Vec<usize> = links.iter().map(|l| l.taxels.len()).collect();
+        let baseline_frames = options.baseline_frames;
         let baseline = BaselineOptions {
             polarity: options.polarity,
             ..BaselineOptions::default()
@@ -222,6 +236,8 @@ impl Session {
                 layout_notes: Vec::new(),
                 dead: Vec::new(),
                 settings: None,
+                simulated: false,
+                calibration_ids: vec![String::new(); sizes.len()],
             },
             pipeline,
             touch_events: Vec::new(),
@@ -234,6 +250,8 @@ impl Session {
             over_force: vec![None; sizes.len()],
             notes: Vec::new(),
             stopped: false,
+            tares: tare::Tares::new(baseline_frames),
+            learned: false,
         })
     }
 
@@ -323,6 +341,7 @@ impl Session {
             })?;
             let link = &self.setup.links[l];
             let model = lf.model(link, areas, path)?;
+            self.setup.calibration_ids[l] = calibration_id(path, lf);
             let normals = link.taxels.iter().map(|t| t.normal.into_inner()).collect();
             self.pipeline.set_force(l, model, normals)?;
         }
@@ -469,6 +488,20 @@ impl Session {
     pub fn timings(&self, span: f64) -> Timings<'_> {
         Timings { session: self, span }
     }
+}
+
+/// What names a link's force calibration in a [`Description`]: the file's name, the link and
+/// the first 16 hex digits of a SHA-256 over the link's calibration (its curve, ids and gains).
+fn calibration_id(path: &Path, link: &skin_core::format::force_file::LinkForce) -> String {
+    use sha2::Digest;
+    let bytes = serde_json::to_vec(&(&link.curve, &link.ids, &link.gains)).unwrap_or_default();
+    let digest = sha2::Sha256::digest(&bytes);
+    let hex: String = digest.iter().take(8).map(|b| format!("{b:02x}")).collect();
+    let file = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    );
+    format!("{file}#{} sha256:{hex}", link.name)
 }
 
 /// Hands something to the sink, unless a sink has said stop; remembers a stop.

@@ -22,6 +22,8 @@ impl Session {
         fresh.tally = tally.map(|t| Tally::new(t.into_script()));
         fresh.setup.source = setup.source;
         fresh.setup.layout_notes = setup.layout_notes;
+        fresh.setup.simulated = setup.simulated;
+        fresh.setup.calibration_ids = setup.calibration_ids;
         Ok(fresh)
     }
 }

@@ -83,6 +83,11 @@ impl LinkForce {
         &self.model
     }
 
+    /// Each taxel's force in the last frame, N (zero outside its contacts).
+    pub(super) fn forces(&self) -> &[f64] {
+        &self.forces
+    }
+
     /// The normals.
     pub(super) fn normals(&self) -> &[Vector3<f64>] {
         &self.normals
