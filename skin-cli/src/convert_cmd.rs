@@ -58,7 +58,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut ros = args
         .ros
-        .open(session.links(), &session.weighed(), session.describe(), &inputs)?
+        .open_session(&session, false, &inputs)?
         .context("no ROS output opened")?;
     let span = match input {
         Traffic::Log(log) => session.run_log(log, &args.input, &mut ros, &mut |_, _| {})?,

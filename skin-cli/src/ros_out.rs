@@ -4,7 +4,7 @@
 use crate::output::Inputs;
 use anyhow::{Context, Result};
 use skin_core::LinkSkin;
-use skin_learn::session::Description;
+use skin_learn::session::{Description, Session, TareHandle};
 use skin_ros::{Outlet, OutletOptions, RosOptions, RosSink, RosTime};
 use std::path::Path;
 
@@ -131,6 +131,24 @@ impl RosArgs {
         Ok(self.outlets().check(inputs)?)
     }
 
+    /// [`RosArgs::open`] for `session`'s skin, described as it describes itself; `tare` serves
+    /// its tare (`skin run`; not `skin convert`, which converts a file).
+    pub fn open_session(
+        &self,
+        session: &Session,
+        tare: bool,
+        inputs: &Inputs,
+    ) -> Result<Option<RosSink<Outlets>>> {
+        let handle = tare.then(|| session.tare_handle());
+        self.open(
+            session.links(),
+            &session.weighed(),
+            session.describe(),
+            handle,
+            inputs,
+        )
+    }
+
     /// Opens the outputs asked for, for a skin of `links` (none: no sink), with a wrench topic
     /// for each link `weighed` says has a force model, publishing `description` as its
     /// layout. What the live outlet waits for goes to standard error (standard output carries
@@ -140,6 +158,7 @@ impl RosArgs {
         links: &[LinkSkin],
         weighed: &[bool],
         description: Description,
+        tare: Option<TareHandle>,
         inputs: &Inputs,
     ) -> Result<Option<RosSink<Outlets>>> {
         let options = self.outlets();
@@ -152,7 +171,18 @@ impl RosArgs {
         }
         .topics(links)?
         .with_wrenches(weighed);
-        let outlets = skin_ros::Outlets::open(&options, &topics, inputs, &mut |l| eprintln!("{l}"))?;
+        #[cfg_attr(not(feature = "zenoh"), allow(unused_mut))]
+        let mut outlets = skin_ros::Outlets::open(&options, &topics, inputs, &mut |l| eprintln!("{l}"))?;
+        #[cfg(feature = "zenoh")]
+        outlets.serve(
+            &topics,
+            skin_ros::Services {
+                tare,
+                description: Some(description.clone()),
+            },
+        )?;
+        #[cfg(not(feature = "zenoh"))]
+        let _ = tare;
         let time = match self.ros_time {
             RosTimeArg::Input => RosTime::Input,
             RosTimeArg::Rebase => RosTime::Rebase,

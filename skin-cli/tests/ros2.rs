@@ -741,8 +741,9 @@ fn zenoh_wait_names_the_topics_without_a_subscriber() {
     eprintln!("{said}\n{err}");
     ok(&r);
     assert!(
-        // pressure, tactile image, contacts, events, markers, and the calibrated forearm's wrench.
-        err.contains("waiting up to 600 s for a subscriber to any of the 6 topics"),
+        // pressure, tactile image, contacts, events, markers, layout, tactile state, and the
+        // calibrated forearm's wrench.
+        err.contains("waiting up to 600 s for a subscriber to any of the 8 topics"),
         "{err}"
     );
     let none = err
@@ -754,5 +755,84 @@ fn zenoh_wait_names_the_topics_without_a_subscriber() {
             && none.contains("/skin/forearm/wrench")
             && !none.contains("/skin/forearm/pressure"),
         "{none}"
+    );
+}
+
+/// `/skin/tare`, `/skin/tare_forced` and `/skin/describe` called by a Python Zenoh peer as an
+/// rmw_zenoh client calls them, and the layout taken by a subscriber that joins late
+/// (`ros2/service_peer.py`), while the run reads the fixture log from a FIFO the peer writes:
+/// the peer knows where the run is (a tare before the first touch, then during it).
+#[test]
+fn services_answer_an_rmw_zenoh_client_and_the_layout_reaches_a_late_subscriber() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (out, fifo) = (dir.path().join("out"), dir.path().join("log.fifo"));
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("SKIPPED: no mkfifo here");
+        return;
+    }
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", &config(), "--log"])
+        .arg(&fifo)
+        .arg("-o")
+        .arg(&out)
+        .args(["-q", "--zenoh-listen", &endpoint])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let describe = skin_ros::interfaces::Interfaces::skin()
+        .unwrap()
+        .type_hash("skin_msgs/srv/Describe")
+        .unwrap();
+    let port = endpoint.rsplit(':').next().unwrap().to_owned();
+    let layout = root().join("fixtures/forearm/layout.json");
+    let said = python::run(
+        &py,
+        "ros2/service_peer.py",
+        &[
+            OsStr::new(&port),
+            fifo.as_os_str(),
+            OsStr::new(&log()),
+            layout.as_os_str(),
+            OsStr::new(&describe),
+        ],
+    );
+    eprintln!("{said}");
+    let r = run.wait_with_output().unwrap();
+    ok(&r);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr.contains("zenoh: service /skin/tare: 2 call(s) answered (1 refused, with the reason)"),
+        "{stderr}"
+    );
+    let events = std::fs::read_to_string(out.join("events.jsonl")).unwrap();
+    let tares: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "tare")
+        .collect();
+    assert_eq!(tares.len(), 2, "{events}");
+    assert_eq!(
+        (tares[0]["forced"].as_bool(), tares[0]["released"].as_u64()),
+        (Some(false), Some(0))
+    );
+    assert_eq!(
+        (tares[1]["forced"].as_bool(), tares[1]["released"].as_u64()),
+        (Some(true), Some(1))
+    );
+    // The touches after the forced tare are still found.
+    let after = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "released" && e["time"].as_f64() > tares[1]["time"].as_f64())
+        .count();
+    assert!(
+        after >= 15,
+        "{after} touches released after the forced tare:\n{events}"
     );
 }

@@ -135,6 +135,16 @@ impl Outlets {
         Ok(outlets)
     }
 
+    /// Serves `services` on the live outlet (none without one): see
+    /// [`crate::ZenohOutlet::serve`]. `topics` are those the outlets were opened with.
+    #[cfg(feature = "zenoh")]
+    pub fn serve(&mut self, topics: &Topics, services: crate::Services) -> Result<(), RosError> {
+        match &mut self.zenoh {
+            Some(z) => z.serve(topics, services),
+            None => Ok(()),
+        }
+    }
+
     /// Finishes the MCAP file without putting it in place (it moves with an output folder, see
     /// [`skin_core::output::OutputDir::commit_with`]), with how many messages it holds; `None`
     /// without one. The live outlet goes on.
@@ -290,6 +300,18 @@ mod live {
                 .filter(|t| t.given > 0)
                 .map(|t| topic_line(t, drain_s))
                 .collect();
+            for (name, served, refused, malformed) in &self.services {
+                let mut line = format!("zenoh: service {name}: {served} call(s) answered");
+                if *refused > 0 {
+                    line.push_str(&format!(" ({refused} refused, with the reason)"));
+                }
+                if *malformed > 0 {
+                    line.push_str(&format!(
+                        ", {malformed} query(ies) that were not rmw_zenoh requests answered with an error"
+                    ));
+                }
+                lines.push(line);
+            }
             lines.push(self.end_line(drain_s));
             lines
         }

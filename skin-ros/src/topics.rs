@@ -102,6 +102,8 @@ pub fn check_prefix(prefix: &str) -> Result<String, PrefixError> {
 /// The topics of a skin with these links, in a fixed order, with the index of each kind.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Topics {
+    /// The prefix, checked, without a trailing `/`: `/skin`. The services are under it too.
+    pub prefix: String,
     /// Every topic; publishers and channels are made in this order.
     pub list: Vec<Topic>,
     /// Per link: its pressure cloud, decision image and (when asked) pressure image topics.
@@ -209,6 +211,7 @@ impl Topics {
             per_link[l].state = add(format!("{prefix}/{token}/tactile_state"), TACTILE_STATE);
         }
         Ok(Topics {
+            prefix,
             list,
             links: per_link,
             contacts,

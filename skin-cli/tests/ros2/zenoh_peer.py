@@ -24,6 +24,8 @@ TYPES = {
     'events': 'skin_msgs/msg/TouchEvent',
     'markers': 'visualization_msgs/msg/MarkerArray',
     'wrench': 'geometry_msgs/msg/WrenchStamped',
+    'tactile_state': 'skin_msgs/msg/TactileState',
+    'layout': 'skin_msgs/msg/TactileLayout',
 }
 
 
@@ -82,6 +84,8 @@ def main():
     last_seq = {}
     event_json = []
     for key, payload, attachment in samples:
+        if '/@adv/' in key:
+            continue  # the layout's cache heartbeats (zenoh-ext's, as rmw_zenoh's)
         parts = key.split('/')
         domain, topic, ty, type_hash = parts[0], parts[1:-2], parts[-2], parts[-1]
         kind = topic[-1]
@@ -110,7 +114,7 @@ def main():
         if not any(f'/{mangled}/{ty}/{type_hash}/' in p for p in publishers):
             problems.append(f'{topic_name}: no publisher token')
     for kind in TYPES:
-        if kind in ('pressure', 'tactile_image', 'wrench'):
+        if kind in ('pressure', 'tactile_image', 'wrench', 'tactile_state'):
             if not any(t.endswith('/' + kind) for t in seen_topics):
                 problems.append(f'no {kind} topic seen')
         elif f'/skin/{kind}' not in seen_topics:

@@ -191,6 +191,9 @@ pub(super) fn session_config(options: &ZenohOptions) -> Result<zenoh::Config, Ro
             BLOCK_BEFORE_CLOSE.as_micros().to_string(),
         ),
         ("transport/link/tcp/so_sndbuf", SEND_BUFFER.to_string()),
+        // The layout's cache (a transient-local publisher) stamps what it keeps, as rmw_zenoh's
+        // sessions do.
+        ("timestamping/enabled", "true".to_owned()),
     ] {
         config.insert_json5(key, &value).map_err(zenoh_error)?;
     }

@@ -58,9 +58,11 @@ mod config;
 mod in_flight;
 mod names;
 mod publish;
+mod services;
 
 pub use config::{MAX_DOMAIN, ZenohOptions, check_endpoint, check_endpoints};
 pub use in_flight::InFlight;
+pub use services::{ServiceCounts, Services};
 
 use crate::RosError;
 use crate::bridge::Outlet;
@@ -69,7 +71,7 @@ use crate::topics::Topics;
 use config::{check_listeners, check_options, session_config, zenoh_error};
 use in_flight::in_flight;
 use names::Names;
-use publish::{Counts, Outgoing, Queue, Shared, declare_publishers};
+use publish::{Counts, Outgoing, Queue, Shared, declare_latched, declare_publishers};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
@@ -114,6 +116,9 @@ pub struct ZenohReport {
     pub timed_out: bool,
     /// How long the end waited.
     pub waited: Duration,
+    /// What each service served ([`ZenohOutlet::serve`]), as (service, served, refused,
+    /// malformed).
+    pub services: Vec<(String, u64, u64, u64)>,
 }
 
 impl ZenohReport {
@@ -141,7 +146,10 @@ pub struct ZenohOutlet {
     sequence: Vec<i64>,
     gids: Vec<[u8; 16]>,
     events_topic: usize,
+    layout_topic: usize,
     names: Vec<String>,
+    options: ZenohOptions,
+    served: Option<services::Served>,
     keys: Vec<String>,
     tokens: Vec<String>,
     _matching: Vec<zenoh::matching::MatchingListener<()>>,
@@ -184,6 +192,10 @@ impl ZenohOutlet {
             publishers: declared.publishers,
             matching: declared.matching,
             counts: (0..names.keys.len()).map(|_| Counts::default()).collect(),
+            latched: match names.keys.get(topics.layout) {
+                Some(key) => Some((topics.layout, declare_latched(&session, key)?)),
+                None => None,
+            },
         });
         let (give_back, pool) = mpsc::channel::<Vec<u8>>();
         let (frames, frames_queue) = mpsc::sync_channel::<Outgoing>(options.queue.max(1));
@@ -216,11 +228,47 @@ impl ZenohOutlet {
             sequence: vec![0; n],
             gids: names.gids,
             events_topic: topics.events,
+            layout_topic: topics.layout,
             names: topics.list.iter().map(|t| t.name.clone()).collect(),
+            options: options.clone(),
+            served: None,
             keys: names.keys,
             tokens: names.tokens,
             _matching: declared.listeners,
             _liveliness: liveliness,
+        })
+    }
+
+    /// Serves `services` under `topics.prefix` (the topics it was opened with), as an rmw_zenoh
+    /// node serves its services: `PREFIX/tare`, `PREFIX/tare_forced`, `PREFIX/describe`. Calls
+    /// are answered on Zenoh's threads, never the frame path's.
+    pub fn serve(&mut self, topics: &Topics, services: Services) -> Result<(), RosError> {
+        let zid = self.session.zid().to_string();
+        let place = services::Place {
+            domain: self.options.domain,
+            zid: &zid,
+            namespace: &self.options.namespace,
+            node: &self.options.node,
+            first_id: self.tokens.len() + 1,
+        };
+        self.served = Some(services::serve(&self.session, topics, services, &place)?);
+        Ok(())
+    }
+
+    /// What each service served so far: (service, served, refused, malformed).
+    pub fn service_counts(&self) -> Vec<(String, u64, u64, u64)> {
+        self.served.as_ref().map_or_else(Vec::new, |s| {
+            s.counts
+                .iter()
+                .map(|c| {
+                    (
+                        c.name.clone(),
+                        c.served.load(Ordering::Relaxed),
+                        c.refused.load(Ordering::Relaxed),
+                        c.malformed.load(Ordering::Relaxed),
+                    )
+                })
+                .collect()
         })
     }
 
@@ -333,6 +381,7 @@ impl ZenohOutlet {
             peers_left,
             timed_out: !handed || (flight.is_some() && !taken),
             waited: start.elapsed(),
+            services: self.service_counts(),
         };
         for t in std::mem::take(&mut self.threads) {
             if t.is_finished() {
@@ -383,7 +432,7 @@ impl Outlet for ZenohOutlet {
             attachment,
             payload,
         };
-        if topic == self.events_topic {
+        if topic == self.events_topic || topic == self.layout_topic {
             if let Some(events) = &self.events {
                 // A send fails only when the thread is gone: counted as undelivered.
                 let _ = events.send(m);

@@ -15,7 +15,7 @@ pub fn dds_type(name: &str) -> String {
 }
 
 /// A name with every `/` written `%`, an empty one written `%`.
-fn mangle(name: &str) -> String {
+pub(super) fn mangle(name: &str) -> String {
     if name.is_empty() {
         "%".into()
     } else {

@@ -33,6 +33,9 @@ pub(super) struct Shared {
     /// Per topic: a subscriber matches now (kept by Zenoh's matching listeners).
     pub matching: Vec<Arc<AtomicBool>>,
     pub counts: Vec<Counts>,
+    /// The transient-local topic (the layout) and its publisher with a cache, which late
+    /// subscribers query, as rmw_zenoh's transient-local publishers are.
+    pub latched: Option<(usize, zenoh_ext::AdvancedPublisher<'static>)>,
 }
 
 impl Shared {
@@ -59,6 +62,27 @@ pub(super) struct Declared {
     pub matching: Vec<Arc<AtomicBool>>,
     /// What keeps `matching` up to date (dropped with the outlet).
     pub listeners: Vec<zenoh::matching::MatchingListener<()>>,
+}
+
+/// The transient-local publisher of `key` (the layout), as rmw_zenoh declares one: a cache of
+/// its last sample that late subscribers query, detectable by them, with sporadic heartbeats so
+/// that a reliable subscriber notices a missed sample.
+pub(super) fn declare_latched(
+    session: &zenoh::Session,
+    key: &str,
+) -> Result<zenoh_ext::AdvancedPublisher<'static>, RosError> {
+    use zenoh_ext::{AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
+    session
+        .declare_publisher(key.to_owned())
+        .congestion_control(CongestionControl::Block)
+        .advanced()
+        .cache(CacheConfig::default().max_samples(1))
+        .publisher_detection()
+        .sample_miss_detection(
+            MissDetectionConfig::default().sporadic_heartbeat(std::time::Duration::from_secs(1)),
+        )
+        .wait()
+        .map_err(zenoh_error)
 }
 
 /// Publishers, one per key, each with its flag of a matching subscriber (kept by the returned
@@ -136,10 +160,16 @@ impl Queue {
             };
             let matched = matching.load(Ordering::Relaxed);
             // Blocking here (events) holds only this thread; the frame path never waits.
-            let put = publisher
-                .put(m.payload.as_slice())
-                .attachment(m.attachment.as_slice())
-                .wait();
+            let put = match &shared.latched {
+                Some((k, latched)) if *k == m.topic => latched
+                    .put(m.payload.as_slice())
+                    .attachment(m.attachment.as_slice())
+                    .wait(),
+                _ => publisher
+                    .put(m.payload.as_slice())
+                    .attachment(m.attachment.as_slice())
+                    .wait(),
+            };
             let count = match (put, matched) {
                 (Err(_), _) => &counts.failed,
                 (Ok(()), true) => &counts.sent,
