@@ -14,7 +14,7 @@ A type checker then knows each kind's fields::
 Units as in events.jsonl: times in seconds from the session's first frame (rounded to 1 ms),
 centroids in metres (to 0.1 mm), areas in cm², pressures in counts above the baseline. The kinds
 are those of the Rust `skin_runtime::session::Event`; `tests/test_session.py` holds the events
-of the fixture sessions (7 of the 10 kinds: all but `counter_reset`, `baseline_corrected` and `tare`) to
+of the fixture sessions (7 of the 11 kinds: all but `counter_reset`, `baseline_corrected`, `tare` and `joint_states`) to
 these keys and types.
 """
 
@@ -38,6 +38,7 @@ __all__ = [
     "AcrossJointEndEvent",
     "BaselineCorrectedEvent",
     "TareEvent",
+    "JointStatesEvent",
     "EVENT_KINDS",
 ]
 
@@ -52,6 +53,7 @@ EventKind = Literal[
     "across_joint_end",
     "baseline_corrected",
     "tare",
+    "joint_states",
 ]
 """`Event.kind`: the `"event"` field of events.jsonl."""
 
@@ -225,6 +227,18 @@ class TareEvent(TypedDict):
     released: int
 
 
+class JointStatesEvent(TypedDict):
+    """The joint states that place the stitched links went wrong (once when a fault begins):
+    `problem` is missing, not_finite, stale, out_of_order, other_robot, malformed or
+    unstitchable; the last good posture holds."""
+
+    event: Literal["joint_states"]
+    time: float
+    problem: str
+    joints: List[str]
+    detail: str
+
+
 EventDict = Union[
     IncompleteEvent,
     CounterResetEvent,
@@ -236,5 +250,6 @@ EventDict = Union[
     AcrossJointEndEvent,
     BaselineCorrectedEvent,
     TareEvent,
+    JointStatesEvent,
 ]
 """`Event.to_dict()`: the line of events.jsonl, by kind (`line["event"]` tells which)."""

@@ -58,7 +58,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut ros = args
         .ros
-        .open_session(&session, false, &inputs)?
+        .open_session(&mut session, false, true, &inputs)?
         .context("no ROS output opened")?;
     let span = match input {
         Traffic::Log(log) => session.run_log(log, &args.input, &mut ros, &mut |_, _| {})?,

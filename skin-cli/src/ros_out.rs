@@ -54,6 +54,15 @@ pub struct RosArgs {
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "SECONDS", value_parser = parse_wait)]
     pub zenoh_drain: Option<f64>,
+    /// Stitch at the robot's posture live: subscribe to sensor_msgs/JointState on this topic
+    /// (e.g. /joint_states) as a ROS 2 node on rmw_zenoh does, joints matched by name to the
+    /// configuration's [stitch] urdf. Replaying a log or recording, each frame waits (up to 2
+    /// s) for the joint state of its time; live, never. Faults (a joint missing or NaN, a stale
+    /// or out-of-order message, another robot's) are events; the last good posture holds.
+    /// Needs --zenoh or --zenoh-listen.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "TOPIC")]
+    pub joint_states: Option<String>,
     /// ROS domain id of the Zenoh topics (ROS_DOMAIN_ID), 0 to 232; 0 unless given.
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "N")]
@@ -115,11 +124,16 @@ impl RosArgs {
                 ("--zenoh-wait", self.zenoh_wait.is_some()),
                 ("--zenoh-drain", self.zenoh_drain.is_some()),
                 ("--ros-domain", self.ros_domain.is_some()),
+                ("--joint-states", self.joint_states.is_some()),
             ] {
                 anyhow::ensure!(
                     !given || live,
                     "{flag} needs --zenoh or --zenoh-listen: it is for the live topics, and there are none"
                 );
+            }
+            if let Some(t) = &self.joint_states {
+                skin_ros::topics::check_prefix(t)
+                    .map_err(|e| anyhow::anyhow!("--joint-states {t}: {}", e.why))?;
             }
             if let Some(d) = self.ros_domain {
                 anyhow::ensure!(
@@ -132,35 +146,53 @@ impl RosArgs {
     }
 
     /// [`RosArgs::open`] for `session`'s skin, described as it describes itself; `tare` serves
-    /// its tare (`skin run`; not `skin convert`, which converts a file).
+    /// its tare (`skin run`; not `skin convert`, which converts a file). With --joint-states,
+    /// the session is given the robot's posture live (`offline`: a replay, whose frames wait
+    /// for the joint state of their time).
     pub fn open_session(
         &self,
-        session: &Session,
+        session: &mut Session,
         tare: bool,
+        offline: bool,
         inputs: &Inputs,
     ) -> Result<Option<RosSink<Outlets>>> {
-        let handle = tare.then(|| session.tare_handle());
-        self.open(
-            session.links(),
-            &session.weighed(),
-            session.describe(),
-            handle,
-            inputs,
-        )
+        #[cfg(feature = "zenoh")]
+        let joint_states = match &self.joint_states {
+            Some(topic) => {
+                let wait = offline.then(|| std::time::Duration::from_secs(2));
+                let feed = session.joint_state_feed(wait, self.ros_time == RosTimeArg::Rebase)?;
+                Some((topic.clone(), feed))
+            }
+            None => None,
+        };
+        #[cfg(not(feature = "zenoh"))]
+        let _ = offline;
+        let serving = Serving {
+            description: session.describe(),
+            tare: tare.then(|| session.tare_handle()),
+            #[cfg(feature = "zenoh")]
+            joint_states,
+        };
+        self.open(session.links(), &session.weighed(), serving, inputs)
     }
 
     /// Opens the outputs asked for, for a skin of `links` (none: no sink), with a wrench topic
-    /// for each link `weighed` says has a force model, publishing `description` as its
-    /// layout. What the live outlet waits for goes to standard error (standard output carries
-    /// the events when live).
+    /// for each link `weighed` says has a force model, serving what `serving` says (the layout
+    /// it describes, its tare, the joint states it listens to). What the live outlet waits for
+    /// goes to standard error (standard output carries the events when live).
     pub fn open(
         &self,
         links: &[LinkSkin],
         weighed: &[bool],
-        description: Description,
-        tare: Option<TareHandle>,
+        serving: Serving,
         inputs: &Inputs,
     ) -> Result<Option<RosSink<Outlets>>> {
+        let Serving {
+            description,
+            tare,
+            #[cfg(feature = "zenoh")]
+            joint_states,
+        } = serving;
         let options = self.outlets();
         if !options.any() {
             return Ok(None);
@@ -181,6 +213,10 @@ impl RosArgs {
                 description: Some(description.clone()),
             },
         )?;
+        #[cfg(feature = "zenoh")]
+        if let Some((topic, feed)) = joint_states {
+            outlets.listen_joint_states(&topic, feed)?;
+        }
         #[cfg(not(feature = "zenoh"))]
         let _ = tare;
         let time = match self.ros_time {
@@ -193,6 +229,17 @@ impl RosArgs {
                 .describing(description),
         ))
     }
+}
+
+/// What a run's live node serves and listens to, beside its topics.
+pub struct Serving {
+    /// The skin, for PREFIX/layout and PREFIX/describe.
+    pub description: Description,
+    /// The session's tare, for PREFIX/tare.
+    pub tare: Option<TareHandle>,
+    /// The joint-state topic and the session's feed.
+    #[cfg(feature = "zenoh")]
+    pub joint_states: Option<(String, skin_learn::session::PostureFeed)>,
 }
 
 /// `--zenoh-wait`, `--zenoh-drain`: seconds, 0 to 3600.

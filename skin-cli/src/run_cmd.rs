@@ -170,7 +170,9 @@ pub fn run(args: Args) -> Result<()> {
         Some(d) => Some(crate::output::open_dir(d, "skin run", args.force, &inputs)?),
         None => None,
     };
-    let ros = args.ros.open_session(&session, true, &inputs)?;
+    let ros = args
+        .ros
+        .open_session(&mut session, true, args.log.is_some(), &inputs)?;
     let result = sinks(out.as_ref(), args.log.is_none(), ros, view).and_then(|mut sinks| {
         let span = match &args.log {
             Some(log) => offline(&mut session, log, &mut sinks, args.quiet)?,
@@ -349,7 +351,7 @@ fn recordings(args: &Args, config: &SessionConfig, inputs: &Inputs) -> Result<()
             still_there(out.path(), dir)?;
             std::fs::create_dir_all(&here).with_context(cannot)?;
         }
-        let ros = args.ros.open_session(&session, true, inputs)?;
+        let ros = args.ros.open_session(&mut session, true, true, inputs)?;
         let mut sinks = RunSinks::recording(&here, &shown, ros, view.take())?;
         let span = session.run_recording(&mut rec, path, &mut sinks);
         view = sinks.view.take();

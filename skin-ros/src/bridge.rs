@@ -500,6 +500,7 @@ fn event_message<'a>(
             m.footprint.centroid = *centroid;
         }
         Event::AcrossJointEnd { .. } => m.kind = EventKind::AcrossJointEnd,
+        Event::JointStates { .. } => m.kind = EventKind::JointStates,
         Event::Tare { frames, .. } => {
             m.kind = EventKind::Tare;
             m.frames = u32::try_from(*frames).unwrap_or(u32::MAX);

@@ -131,6 +131,51 @@ impl<'a> CdrReader<'a> {
     }
 }
 
+/// Joints a `sensor_msgs/JointState` may name (a humanoid has under a hundred): a longer
+/// message is refused before anything is sized by it.
+pub const MAX_JOINTS: usize = 4096;
+
+/// A `sensor_msgs/msg/JointState`, read: its stamp, joint names and positions (velocities
+/// and efforts are checked, not kept).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointStateRead<'a> {
+    /// The header's stamp.
+    pub stamp: Stamp,
+    /// Joint names.
+    pub names: Vec<&'a str>,
+    /// Positions, rad or m (as many as the names in a well-formed message).
+    pub positions: Vec<f64>,
+}
+
+/// Reads a `sensor_msgs/msg/JointState` from anyone (rmw_zenoh, a bag): every length checked
+/// against the bytes there are and against [`MAX_JOINTS`].
+pub fn joint_state(bytes: &[u8]) -> Result<JointStateRead<'_>, DecodeError> {
+    let mut r = CdrReader::new(bytes, "sensor_msgs/msg/JointState")?;
+    let (stamp, _frame_id) = r.header()?;
+    let joints = |r: &mut CdrReader<'_>, each| {
+        let n = r.seq_len(each)?;
+        if n > MAX_JOINTS {
+            return Err(r.error(format!("{n} joints, more than {MAX_JOINTS}")));
+        }
+        Ok(n)
+    };
+    let n = joints(&mut r, 5)?;
+    let names = (0..n).map(|_| r.string()).collect::<Result<Vec<_>, _>>()?;
+    let n = joints(&mut r, 8)?;
+    let positions = (0..n).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
+    for _ in 0..2 {
+        let n = joints(&mut r, 8)?;
+        for _ in 0..n {
+            r.f64()?;
+        }
+    }
+    Ok(JointStateRead {
+        stamp,
+        names,
+        positions,
+    })
+}
+
 /// A link's point cloud as skin writes it ([`crate::messages::PointCloud`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cloud {
@@ -367,6 +412,61 @@ mod tests {
     use super::*;
     use crate::cdr::CdrWriter;
     use crate::messages::{self, ContactMsg, EventKind, PointCloud, TouchEventMsg};
+
+    /// A JointState as rmw_zenoh writes it (rosbags' serialisation is checked against the same
+    /// layout in the joint-state interop test).
+    fn joint_state_cdr(names: &[&str], positions: &[f64], velocities: usize) -> Vec<u8> {
+        let mut w = CdrWriter::new();
+        w.start();
+        w.i32(1_700_000_001).u32(500).string("base");
+        w.seq_len(names.len());
+        for n in names {
+            w.string(n);
+        }
+        w.seq_len(positions.len());
+        for &p in positions {
+            w.f64(p);
+        }
+        w.seq_len(velocities);
+        for _ in 0..velocities {
+            w.f64(0.25);
+        }
+        w.seq_len(0);
+        w.bytes().to_vec()
+    }
+
+    #[test]
+    fn joint_states_read_back_and_lies_about_lengths_are_refused() {
+        let bytes = joint_state_cdr(&["wrist_roll", "j2"], &[0.5, -1.0], 2);
+        let back = joint_state(&bytes).unwrap();
+        assert_eq!(
+            back.stamp,
+            Stamp {
+                sec: 1_700_000_001,
+                nanosec: 500
+            }
+        );
+        assert_eq!(back.names, ["wrist_roll", "j2"]);
+        assert_eq!(back.positions, [0.5, -1.0]);
+        // A name count that claims more than the bytes: refused before any allocation.
+        let mut lie = bytes.clone();
+        let at = 4 + 8 + 4 + 5 + 3;
+        lie[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(joint_state(&lie).is_err());
+        for cut in 0..bytes.len() {
+            assert!(joint_state(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_bytes_read_as_a_joint_state_never_panic(bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..256)) {
+            let mut framed = crate::cdr::CDR_LE.to_vec();
+            framed.extend_from_slice(&bytes);
+            let _ = joint_state(&framed);
+            let _ = joint_state(&bytes);
+        }
+    }
 
     #[test]
     fn a_cloud_reads_back_what_was_written() {

@@ -58,8 +58,8 @@ pub use mcap_file::{McapOutlet, written_by_skin as mcap_file_written_by_skin};
 pub use outlets::{DEFAULT_DRAIN_S, OutletOptions, Outlets};
 #[cfg(feature = "zenoh")]
 pub use zenoh_live::{
-    InFlight, MAX_DOMAIN, ServiceCounts, Services, TopicCounts, ZenohOptions, ZenohOutlet, ZenohReport,
-    check_endpoint, check_endpoints,
+    InFlight, JOINT_STATE, ListenCounts, MAX_DOMAIN, ServiceCounts, Services, TopicCounts, ZenohOptions,
+    ZenohOutlet, ZenohReport, check_endpoint, check_endpoints,
 };
 
 /// What can go wrong publishing a skin to ROS 2.

@@ -339,6 +339,8 @@ pub enum EventKind {
     BaselineCorrected = 8,
     /// `TARE`.
     Tare = 9,
+    /// `JOINT_STATES`.
+    JointStates = 10,
 }
 
 /// A `skin_msgs/msg/TouchEvent` (fields a kind does not use stay empty or zero).

@@ -145,6 +145,22 @@ impl Outlets {
         }
     }
 
+    /// Hands the joint states on `topic` to `feed` (the live outlet's subscription; an error
+    /// without one): see [`crate::ZenohOutlet::listen_joint_states`].
+    #[cfg(feature = "zenoh")]
+    pub fn listen_joint_states(
+        &mut self,
+        topic: &str,
+        feed: skin_runtime::session::PostureFeed,
+    ) -> Result<(), RosError> {
+        match &mut self.zenoh {
+            Some(z) => z.listen_joint_states(topic, feed),
+            None => Err(RosError::Zenoh(format!(
+                "joint states on {topic} need a live node (--zenoh or --zenoh-listen)"
+            ))),
+        }
+    }
+
     /// Finishes the MCAP file without putting it in place (it moves with an output folder, see
     /// [`skin_core::output::OutputDir::commit_with`]), with how many messages it holds; `None`
     /// without one. The live outlet goes on.
@@ -309,6 +325,20 @@ mod live {
                     line.push_str(&format!(
                         ", {malformed} query(ies) that were not rmw_zenoh requests answered with an error"
                     ));
+                }
+                lines.push(line);
+            }
+            for (topic, [received, fed, other, bare, malformed]) in &self.listened {
+                let mut line =
+                    format!("zenoh: subscription {topic}: {received} sample(s) received, {fed} read");
+                for (n, what) in [
+                    (other, "of another type or type hash"),
+                    (bare, "without rmw_zenoh's attachment"),
+                    (malformed, "not a readable message"),
+                ] {
+                    if *n > 0 {
+                        line.push_str(&format!(", {n} dropped {what}"));
+                    }
                 }
                 lines.push(line);
             }

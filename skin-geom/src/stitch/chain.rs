@@ -1,13 +1,31 @@
-//! A chain of links stitched at the postures of a poses file.
+//! A chain of links stitched at the postures of a poses file, or at a posture given live (the
+//! robot's joint states): each posture solved once, a live one again whenever it moves.
 
 use super::{StitchOptions, StitchReport, StitchedRasterizer, Stitcher};
 use crate::dead_taxels::DeadTaxels;
 use crate::raster::{Normalisation, to_grey};
 use crate::tactile_map::TactileMap;
 use crate::{ChainContacts, ChainError, ChainIndex, Error, Result};
+use nalgebra::Isometry3;
 use skin_core::Contact;
 use skin_core::format::poses::Postures;
 use skin_core::image::{ImageSize, ImageView};
+
+/// How far a link of a live posture moves before the chain is stitched again: 0.1 mm, or
+/// 1e-4 rad (0.006 degrees) of turn. Below it the last solve holds (joint encoders' noise
+/// costs nothing); the images are 1 mm pixels.
+pub const LIVE_TOLERANCE_M: f64 = 1e-4;
+/// See [`LIVE_TOLERANCE_M`].
+pub const LIVE_TOLERANCE_RAD: f64 = 1e-4;
+
+/// Which solve a frame is stitched at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum At {
+    /// The poses file's posture of this index.
+    Posture(usize),
+    /// The live posture of this generation.
+    Live(u64),
+}
 
 /// A chain of links stitched at the postures of a poses file: each posture solved once (a posture
 /// is static), the maps placed and rendered as one tactile image, contacts chained across the
@@ -28,7 +46,10 @@ pub struct PostureChain {
     /// The input's dead taxels, per link.
     dead: Vec<DeadTaxels>,
     /// The posture of the last frame.
-    posture: usize,
+    posture: At,
+    /// The live posture ([`PostureChain::set_live_posture`]) and its generation: from it on,
+    /// frames are stitched there rather than at the poses file's posture of their time.
+    live: Option<(u64, Vec<Isometry3<f64>>)>,
     /// The last frame's pressures, thresholded, per link of the chain in use.
     pressures: Vec<Vec<f32>>,
     threshold: f32,
@@ -47,7 +68,21 @@ struct Solved {
     /// Per link, the whole map's index of each of its taxels.
     survivors: Vec<Vec<usize>>,
     /// The posture the rasterizer is placed at.
-    placed: Option<usize>,
+    placed: Option<At>,
+    /// The live posture's solve: its generation, its report and its contact search.
+    live: Option<(u64, StitchReport, Option<ChainContacts>)>,
+}
+
+/// The solve of `at` among a chain's posture `reports` and its `live` one.
+fn report_of<'a>(
+    reports: &'a [StitchReport],
+    live: &'a Option<(u64, StitchReport, Option<ChainContacts>)>,
+    at: At,
+) -> Option<&'a StitchReport> {
+    match at {
+        At::Posture(k) => reports.get(k),
+        At::Live(g) => live.as_ref().filter(|(l, ..)| *l == g).map(|(_, r, _)| r),
+    }
 }
 
 /// `source` said to have happened at `posture`.
@@ -96,7 +131,29 @@ impl Solved {
             finders: Vec::new(),
             survivors,
             placed: None,
+            live: None,
         })
+    }
+
+    /// The solve of the live posture `poses`, with its contact search when `contacts`; kept
+    /// by the caller only once every chain has one ([`PostureChain::set_live_posture`]).
+    fn solve_live(
+        &mut self,
+        poses: &[Isometry3<f64>],
+        contacts: bool,
+    ) -> Result<(StitchReport, Option<ChainContacts>)> {
+        let at = at("live");
+        let report = self.stitcher.reset(poses).map_err(&at)?;
+        let finder = match contacts {
+            true => Some(ChainContacts::new(self.stitcher.maps(), poses, &report.bridges).map_err(&at)?),
+            false => None,
+        };
+        Ok((report, finder))
+    }
+
+    /// The solve a frame at `at` is stitched at.
+    fn report(&self, at: At) -> Option<&StitchReport> {
+        report_of(&self.reports, &self.live, at)
     }
 
     /// Builds the contact search of every posture.
@@ -134,7 +191,8 @@ impl PostureChain {
             contacts: false,
             whole,
             holed: None,
-            posture: 0,
+            posture: At::Posture(0),
+            live: None,
             threshold: 0.0,
             image: Vec::new(),
             grey: Vec::new(),
@@ -170,10 +228,61 @@ impl PostureChain {
     /// Where each link's whole map lies in the stitched plane at the posture in effect at
     /// `time` (s): the solve of that posture. A viewer draws the stitched arm with them.
     pub fn placements_at(&self, time: f64) -> &[super::Placement] {
-        self.whole
-            .reports
-            .get(self.postures.at(time))
-            .map_or(&[], |r| r.placements.as_slice())
+        let at = match &self.live {
+            Some((g, _)) => At::Live(*g),
+            None => At::Posture(self.postures.at(time)),
+        };
+        self.whole.report(at).map_or(&[], |r| r.placements.as_slice())
+    }
+
+    /// Stitches the frames from now on at `poses` (one per map, link frame to the common
+    /// frame): the robot's posture as its joint states give it, instead of the poses file's
+    /// posture of their time. The chain is solved again (as a posture of the file is) when a
+    /// link moved more than [`LIVE_TOLERANCE_M`] or [`LIVE_TOLERANCE_RAD`] since the last
+    /// solve; true when it was. A posture that cannot be stitched is an error that changes
+    /// nothing: the last one holds.
+    pub fn set_live_posture(&mut self, poses: &[Isometry3<f64>]) -> Result<bool> {
+        if poses.len() != self.maps.len() {
+            return Err(Error::Length {
+                what: "poses for the chain's links",
+                got: poses.len(),
+                expected: self.maps.len(),
+            });
+        }
+        if let Some((_, last)) = &self.live
+            && last.iter().zip(poses).all(|(a, b)| {
+                (a.translation.vector - b.translation.vector).norm() <= LIVE_TOLERANCE_M
+                    && a.rotation.angle_to(&b.rotation) <= LIVE_TOLERANCE_RAD
+            })
+        {
+            return Ok(false);
+        }
+        let generation = self.live.as_ref().map_or(1, |(g, _)| g + 1);
+        let contacts = self.contacts;
+        // Every chain solved before any is changed: an error leaves the last posture whole.
+        let whole = self.whole.solve_live(poses, contacts)?;
+        let holed = match &mut self.holed {
+            Some((_, holed)) => Some(holed.solve_live(poses, contacts)?),
+            None => None,
+        };
+        let (report, finder) = whole;
+        self.whole.live = Some((generation, report, finder));
+        if let (Some((_, chain)), Some((report, finder))) = (&mut self.holed, holed) {
+            chain.live = Some((generation, report, finder));
+        }
+        match &mut self.live {
+            Some((g, last)) => {
+                *g = generation;
+                last.copy_from_slice(poses);
+            }
+            None => self.live = Some((generation, poses.to_vec())),
+        }
+        Ok(true)
+    }
+
+    /// The live posture, if frames are stitched at one ([`PostureChain::set_live_posture`]).
+    pub fn live_posture(&self) -> Option<&[Isometry3<f64>]> {
+        self.live.as_ref().map(|(_, p)| p.as_slice())
     }
 
     /// The dead taxels of each link.
@@ -211,6 +320,10 @@ impl PostureChain {
             if self.contacts {
                 solved.find_contacts(&self.postures)?;
             }
+            if let Some((g, poses)) = &self.live {
+                let (report, finder) = solved.solve_live(poses, self.contacts)?;
+                solved.live = Some((*g, report, finder));
+            }
             self.holed = Some((dead.clone(), solved));
         }
         self.dead = dead;
@@ -239,7 +352,10 @@ impl PostureChain {
                 });
             }
         }
-        self.posture = self.postures.at(time);
+        self.posture = match &self.live {
+            Some((g, _)) => At::Live(*g),
+            None => At::Posture(self.postures.at(time)),
+        };
         self.threshold = threshold;
         let Self {
             holed,
@@ -281,7 +397,14 @@ impl PostureChain {
             ..
         } = self;
         let chain = in_use(whole, holed, dead);
-        let Some(finder) = chain.finders.get_mut(k) else {
+        let finder = match k {
+            At::Posture(k) => chain.finders.get_mut(k),
+            At::Live(g) => match &mut chain.live {
+                Some((l, _, finder)) if *l == g => finder.as_mut(),
+                _ => None,
+            },
+        };
+        let Some(finder) = finder else {
             return Err(Error::Chain(ChainError::NoContactSearch));
         };
         finder.find(pressures, threshold, min_taxels)
@@ -302,7 +425,9 @@ impl PostureChain {
         } = self;
         let chain = in_use(whole, holed, dead);
         if chain.placed != Some(k) {
-            let report = &chain.reports[k];
+            let Some(report) = report_of(&chain.reports, &chain.live, k) else {
+                return Err(Error::Chain(ChainError::NoPosture));
+            };
             chain.raster.place(&report.placements, &report.bridges)?;
             chain.placed = Some(k);
         }

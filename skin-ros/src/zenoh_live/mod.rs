@@ -56,12 +56,14 @@
 
 mod config;
 mod in_flight;
+mod listen;
 mod names;
 mod publish;
 mod services;
 
 pub use config::{MAX_DOMAIN, ZenohOptions, check_endpoint, check_endpoints};
 pub use in_flight::InFlight;
+pub use listen::{JOINT_STATE, ListenCounts};
 pub use services::{ServiceCounts, Services};
 
 use crate::RosError;
@@ -72,6 +74,7 @@ use config::{check_listeners, check_options, session_config, zenoh_error};
 use in_flight::in_flight;
 use names::Names;
 use publish::{Counts, Outgoing, Queue, Shared, declare_latched, declare_publishers};
+use skin_runtime::session::PostureFeed;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
@@ -119,6 +122,8 @@ pub struct ZenohReport {
     /// What each service served ([`ZenohOutlet::serve`]), as (service, served, refused,
     /// malformed).
     pub services: Vec<(String, u64, u64, u64)>,
+    /// What each subscription did with its samples ([`ZenohOutlet::listen_counts`]).
+    pub listened: Vec<(String, [u64; 5])>,
 }
 
 impl ZenohReport {
@@ -150,6 +155,7 @@ pub struct ZenohOutlet {
     names: Vec<String>,
     options: ZenohOptions,
     served: Option<services::Served>,
+    listening: Vec<listen::Listening>,
     keys: Vec<String>,
     tokens: Vec<String>,
     _matching: Vec<zenoh::matching::MatchingListener<()>>,
@@ -232,6 +238,7 @@ impl ZenohOutlet {
             names: topics.list.iter().map(|t| t.name.clone()).collect(),
             options: options.clone(),
             served: None,
+            listening: Vec::new(),
             keys: names.keys,
             tokens: names.tokens,
             _matching: declared.listeners,
@@ -253,6 +260,45 @@ impl ZenohOutlet {
         };
         self.served = Some(services::serve(&self.session, topics, services, &place)?);
         Ok(())
+    }
+
+    /// Subscribes to `topic` (`/joint_states`) as an rmw_zenoh node would, handing each
+    /// `sensor_msgs/JointState` to `feed` (on Zenoh's threads).
+    pub fn listen_joint_states(&mut self, topic: &str, feed: PostureFeed) -> Result<(), RosError> {
+        let zid = self.session.zid().to_string();
+        let place = services::Place {
+            domain: self.options.domain,
+            zid: &zid,
+            namespace: &self.options.namespace,
+            node: &self.options.node,
+            // After the publishers and the services (three at most).
+            first_id: self.tokens.len() + 4 + self.listening.len(),
+        };
+        self.listening
+            .push(listen::joint_states(&self.session, topic, feed, &place)?);
+        Ok(())
+    }
+
+    /// What each subscription did with its samples so far: (topic, received, fed, of another
+    /// type, without attachment, malformed).
+    pub fn listen_counts(&self) -> Vec<(String, [u64; 5])> {
+        self.listening
+            .iter()
+            .map(|l| {
+                let c = &l.counts;
+                let n = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed);
+                (
+                    c.topic.clone(),
+                    [
+                        n(&c.received),
+                        n(&c.fed),
+                        n(&c.other_type),
+                        n(&c.no_attachment),
+                        n(&c.malformed),
+                    ],
+                )
+            })
+            .collect()
     }
 
     /// What each service served so far: (service, served, refused, malformed).
@@ -382,6 +428,7 @@ impl ZenohOutlet {
             timed_out: !handed || (flight.is_some() && !taken),
             waited: start.elapsed(),
             services: self.service_counts(),
+            listened: self.listen_counts(),
         };
         for t in std::mem::take(&mut self.threads) {
             if t.is_finished() {

@@ -19,6 +19,7 @@ struct Files {
     busmap: Option<PathBuf>,
     truth: Option<PathBuf>,
     poses: Option<PathBuf>,
+    urdf: Option<PathBuf>,
     force: Option<PathBuf>,
 }
 
@@ -121,19 +122,16 @@ fn build(
     } = skin_geom::read_layout(&files.layout)?;
     let busmap = files.busmap.as_deref().map(BusMap::read).transpose()?;
     let maps = maps(config, &files.layout, &links)?;
-    let stitching = match &files.poses {
-        Some(p) => {
-            let postures = skin_core::format::poses::Postures::read(p)?;
-            Some(Stitching::new(&maps, postures, p)?)
-        }
-        None => None,
-    };
+    let (stitching, kinematics) = stitching(config, &files, &maps, &links)?;
     let settings = config.settings()?;
     let mut session = Session::with_settings(links, maps, models()?, &settings)
         .map_err(|e| in_config(config, e))?
         .with_source(&config.path);
     if let Some(s) = stitching {
         session = session.with_stitching(s)?;
+    }
+    if let Some((chain, max_age)) = kinematics {
+        session = session.with_kinematics(chain, max_age)?;
     }
     if let Some(p) = &files.force {
         let calibration = skin_core::format::force_file::ForceCalibration::read(p)?;
@@ -194,6 +192,103 @@ fn in_config(config: &SessionConfig, e: SessionError) -> SessionError {
     }
 }
 
+/// The stitching a configuration's `[stitch]` asks for, at the poses file's postures or (with
+/// only a URDF) at the middle of the joints' limits, and the chain's kinematics with a URDF.
+type Kinematics = (skin_control::Chain, std::time::Duration);
+
+fn stitching(
+    config: &SessionConfig,
+    files: &Files,
+    maps: &[TactileMap],
+    links: &[LinkSkin],
+) -> Result<(Option<Stitching>, Option<Kinematics>), SessionError> {
+    let kinematics = match (&files.urdf, &config.stitch) {
+        (Some(urdf), Some(stitch)) => Some(kinematics(urdf, stitch, links)?),
+        _ => None,
+    };
+    let stitching = match (&files.poses, &kinematics) {
+        (Some(p), _) => {
+            let postures = skin_core::format::poses::Postures::read(p)?;
+            Some(Stitching::new(maps, postures, p)?)
+        }
+        (None, Some((chain, _))) => {
+            let urdf = files.urdf.as_deref().unwrap_or(Path::new("[stitch] urdf"));
+            Some(Stitching::new(
+                maps,
+                reference_posture(chain, links, urdf)?,
+                urdf,
+            )?)
+        }
+        (None, None) if config.stitch.is_some() => {
+            return Err(ConfigError::Value {
+                file: config.path.clone(),
+                field: "[stitch]",
+                value: "(neither poses nor urdf)".into(),
+                expected: "poses (a skin-poses/1 file) or urdf (the robot, for its joint states), or both",
+            }
+            .into());
+        }
+        (None, None) => None,
+    };
+    Ok((stitching, kinematics))
+}
+
+/// The chain of the stitched links in `urdf`, from `[stitch] base` (or the first layout link)
+/// to the last layout link, and how old a posture may be.
+fn kinematics(
+    urdf: &Path,
+    stitch: &super::StitchConfig,
+    links: &[LinkSkin],
+) -> Result<Kinematics, ConfigError> {
+    let first = links.first().map_or("", |l| l.name.as_str());
+    let last = links.last().map_or("", |l| l.name.as_str());
+    let base = stitch.base.as_deref().unwrap_or(first);
+    let chain = skin_control::Chain::from_urdf(urdf, base, last).map_err(|e| ConfigError::Kinematics {
+        why: format!("{}: {e}", urdf.display()),
+    })?;
+    let max_age = stitch.max_age_s.unwrap_or(super::config::DEFAULT_MAX_AGE_S);
+    if !(max_age > 0.0 && max_age <= 3600.0) {
+        return Err(ConfigError::Kinematics {
+            why: format!("max_age_s = {max_age}: seconds above 0, at most 3600"),
+        });
+    }
+    Ok((chain, std::time::Duration::from_secs_f64(max_age)))
+}
+
+/// The posture a chain is stitched at before its first joint state: every joint in the middle
+/// of its limits (0 where unlimited), which also sets each joint's boundary taxels.
+fn reference_posture(
+    chain: &skin_control::Chain,
+    links: &[LinkSkin],
+    urdf: &Path,
+) -> Result<skin_core::format::poses::Postures, ConfigError> {
+    let q: Vec<f64> = chain
+        .joints()
+        .iter()
+        .map(|j| match j.limits {
+            (lo, hi) if lo.is_finite() && hi.is_finite() => 0.5 * (lo + hi),
+            _ => 0.0,
+        })
+        .collect();
+    let wrong = |e: skin_control::KinematicsError| ConfigError::Kinematics {
+        why: format!("{}: {e}", urdf.display()),
+    };
+    let posture = chain.posture(&q).map_err(wrong)?;
+    let poses = links
+        .iter()
+        .map(|l| posture.link_pose(&l.name))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(wrong)?;
+    Ok(skin_core::format::poses::Postures {
+        links: links.iter().map(|l| l.name.clone()).collect(),
+        postures: vec![skin_core::format::poses::Posture {
+            name: "the joint limits' middle".into(),
+            time_s: 0.0,
+            poses,
+        }],
+    })
+}
+
 /// Every file the configuration names, resolved; an error for the first that does not exist.
 fn resolve(config: &SessionConfig) -> Result<Files, ConfigError> {
     let files = config.inputs()?;
@@ -203,7 +298,14 @@ fn resolve(config: &SessionConfig) -> Result<Files, ConfigError> {
         layout: files[0].clone(),
         busmap: at("busmap", &config.busmap)?,
         truth: at("truth", &config.truth)?,
-        poses: at("[stitch] poses", &config.stitch.as_ref().map(|s| s.poses.clone()))?,
+        poses: at(
+            "[stitch] poses",
+            &config.stitch.as_ref().and_then(|s| s.poses.clone()),
+        )?,
+        urdf: at(
+            "[stitch] urdf",
+            &config.stitch.as_ref().and_then(|s| s.urdf.clone()),
+        )?,
         force: at(
             "[force] calibration",
             &config.force.as_ref().map(|f| f.calibration.clone()),

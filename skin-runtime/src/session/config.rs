@@ -45,7 +45,11 @@
 //!                                 # (as ISO/TS 15066's quasi-static limits per body region);
 //!                                 # no limit by default (`force_n` is never a class's)
 //! [stitch]                        # optional: links stitched across joints (Ch. 6)
-//! poses = "poses.json"            # skin-poses/1: every link's pose over time
+//! poses = "poses.json"            # skin-poses/1: every link's pose over time, and/or
+//! urdf = "arm.urdf"               # the robot, for its joint states (skin run --joint-states)
+//! base = "forearm"                # contacts across joints in this URDF link (default: the
+//!                                 # first layout link)
+//! max_age_s = 0.5                 # a joint state this old when a frame comes is stale
 //! [force]                         # optional: newtons from counts (skin calibrate-force)
 //! calibration = "force.json"      # skin-force/1: per link, the response curve and gains;
 //!                                 # contacts then carry force_n and links a wrench
@@ -110,13 +114,25 @@ pub struct SessionConfig {
     pub path: PathBuf,
 }
 
-/// `[stitch]`.
+/// `[stitch]`: the links' poses from a file over time, or from the robot's joint states
+/// through its URDF (or both: the file's until the first joint state).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StitchConfig {
     /// Link poses over time (skin-poses/1), links in the layout's order.
-    pub poses: PathBuf,
+    pub poses: Option<PathBuf>,
+    /// The robot's URDF: its links named as the layout's, the chain from the first layout link
+    /// (or `base`) to the last; joint states (`skin run --joint-states`) place the links.
+    pub urdf: Option<PathBuf>,
+    /// The URDF link contacts across joints are given in (default: the first layout link).
+    pub base: Option<String>,
+    /// A joint state older than this when a frame comes is stale (an event; its posture
+    /// holds), seconds; default [`DEFAULT_MAX_AGE_S`].
+    pub max_age_s: Option<f64>,
 }
+
+/// How old a joint state may be when a frame comes, by default, seconds.
+pub const DEFAULT_MAX_AGE_S: f64 = 0.5;
 
 /// `[force]`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -423,7 +439,14 @@ impl SessionConfig {
             ("classifier", &self.classifier),
             ("segmenter", &self.segmenter),
             ("truth", &self.truth),
-            ("[stitch] poses", &self.stitch.as_ref().map(|s| s.poses.clone())),
+            (
+                "[stitch] poses",
+                &self.stitch.as_ref().and_then(|s| s.poses.clone()),
+            ),
+            (
+                "[stitch] urdf",
+                &self.stitch.as_ref().and_then(|s| s.urdf.clone()),
+            ),
             (
                 "[force] calibration",
                 &self.force.as_ref().map(|f| f.calibration.clone()),

@@ -116,6 +116,17 @@ pub enum ConfigError {
         /// The layout's links.
         layout: Vec<String>,
     },
+    /// Joint states asked for without the chain's kinematics.
+    #[error(
+        "joint states need the chain's kinematics: give [stitch] urdf (a URDF whose links are the layout's) in the configuration"
+    )]
+    NoKinematics,
+    /// The URDF does not give the stitched links' poses.
+    #[error("[stitch] urdf: {why}")]
+    Kinematics {
+        /// What is wrong.
+        why: String,
+    },
     /// The poses file has no posture.
     #[error("{}: no posture", poses.display())]
     NoPosture {

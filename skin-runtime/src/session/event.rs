@@ -142,13 +142,29 @@ pub enum Event {
         /// Touches it released.
         released: usize,
     },
+    /// The joint states that place the stitched links went wrong (once when a fault begins, not
+    /// per message): a joint missing, not finite, a message out of order or of another robot's
+    /// joints, a posture older than `[stitch] max_age_s`, or one the chain cannot be stitched
+    /// at. The last good posture holds; the run goes on.
+    JointStates {
+        /// The frame it was found at, s.
+        #[serde(serialize_with = "ms")]
+        time: f64,
+        /// What is wrong.
+        problem: super::JointProblem,
+        /// The joints at fault (missing, not finite), or a message's first names (another
+        /// robot's).
+        joints: Vec<String>,
+        /// In words.
+        detail: String,
+    },
 }
 
 impl Event {
     /// Every kind's name, as `"event"` holds it in JSON, in the order the variants are declared:
     /// what a binding or a consumer of events.jsonl matches on (Python's `skin.events.EventKind`
     /// is held to this list).
-    pub const KINDS: [&'static str; 10] = [
+    pub const KINDS: [&'static str; 11] = [
         "incomplete",
         "counter_reset",
         "appeared",
@@ -159,6 +175,7 @@ impl Event {
         "across_joint_end",
         "baseline_corrected",
         "tare",
+        "joint_states",
     ];
 
     /// This event's kind, one of [`Event::KINDS`] (its `"event"` in JSON).
@@ -174,6 +191,7 @@ impl Event {
             Event::AcrossJointEnd { .. } => 7,
             Event::BaselineCorrected { .. } => 8,
             Event::Tare { .. } => 9,
+            Event::JointStates { .. } => 10,
         };
         Event::KINDS[k]
     }
@@ -187,7 +205,8 @@ impl Event {
             | Event::AcrossJoint { time, .. }
             | Event::AcrossJointEnd { time }
             | Event::BaselineCorrected { time, .. }
-            | Event::Tare { time, .. } => *time,
+            | Event::Tare { time, .. }
+            | Event::JointStates { time, .. } => *time,
             Event::Appeared { touch, .. } => touch.time,
             Event::Classified { touch, .. } => touch.time,
             Event::Released { touch, .. } => touch.time,

@@ -78,6 +78,7 @@ impl Session {
             .process(time, &self.pressures, &mut self.touch_events)?;
         let t = Instant::now();
         self.emit(sink)?;
+        self.follow_joint_states(time_us, time, sink)?;
         let frame = ProcessedFrame {
             time_us,
             time,

@@ -43,6 +43,7 @@ mod error;
 mod event;
 mod frame;
 mod input;
+mod joint_states;
 mod models;
 mod restart;
 mod settings;
@@ -56,6 +57,7 @@ pub use config::{ForceConfig, SessionConfig, SimConfig, StitchConfig};
 pub use describe::{Description, LinkDescription, Readings, Units};
 pub use error::{ConfigError, InputError, SessionError};
 pub use event::{Event, FrameView, MissingModule, OverForce, ProcessedFrame};
+pub use joint_states::{FEED_CAPACITY, FeedCounts, JointFault, JointProblem, PostureFeed};
 pub use models::{ModelRuntime, OwnModels};
 pub use settings::{BaselineConfig, ContactRule, SessionSettings, SettingError, SplitConfig, TouchConfig};
 pub use sink::{Flow, JsonLines, PngImages, Sink, SinkError, Sinks};
@@ -152,6 +154,11 @@ struct Setup {
     simulated: bool,
     /// Per link, the force calibration its newtons come from (empty: none).
     calibration_ids: Vec<String>,
+    /// The stitched chain's kinematics (`[stitch] urdf`) and how old a posture may be.
+    kinematics: Option<(skin_control::Chain, std::time::Duration)>,
+    /// The robot's joint states, when a feed was asked for ([`Session::joint_state_feed`]),
+    /// and whether frames are stamped from 0 at the first (else on the input's clock).
+    feed: Option<(PostureFeed, bool)>,
 }
 
 /// The per-frame pipeline of a whole skin, built once (see the [module](self)).
@@ -177,6 +184,10 @@ pub struct Session {
     notes: Vec<String>,
     /// A sink said stop: nothing more reaches the sinks, frames are refused.
     stopped: bool,
+    /// The posture a frame got from the joint states (kept to copy into).
+    live_poses: Vec<nalgebra::Isometry3<f64>>,
+    /// Faults of the joint states taken at a frame (kept to copy into).
+    joint_faults: Vec<JointFault>,
     /// Tares asked for ([`Session::tare`], [`TareHandle`]).
     tares: tare::Tares,
     /// The baseline was learned once: a tare learning it again does not make the input too
@@ -238,6 +249,8 @@ impl Session {
                 settings: None,
                 simulated: false,
                 calibration_ids: vec![String::new(); sizes.len()],
+                kinematics: None,
+                feed: None,
             },
             pipeline,
             touch_events: Vec::new(),
@@ -250,6 +263,8 @@ impl Session {
             over_force: vec![None; sizes.len()],
             notes: Vec::new(),
             stopped: false,
+            live_poses: Vec::new(),
+            joint_faults: Vec::new(),
             tares: tare::Tares::new(baseline_frames),
             learned: false,
         })

@@ -24,6 +24,7 @@ impl Session {
         fresh.setup.layout_notes = setup.layout_notes;
         fresh.setup.simulated = setup.simulated;
         fresh.setup.calibration_ids = setup.calibration_ids;
+        fresh.setup.kinematics = setup.kinematics;
         Ok(fresh)
     }
 }

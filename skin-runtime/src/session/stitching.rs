@@ -91,6 +91,12 @@ impl Stitching {
             .collect())
     }
 
+    /// Stitches the frames from now on at `poses` (one per link, chain order), the robot's
+    /// posture live ([`PostureChain::set_live_posture`]).
+    pub fn set_live_posture(&mut self, poses: &[nalgebra::Isometry3<f64>]) -> Result<bool, skin_geom::Error> {
+        self.chain.set_live_posture(poses)
+    }
+
     /// Where each link's map lies in the stitched plane at the posture in effect at `time` (s),
     /// links in chain order (the layout's).
     pub fn placements_at(&self, time: f64) -> &[skin_geom::Placement] {

@@ -1,0 +1,158 @@
+//! The stitched session placed by the robot's joint states (`[stitch] urdf`, a
+//! [`PostureFeed`]) instead of a poses file: the same postures give the same events and the
+//! same stitched images, pixel for pixel; faulty joint states are events, and the run goes on.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // a failed set-up should stop the test
+
+use skin_can::candump::CandumpLog;
+use skin_learn::session::{Event, FrameView, FromConfig, PostureFeed, Session, SessionConfig, Sink};
+use std::path::{Path, PathBuf};
+
+fn arm() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm")
+}
+
+/// The fixture arm's session, touches only (no models), making stitched images.
+fn session() -> Session {
+    let mut config = SessionConfig::read(&arm().join("run.toml")).unwrap();
+    config.classifier = None;
+    let mut s = Session::from_config(&config).unwrap();
+    s.set_frame_images(true);
+    s
+}
+
+/// Events (JSON lines) and stitched images of a run.
+#[derive(Default)]
+struct Run {
+    events: Vec<String>,
+    images: Vec<(u64, Vec<u8>)>,
+}
+
+impl Sink for Run {
+    type Error = std::convert::Infallible;
+    fn event(&mut self, e: &Event) -> Result<skin_learn::session::Flow, Self::Error> {
+        let mut line = Vec::new();
+        e.write_json(&mut line).unwrap();
+        self.events.push(String::from_utf8(line).unwrap());
+        Ok(std::ops::ControlFlow::Continue(()))
+    }
+    fn frame_image(
+        &mut self,
+        view: FrameView<'_>,
+        cycle: u64,
+        image: skin_core::image::ImageView<'_, u8>,
+    ) -> Result<skin_learn::session::Flow, Self::Error> {
+        if matches!(view, FrameView::Stitched) {
+            self.images.push((cycle, image.pixels().to_vec()));
+        }
+        Ok(std::ops::ControlFlow::Continue(()))
+    }
+}
+
+fn run(mut session: Session) -> Run {
+    let log = arm().join("touch.candump.log");
+    let mut out = Run::default();
+    session
+        .run_log(&CandumpLog::read(&log).unwrap(), &log, &mut out, &mut |_, _| {})
+        .unwrap();
+    out
+}
+
+/// The log's clock: its first frame, ns since the epoch.
+const T0_NS: i128 = 1_700_000_000 * 1_000_000_000;
+
+/// The wrist's roll at `t` s into the log, as poses.json has it: -0.5 rad, 0, then +0.5 rad
+/// from 2 s and 4 s.
+fn roll(t: f64) -> f64 {
+    if t < 2.0 {
+        -0.5
+    } else if t < 4.0 {
+        0.0
+    } else {
+        0.5
+    }
+}
+
+/// Joint states every 10 ms over the log (and a second past it), as a robot publishes them.
+fn publish(feed: &PostureFeed, names: &[&str], mut position: impl FnMut(f64) -> Vec<f64>) {
+    for k in 0..700 {
+        let t = k as f64 * 0.01;
+        feed.push(T0_NS + k * 10_000_000, names.iter().copied(), &position(t));
+    }
+}
+
+#[test]
+fn joint_states_give_the_events_and_images_of_the_recorded_postures() {
+    let recorded = run(session());
+    assert!(
+        recorded
+            .events
+            .iter()
+            .filter(|e| e.contains("\"across_joint\""))
+            .count()
+            >= 3,
+        "{:?}",
+        recorded.events
+    );
+    let mut live = session();
+    let feed = live.joint_state_feed(None, false).unwrap();
+    assert_eq!(feed.joints(), ["wrist_roll"]);
+    // With a gripper's joint in the message too, as a whole robot's joint states have.
+    publish(&feed, &["gripper", "wrist_roll"], |t| vec![0.01, roll(t)]);
+    let live = run(live);
+    assert_eq!(live.events, recorded.events);
+    assert_eq!(live.images.len(), recorded.images.len());
+    for ((c, a), (_, b)) in live.images.iter().zip(&recorded.images) {
+        assert!(a == b, "frame {c}: the stitched images differ");
+    }
+    assert_eq!(feed.counts().taken, 700);
+}
+
+#[test]
+fn faulty_joint_states_are_one_event_each_and_the_run_goes_on() {
+    let mut s = session();
+    let feed = s.joint_state_feed(None, false).unwrap();
+    // Good until 1 s; then a NaN, the joint missing, another robot, a stamp from the past;
+    // then nothing from 3 s on (stale).
+    for k in 0..300 {
+        let t = k as f64 * 0.01;
+        let stamp = T0_NS + k * 10_000_000;
+        match k {
+            0..100 => feed.push(stamp, ["wrist_roll"], &[roll(t)]),
+            100..120 => feed.push(stamp, ["wrist_roll"], &[f64::NAN]),
+            120..140 => feed.push(stamp, ["elbow"], &[0.1]),
+            140..160 => feed.push(stamp, ["head_pan", "head_tilt"], &[0.0, 0.0]),
+            160..170 => feed.push(T0_NS, ["wrist_roll"], &[0.0]),
+            _ => feed.push(stamp, ["wrist_roll"], &[roll(t)]),
+        }
+    }
+    let out = run(s);
+    let faults: Vec<serde_json::Value> = out
+        .events
+        .iter()
+        .map(|e| serde_json::from_str::<serde_json::Value>(e).unwrap())
+        .filter(|e| e["event"] == "joint_states")
+        .collect();
+    let problems: Vec<&str> = faults.iter().map(|e| e["problem"].as_str().unwrap()).collect();
+    // Each fault once, however many messages had it ("elbow" alone, without the chain's only
+    // joint, is another robot's as the head's are). Stale twice: the good posture of 0.99 s
+    // grows old under the faulty messages, and again when the joint states stop at 3 s.
+    for p in ["not_finite", "other_robot", "out_of_order"] {
+        assert_eq!(
+            problems.iter().filter(|q| **q == p).count(),
+            1,
+            "{p}: {problems:?}"
+        );
+    }
+    assert_eq!(
+        problems.iter().filter(|q| **q == "stale").count(),
+        2,
+        "{problems:?}"
+    );
+    let other = faults.iter().find(|e| e["problem"] == "other_robot").unwrap();
+    assert_eq!(other["joints"], serde_json::json!(["elbow"]));
+    // Every touch is still tracked to its end.
+    let appeared = out.events.iter().filter(|e| e.contains("\"appeared\"")).count();
+    let released = out.events.iter().filter(|e| e.contains("\"released\"")).count();
+    assert!(appeared > 0 && appeared == released, "{:?}", out.events);
+}
