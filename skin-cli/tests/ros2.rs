@@ -836,3 +836,135 @@ fn services_answer_an_rmw_zenoh_client_and_the_layout_reaches_a_late_subscriber(
         "{after} touches released after the forced tare:\n{events}"
     );
 }
+
+/// `skin run` of the fixture arm with `--joint-states`, its postures from a Python Zenoh peer
+/// publishing as rmw_zenoh does (`ros2/joint_state_peer.py`), into `out`; the peer's stdout
+/// and the run.
+fn arm_with_joint_states(py: &PathBuf, out: &Path, mode: &str) -> (String, std::process::Output) {
+    let port = free_port();
+    let arm = root().join("fixtures/arm");
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .arg("run")
+        .arg(arm.join("run.toml"))
+        .arg("--log")
+        .arg(arm.join("touch.candump.log"))
+        .arg("-o")
+        .arg(out)
+        .args([
+            "-q",
+            "--frames",
+            "--zenoh-wait",
+            "60",
+            "--joint-states",
+            "/joint_states",
+        ])
+        .args(["--zenoh-listen", &format!("tcp/127.0.0.1:{port}")])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut peer = Command::new(py)
+        .arg(root().join("skin-cli/tests/ros2/joint_state_peer.py"))
+        .args([&port.to_string(), mode])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_ready(&mut peer);
+    let r = run.wait_with_output().unwrap();
+    let (fine, said) = peer_verdict(peer);
+    assert!(fine, "the peer failed:\n{said}");
+    (said, r)
+}
+
+/// The stitched images of a run's --frames, by name.
+fn stitched_frames(out: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut frames: Vec<(String, Vec<u8>)> = std::fs::read_dir(out.join("frames/stitched"))
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    frames.sort();
+    frames
+}
+
+/// Joint states published over Zenoh as rmw_zenoh does give the events and stitched images of
+/// the recorded postures; faulty ones and a flood of other samples on the topic are one event
+/// each or counted, and the run goes on.
+#[test]
+fn joint_states_over_zenoh_place_the_arm_as_the_recorded_postures_do() {
+    let Some(py) = python::python_with("zenoh, rosbags, numpy") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let arm = root().join("fixtures/arm");
+    let recorded = dir.path().join("recorded");
+    ok(&skin(&[
+        "run",
+        arm.join("run.toml").to_str().unwrap(),
+        "--log",
+        arm.join("touch.candump.log").to_str().unwrap(),
+        "-o",
+        recorded.to_str().unwrap(),
+        "-q",
+        "--frames",
+    ]));
+    let live = dir.path().join("live");
+    let (_, r) = arm_with_joint_states(&py, &live, "clean");
+    ok(&r);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr.contains("zenoh: subscription /joint_states: 700 sample(s) received, 700 read"),
+        "{stderr}"
+    );
+    let events = |d: &Path| std::fs::read_to_string(d.join("events.jsonl")).unwrap();
+    assert_eq!(events(&live), events(&recorded));
+    let (a, b) = (stitched_frames(&live), stitched_frames(&recorded));
+    assert!(!b.is_empty());
+    assert_eq!(a.len(), b.len());
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{name}: the stitched images differ");
+    }
+
+    let faulty = dir.path().join("faulty");
+    let (said, r) = arm_with_joint_states(&py, &faulty, "faults");
+    ok(&r);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    eprintln!("{said}\n{stderr}");
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("subscription /joint_states"))
+        .unwrap_or_else(|| panic!("no line about the subscription:\n{stderr}"));
+    assert!(
+        line.contains("dropped of another type or type hash") && line.contains("not a readable message"),
+        "{line}"
+    );
+    let all: Vec<serde_json::Value> = events(&faulty)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let problems: Vec<&str> = all
+        .iter()
+        .filter(|e| e["event"] == "joint_states")
+        .map(|e| e["problem"].as_str().unwrap())
+        .collect();
+    for p in ["not_finite", "other_robot", "out_of_order"] {
+        assert_eq!(
+            problems.iter().filter(|q| **q == p).count(),
+            1,
+            "{p}: {problems:?}"
+        );
+    }
+    let released = |v: &[serde_json::Value]| v.iter().filter(|e| e["event"] == "released").count();
+    let recorded: Vec<serde_json::Value> = events(&recorded)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(released(&all), released(&recorded));
+}
