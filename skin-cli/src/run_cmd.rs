@@ -52,7 +52,9 @@ use std::time::Instant;
 ///     hand = "comply"                 # stop, comply, slow or resume
 ///     non_hand = "stop"
 ///     [stitch]                        # optional: links stitched across joints (Ch. 6)
-///     poses = "poses.json"            # skin-poses/1: every link's pose over time
+///     poses = "poses.json"            # skin-poses/1: every link's pose over time, and/or
+///     urdf = "arm.urdf"               # the robot: its joint states place the links
+///                                     # (--joint-states; max_age_s = 0.5, base = link)
 ///
 /// Per frame: CAN frames -> assembled frame (bus map) -> baseline -> contacts (connected
 /// pressed taxels, split between separate pressure peaks) -> touches -> tactile image of the

@@ -18,6 +18,12 @@
 //! - `bridge`: [`RosSink`], the session sink, and the [`Outlet`] trait; [`Outlets`]: one run's
 //!   MCAP file and live publisher together.
 //!
+//! Live, it also listens and serves as a ROS 2 node does: `sensor_msgs/JointState` for a
+//! session's [`PostureFeed`](skin_runtime::session::PostureFeed) (`ZenohOutlet::listen_joint_states`),
+//! and the services `PREFIX/tare`, `PREFIX/tare_forced` and `PREFIX/describe`
+//! (`ZenohOutlet::serve`). The skin's own description (`skin_msgs/TactileLayout`, transient
+//! local) and per-frame readings (`skin_msgs/TactileState`) ride on [`RosSink`].
+//!
 //! Without features the crate encodes and hashes only; `mcap` adds [`McapOutlet`] and `zenoh`
 //! adds [`ZenohOutlet`] (a Zenoh peer, TCP only). Neither needs ROS installed, and the crate
 //! never loads a model: it depends on skin-runtime alone (no calibration, synthesis or tract).
