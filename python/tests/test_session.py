@@ -490,3 +490,51 @@ def test_a_force_calibration_gives_contacts_newtons_and_the_link_a_wrench(tmp_pa
     assert pickle.loads(pickle.dumps(contacts[0])) == contacts[0] and "N)" in repr(contacts[0])
     with pytest.raises(skin.ArrayError, match="link"):
         session.wrench("elbow")
+
+
+def test_tare_relearns_the_baseline_and_is_refused_during_a_touch():
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    session = skin.Session.from_layout(layout, baseline_frames=5, threshold=10.0)
+    n = session.taxels[0]
+    rest = np.full(n, 300.0, dtype=np.float32)
+    pressed = rest.copy()
+    pressed[100:112] += 40.0
+    t = 0.0
+    for _ in range(10):
+        assert session.push([rest], t) == []
+        t += 0.05
+    # The rest level moved under a dozen taxels: a touch that stays. Tare refuses it, forced
+    # it releases it, and the baseline is learned at the new rest level.
+    kinds = []
+    for _ in range(5):
+        kinds += [e.kind for e in session.push([pressed], t)]
+        t += 0.05
+    assert kinds == ["appeared"]
+    with pytest.raises(skin.SessionError, match="touch"):
+        session.tare()
+    assert "5 frames" in session.tare(force=True)
+    events = session.push([pressed], t)
+    assert [e.kind for e in events] == ["released", "tare"]
+    assert events[1].to_dict()["forced"] is True
+    for _ in range(8):
+        t += 0.05
+        assert session.push([pressed], t) == []
+    pressed_more = pressed.copy()
+    pressed_more[200:212] += 30.0
+    appeared = []
+    for _ in range(3):
+        t += 0.05
+        appeared += [e for e in session.push([pressed_more], t) if e.kind == "appeared"]
+    assert len(appeared) == 1
+    assert appeared[0].to_dict()["mean_pressure"] == pytest.approx(30.0, abs=1.0)
+
+
+def test_describe_gives_the_layout_units_and_calibration():
+    d = skin.Session.from_config(CONFIG).describe()
+    layout = skin.read_layout(FIXTURES / "forearm" / "layout.json")
+    (link,) = d["links"]
+    assert d["simulated"] is False and d["touch_threshold_counts"] == 5.0
+    assert link["units"] == "N" and link["calibration_id"].startswith("force.json#forearm sha256:")
+    assert link["positions"].shape == (len(link["ids"]), 3)
+    assert (link["ids"] == layout["forearm"].ids).all()
+    assert link["areas"].sum() > 0.0 and (link["modules"] == link["ids"] >> 4).all()

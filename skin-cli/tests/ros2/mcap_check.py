@@ -7,7 +7,9 @@ FRAMES: frames after the baseline (one PointCloud2 per link each). EVENTS.jsonl 
 """
 import json
 import math
+import struct
 import sys
+import tomllib
 from collections import Counter
 from pathlib import Path
 
@@ -75,6 +77,7 @@ def main():
             problems.append(f'{link}: {images[f"/skin/{link}/tactile_image"]} images for {n} decisions')
     problems += as_rosbag2(path, counts)
     problems += forces(path, parsed, frames, links, counts)
+    problems += tactile(path, frames, links, counts)
     print(f'{sum(counts.values())} messages on {len(counts)} topics; {len(lines)} events; {sum(decisions.values())} decisions')
     fail(problems)
 
@@ -140,6 +143,88 @@ def forces(path, parsed, frames, links, counts):
     if checked != len(appeared):
         problems.append(f'{checked} of {len(appeared)} touches found with their contacts and wrench')
     print(f'forces of {checked} touches checked against the events')
+    return problems
+
+
+def tactile(path, frames, links, counts):
+    """The skin's description and readings, decoded by rosbags from the definitions in the
+    file alone: one TactileLayout, the file's first message, agreeing with the layout file the
+    run's configuration names (ids, positions to 1e-6 m); a TactileState per frame per link
+    whose readings equal the cloud's pressures (counts), or on a calibrated link (N) add up to
+    its contacts' forces and are zero on a frame without contact."""
+    problems = []
+    if counts['/skin/layout'] != 1:
+        return [f'{counts["/skin/layout"]} layout messages, not 1']
+    with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as bag:
+        first = next(iter(bag.messages()))
+        if first[0].topic != '/skin/layout':
+            problems.append(f'the first message is on {first[0].topic}, not /skin/layout')
+        layout = bag.deserialize(first[2], first[0].msgtype)
+        by_stamp = {}
+        wanted = [c for c in bag.connections
+                  if c.topic.endswith('/tactile_state') or c.topic.endswith('/pressure') or c.topic == '/skin/contacts']
+        for c, _, raw in bag.messages(connections=wanted):
+            m = bag.deserialize(raw, c.msgtype)
+            by_stamp.setdefault((m.header.stamp.sec, m.header.stamp.nanosec), {})[c.topic] = m
+    # The layout file (skin-layout/1) where the configuration names one; other layouts (a
+    # Cyskin patch) against the point clouds, which carry each taxel's id and position too.
+    config = Path(layout.source)
+    layout_file = config.parent / tomllib.loads(config.read_text())['layout']
+    native = json.loads(layout_file.read_text())
+    if 'links' in native:
+        want = {l['name']: ([t['id'] for t in l['taxels']], [t['position'] for t in l['taxels']])
+                for l in native['links']}
+        against = str(layout_file)
+    else:
+        want, against = {}, 'the point clouds'
+        for at in by_stamp.values():
+            for topic, m in at.items():
+                if topic.endswith('/pressure'):
+                    link = m.header.frame_id
+                    step = m.point_step
+                    field = {f.name: f.offset for f in m.fields}
+                    def value(k, name, kind='<f'):
+                        return struct.unpack_from(kind, bytes(m.data), k * step + field[name])[0]
+                    want.setdefault(link, ([value(k, 'id', '<I') for k in range(m.width)],
+                                           [[value(k, n) for n in 'xyz'] for k in range(m.width)]))
+    units = {}
+    for link in layout.links:
+        units[link.link] = link.units
+        w = want.get(link.link)
+        if w is None:
+            problems.append(f'layout: link {link.link} is not in {against}')
+            continue
+        if list(link.taxel_ids) != w[0]:
+            problems.append(f'layout: {link.link}: ids differ from {against}')
+        far = max(abs(a - b) for p, t in zip(link.positions, w[1]) for a, b in zip((p.x, p.y, p.z), t))
+        if far > 1e-6:
+            problems.append(f'layout: {link.link}: a position is {far} m off {against}')
+    checked = 0
+    for link in links:
+        if counts[f'/skin/{link}/tactile_state'] != frames:
+            problems.append(f'/skin/{link}/tactile_state: {counts[f"/skin/{link}/tactile_state"]} for {frames} frames')
+        for at in by_stamp.values():
+            state = at.get(f'/skin/{link}/tactile_state')
+            if state is None:
+                continue
+            if state.units != units.get(link):
+                problems.append(f'{link}: state in {state.units}, layout says {units.get(link)}')
+            readings = [r for i, r in enumerate(state.readings) if i not in set(state.dead)]
+            if state.units == 'counts':
+                cloud = at[f'/skin/{link}/pressure']
+                step, offset = cloud.point_step, next(f.offset for f in cloud.fields if f.name == 'pressure')
+                pressures = [struct.unpack_from('<f', bytes(cloud.data), k * step + offset)[0]
+                             for k in range(cloud.width)]
+                pressures = [p for i, p in enumerate(pressures) if i not in set(state.dead)]
+                if readings != pressures:
+                    problems.append(f'{link}: readings differ from the cloud at {state.header.stamp}')
+            else:
+                mine = [c.force for c in (at['/skin/contacts'].contacts if '/skin/contacts' in at else [])
+                        if c.header.frame_id == link]
+                if abs(sum(readings) - sum(mine)) > 1e-3 + 1e-4 * abs(sum(mine)):
+                    problems.append(f'{link}: readings add up to {sum(readings)} N, contacts {sum(mine)} N')
+            checked += 1
+    print(f'layout and {checked} tactile states checked')
     return problems
 
 
