@@ -361,7 +361,8 @@ class Session:
         """As run_log, for a Cyskin recording."""
     def tare(self, *, force: bool = False) -> str:
         """Learns the baseline again over the next baseline frames (they read no pressure).
-        Raises SessionError while a touch is on the skin unless force (touches released first)."""
+        Raises SessionError while a touch is on the skin unless force (touches released first),
+        and even forced while the gate stops the arm for a touch or the baseline is learned."""
     def describe(self) -> Dict[str, Any]:
         """The skin as skin_msgs/TactileLayout describes it: simulated, source,
         touch_threshold_counts, and per link name, ids, positions, normals (m), areas (m²),

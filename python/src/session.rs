@@ -467,9 +467,10 @@ impl Session {
 
     /// Tares the skin: the baseline is learned again over the next `baseline.frames` frames
     /// (which read no pressure), as after the rest level moved. Refused with the reason
-    /// (`SessionError`) while a touch is on the skin, unless `force` (the touches open are then
-    /// released first, with the next frame's events). Returns what will happen; the next
-    /// frame's events begin with a "tare" event.
+    /// (`SessionError`) while a touch is on the skin unless `force` (the touches open are then
+    /// released first: their "released" events come before the "tare" event of the next
+    /// frame), and even forced while the gate stops the arm for a touch or the baseline is
+    /// being learned. Returns what will happen.
     #[pyo3(signature = (*, force = false))]
     fn tare(&self, force: bool) -> PyResult<String> {
         let mut guard = self.lock()?;

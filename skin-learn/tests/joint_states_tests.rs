@@ -12,10 +12,14 @@ fn arm() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/arm")
 }
 
-/// The fixture arm's session, touches only (no models), making stitched images.
-fn session() -> Session {
+/// The fixture arm's session, touches only (no models), making stitched images; `live`: with
+/// its URDF only (no poses file), so that only joint states can place the wrist.
+fn session_of(live: bool) -> Session {
     let mut config = SessionConfig::read(&arm().join("run.toml")).unwrap();
     config.classifier = None;
+    if live {
+        config.stitch.as_mut().unwrap().poses = None;
+    }
     let mut s = Session::from_config(&config).unwrap();
     s.set_frame_images(true);
     s
@@ -47,6 +51,10 @@ impl Sink for Run {
         }
         Ok(std::ops::ControlFlow::Continue(()))
     }
+}
+
+fn session() -> Session {
+    session_of(false)
 }
 
 fn run(mut session: Session) -> Run {
@@ -94,7 +102,7 @@ fn joint_states_give_the_events_and_images_of_the_recorded_postures() {
         "{:?}",
         recorded.events
     );
-    let mut live = session();
+    let mut live = session_of(true);
     let feed = live.joint_state_feed(None, false).unwrap();
     assert_eq!(feed.joints(), ["wrist_roll"]);
     // With a gripper's joint in the message too, as a whole robot's joint states have.
@@ -110,7 +118,7 @@ fn joint_states_give_the_events_and_images_of_the_recorded_postures() {
 
 #[test]
 fn faulty_joint_states_are_one_event_each_and_the_run_goes_on() {
-    let mut s = session();
+    let mut s = session_of(true);
     let feed = s.joint_state_feed(None, false).unwrap();
     // Good until 1 s; then a NaN, the joint missing, another robot, a stamp from the past;
     // then nothing from 3 s on (stale).
@@ -144,11 +152,10 @@ fn faulty_joint_states_are_one_event_each_and_the_run_goes_on() {
             "{p}: {problems:?}"
         );
     }
-    assert_eq!(
-        problems.iter().filter(|q| **q == "stale").count(),
-        2,
-        "{problems:?}"
-    );
+    // (A stale posture is said again only a second after it was last: the second time, 2 s of
+    // log later, is within that second of the run's time here, or not.)
+    let stale = problems.iter().filter(|q| **q == "stale").count();
+    assert!((1..=2).contains(&stale), "{problems:?}");
     let other = faults.iter().find(|e| e["problem"] == "other_robot").unwrap();
     assert_eq!(other["joints"], serde_json::json!(["elbow"]));
     // Every touch is still tracked to its end.

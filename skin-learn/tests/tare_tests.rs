@@ -56,7 +56,11 @@ fn a_tare_relearns_the_baseline_after_the_rest_level_moved() {
     let frames = s.options().baseline_frames as u64;
     let mut events = Vec::new();
     let mut k = 0;
-    for _ in 0..frames + 5 {
+    push(&mut s, k, 200.0, 0.0, &mut events);
+    k += 1;
+    // While the baseline is learned, a tare would only start it again.
+    assert_eq!(s.tare(true), Err(TareRefused::Learning));
+    for _ in 1..frames + 5 {
         push(&mut s, k, 200.0, 0.0, &mut events);
         k += 1;
     }

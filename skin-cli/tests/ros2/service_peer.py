@@ -8,9 +8,10 @@ and feeds the run its log through a FIFO, so that it knows where the run is.
 Usage: service_peer.py PORT FIFO LOG LAYOUT.json DESCRIBE_HASH
 Checks, failing with the reasons:
 - describe's reply decodes as skin_msgs/srv/Describe_Response (rosbags, from the repository's
-  .srv) and equals the layout file (ids, positions to 1e-6 m, normals);
-- tare before the first touch succeeds; during a touch (once its "appeared" event arrived) a
-  tare is refused with the reason, and tare_forced succeeds; each reply decodes as
+  .srv) and equals the layout file (ids, positions to 1e-6 m);
+- tare while the baseline is learned is refused, saying so; between two touches it succeeds;
+  during a touch (once its "appeared" event arrived) a tare is refused with the reason, and
+  tare_forced succeeds; each reply decodes as
   std_srvs/srv/Trigger_Response and echoes the request's sequence number and GID;
 - the layout reaches a subscriber that joins after the run started, and equals describe's.
 Prints each service call's round trip (ms).
@@ -116,11 +117,15 @@ def main():
     conf.insert_json5('timestamping/enabled', 'true')
     session = zenoh.open(conf)
     problems = []
-    appeared = threading.Event()
+    appeared, released = threading.Event(), threading.Event()
 
     def on_event(sample):
         msg = store.deserialize_cdr(bytes(sample.payload.to_bytes()), 'skin_msgs/msg/TouchEvent')
-        if json.loads(msg.json)['event'] == 'appeared':
+        event = json.loads(msg.json)
+        # The first touch's release (1 to 2 s), then the third touch (4 to 5 s) under way.
+        if event['event'] == 'released':
+            released.set()
+        if event['event'] == 'appeared' and event['time'] >= 3.9:
             appeared.set()
 
     events_sub = session.declare_subscriber(f'{DOMAIN}/skin/events/*/*', on_event)
@@ -144,12 +149,20 @@ def main():
                 out.write(lines.pop(0))
             out.flush()
 
+        # While the baseline is learned (its first second): refused, saying so.
         write_until(0.5)
         reply = client.call('/skin/tare', 'std_srvs/srv/Trigger', 'std_srvs/srv/Trigger_Response')
+        if reply.success or 'being learned' not in reply.message:
+            problems.append(f'tare while the baseline is learned: success {reply.success}, "{reply.message}"')
+        # Between the first touch and the second: taken.
+        write_until(2.3)
+        if not released.wait(60):
+            problems.append('the first touch was not released')
+        reply = client.call('/skin/tare', 'std_srvs/srv/Trigger', 'std_srvs/srv/Trigger_Response')
         if not reply.success:
-            problems.append(f'tare before any touch refused: {reply.message}')
-        # Inside the first touch (1.0 to 2.0 s of the log, after the re-learned baseline).
-        write_until(2.9)
+            problems.append(f'tare between touches refused: {reply.message}')
+        # Inside the third touch (4.0 to 5.0 s of the log, after the re-learned baseline).
+        write_until(4.6)
         if not appeared.wait(60):
             problems.append('no touch appeared')
         reply = client.call('/skin/tare', 'std_srvs/srv/Trigger', 'std_srvs/srv/Trigger_Response')

@@ -50,6 +50,8 @@ pub struct PostureChain {
     /// The live posture ([`PostureChain::set_live_posture`]) and its generation: from it on,
     /// frames are stitched there rather than at the poses file's posture of their time.
     live: Option<(u64, Vec<Isometry3<f64>>)>,
+    /// The last live posture that could not be stitched: not tried again while it holds.
+    failed: Option<Vec<Isometry3<f64>>>,
     /// The last frame's pressures, thresholded, per link of the chain in use.
     pressures: Vec<Vec<f32>>,
     threshold: f32,
@@ -193,6 +195,7 @@ impl PostureChain {
             holed: None,
             posture: At::Posture(0),
             live: None,
+            failed: None,
             threshold: 0.0,
             image: Vec::new(),
             grey: Vec::new(),
@@ -249,22 +252,36 @@ impl PostureChain {
                 expected: self.maps.len(),
             });
         }
-        if let Some((_, last)) = &self.live
-            && last.iter().zip(poses).all(|(a, b)| {
+        let near = |last: &[Isometry3<f64>]| {
+            last.iter().zip(poses).all(|(a, b)| {
                 (a.translation.vector - b.translation.vector).norm() <= LIVE_TOLERANCE_M
                     && a.rotation.angle_to(&b.rotation) <= LIVE_TOLERANCE_RAD
             })
+        };
+        // Where it is stitched already, or where it could not be (its error was said): nothing
+        // to solve.
+        if self.live.as_ref().is_some_and(|(_, last)| near(last)) || self.failed.as_deref().is_some_and(near)
         {
             return Ok(false);
         }
         let generation = self.live.as_ref().map_or(1, |(g, _)| g + 1);
         let contacts = self.contacts;
         // Every chain solved before any is changed: an error leaves the last posture whole.
-        let whole = self.whole.solve_live(poses, contacts)?;
-        let holed = match &mut self.holed {
-            Some((_, holed)) => Some(holed.solve_live(poses, contacts)?),
-            None => None,
+        let solved = self.whole.solve_live(poses, contacts).and_then(|whole| {
+            let holed = match &mut self.holed {
+                Some((_, holed)) => Some(holed.solve_live(poses, contacts)?),
+                None => None,
+            };
+            Ok((whole, holed))
+        });
+        let (whole, holed) = match solved {
+            Ok(s) => s,
+            Err(e) => {
+                self.failed = Some(poses.to_vec());
+                return Err(e);
+            }
         };
+        self.failed = None;
         let (report, finder) = whole;
         self.whole.live = Some((generation, report, finder));
         if let (Some((_, chain)), Some((report, finder))) = (&mut self.holed, holed) {
@@ -278,6 +295,16 @@ impl PostureChain {
             None => self.live = Some((generation, poses.to_vec())),
         }
         Ok(true)
+    }
+
+    /// Back to the poses file's postures: the live posture is forgotten (a new input).
+    pub fn clear_live_posture(&mut self) {
+        self.live = None;
+        self.failed = None;
+        self.whole.live = None;
+        if let Some((_, holed)) = &mut self.holed {
+            holed.live = None;
+        }
     }
 
     /// The live posture, if frames are stitched at one ([`PostureChain::set_live_posture`]).

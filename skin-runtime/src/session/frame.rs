@@ -51,8 +51,27 @@ impl Session {
         Ok(time_us.saturating_sub(t0) as f64 * 1e-6)
     }
 
-    /// The frame in `self.raw` through the whole path.
+    /// The frame in `self.raw` through the whole path; then what a tare asked for from another
+    /// thread is judged by (the gate, the baseline), or refused from now on once the session
+    /// stopped or failed.
     pub(super) fn step<S: Sink + ?Sized>(
+        &mut self,
+        time_us: u64,
+        time: f64,
+        cycle: u64,
+        complete: bool,
+        sink: &mut S,
+    ) -> Result<(), SessionError> {
+        let result = self.step_frame(time_us, time, cycle, complete, sink);
+        let stops = self.gate == Some(skin_control::hri::GateAction::Stop);
+        self.tares.set_state(stops, self.base.baselines.is_empty());
+        if self.stopped || result.is_err() {
+            self.tares.stop();
+        }
+        result
+    }
+
+    fn step_frame<S: Sink + ?Sized>(
         &mut self,
         time_us: u64,
         time: f64,
@@ -107,9 +126,6 @@ impl Session {
             .filter(|&l| self.pipeline.touching(l))
             .count();
         self.tares.set_touches(open);
-        if self.stopped {
-            self.tares.stop();
-        }
         Ok(())
     }
 
@@ -222,6 +238,8 @@ impl Session {
     /// The end of the input: touches still open are released. Fails if the baseline was never
     /// learned. [`Flow::Break`] if a sink has said stop (nothing is then released).
     pub fn finish<S: Sink + ?Sized>(&mut self, sink: &mut S) -> Result<Flow, SessionError> {
+        // No frame comes after: a tare asked for from now on is refused.
+        self.tares.stop();
         if self.stopped {
             return Ok(flow(true));
         }
@@ -232,7 +250,6 @@ impl Session {
             }
             .into());
         }
-        self.tares.stop();
         if self.base.baselines.is_empty() {
             // A tare still learning: nothing is open (it released every touch).
             return Ok(flow(self.stopped));

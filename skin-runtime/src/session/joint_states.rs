@@ -27,7 +27,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 /// Postures a feed keeps (the newest; older ones than a frame's are dropped as frames go by).
-pub const FEED_CAPACITY: usize = 4096;
+pub const FEED_CAPACITY: usize = 16_384;
 
 /// What is wrong with the joint states (an [`Event::JointStates`](super::Event::JointStates)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
@@ -43,7 +43,8 @@ pub enum JointProblem {
     OutOfOrder,
     /// A message with none of the chain's joints: another robot's, or another part's.
     OtherRobot,
-    /// A message whose names and positions differ in number.
+    /// A message whose names and positions differ in number, or whose joint values the chain
+    /// cannot take.
     Malformed,
     /// The chain cannot be stitched at the posture (the last one holds).
     Unstitchable,
@@ -164,11 +165,24 @@ impl PostureFeed {
     /// positions (rad or m), as `sensor_msgs/JointState` has them. Extra joints are ignored.
     pub fn push<'a>(&self, stamp_ns: i128, names: impl IntoIterator<Item = &'a str>, positions: &[f64]) {
         let names: Vec<&str> = names.into_iter().collect();
-        let posture = self.posture_of(stamp_ns, &names, positions);
+        let posture = self.posture_of(&names, positions);
         let Ok(mut s) = self.0.state.lock() else {
             return;
         };
         s.counts.received += 1;
+        // Checked under the lock that inserts: two publishers' callbacks may run at once.
+        let posture = posture.and_then(|poses| match s.last_stamp {
+            Some(last) if stamp_ns < last => Err(JointFault {
+                problem: JointProblem::OutOfOrder,
+                joints: Vec::new(),
+                detail: format!(
+                    "stamped {:.6} s, before the last one taken ({:.6} s)",
+                    stamp_ns as f64 * 1e-9,
+                    last as f64 * 1e-9
+                ),
+            }),
+            _ => Ok(poses),
+        });
         match posture {
             Ok(poses) => {
                 s.counts.taken += 1;
@@ -193,20 +207,12 @@ impl PostureFeed {
                 s.postures.push_back((stamp_ns, poses));
                 self.0.arrived.notify_all();
             }
-            Err(fault) => {
-                s.last_fault[fault.problem.index()] = Some(std::time::Instant::now());
-                fault_begins(&mut s, fault);
-            }
+            Err(fault) => fault_begins(&mut s, fault),
         }
     }
 
     /// The posture of a message, or what is wrong with it.
-    fn posture_of(
-        &self,
-        stamp_ns: i128,
-        names: &[&str],
-        positions: &[f64],
-    ) -> Result<Vec<Isometry3<f64>>, JointFault> {
+    fn posture_of(&self, names: &[&str], positions: &[f64]) -> Result<Vec<Isometry3<f64>>, JointFault> {
         let fault = |problem, joints: Vec<String>, detail: String| JointFault {
             problem,
             joints,
@@ -247,17 +253,6 @@ impl PostureFeed {
                 "the last good posture holds".into(),
             ));
         }
-        if let Ok(s) = self.0.state.lock()
-            && let Some(last) = s.last_stamp
-            && stamp_ns < last
-        {
-            let why = format!(
-                "stamped {:.6} s, before the last one taken ({:.6} s)",
-                stamp_ns as f64 * 1e-9,
-                last as f64 * 1e-9
-            );
-            return Err(fault(JointProblem::OutOfOrder, Vec::new(), why));
-        }
         let posture = self
             .0
             .chain
@@ -294,6 +289,23 @@ impl PostureFeed {
             s.postures.pop_front();
         }
         let Some((stamp, poses)) = s.postures.front().filter(|(t, _)| *t <= frame_ns) else {
+            // Every posture is stamped well after the frame: the two clocks differ.
+            if let Some((first, _)) = s.postures.front()
+                && first - frame_ns > self.0.max_age_ns
+            {
+                let detail = format!(
+                    "every joint state is stamped after the frame (the first by {:.3} s): the joint states' clock is not the frames' (--ros-time rebase against a robot's clock?); no posture is taken",
+                    (first - frame_ns) as f64 * 1e-9
+                );
+                fault_begins(
+                    &mut s,
+                    JointFault {
+                        problem: JointProblem::Stale,
+                        joints: Vec::new(),
+                        detail,
+                    },
+                );
+            }
             return false;
         };
         let age = frame_ns - stamp;
@@ -313,10 +325,19 @@ impl PostureFeed {
                     detail,
                 },
             );
-        } else {
+        } else if s.last_fault[JointProblem::Stale.index()].is_none_or(|t| t.elapsed() >= FAULT_QUIET) {
+            // Fresh again, and for a second: a stale posture will be said again.
             s.active[JointProblem::Stale.index()] = false;
         }
         true
+    }
+
+    /// The chain was stitched at the posture a frame got: a later posture that cannot be is
+    /// said again.
+    pub(super) fn stitched(&self) {
+        if let Ok(mut s) = self.0.state.lock() {
+            s.active[JointProblem::Unstitchable.index()] = false;
+        }
     }
 
     /// Reports that the chain cannot be stitched at the posture a frame got.
@@ -389,12 +410,14 @@ impl Session {
         };
         let t0 = if *rebased { self.t0_us.unwrap_or(0) } else { 0 };
         let frame_ns = i128::from(time_us.saturating_sub(t0)) * 1000;
-        if feed.posture_at(frame_ns, &mut self.live_poses)
-            && let Err(e) = st.set_live_posture(&self.live_poses)
-        {
-            feed.unstitchable(format!(
-                "the chain cannot be stitched at the posture of the joint states: {e}"
-            ));
+        if feed.posture_at(frame_ns, &mut self.live_poses) {
+            match st.set_live_posture(&self.live_poses) {
+                Ok(true) => feed.stitched(),
+                Ok(false) => {}
+                Err(e) => feed.unstitchable(format!(
+                    "the chain cannot be stitched at the posture of the joint states: {e}"
+                )),
+            }
         }
         feed.take_faults(&mut self.joint_faults);
         for f in std::mem::take(&mut self.joint_faults) {
@@ -413,6 +436,7 @@ impl Session {
 /// A fault: reported unless one of its kind is going on already.
 fn fault_begins(s: &mut State, fault: JointFault) {
     let k = fault.problem.index();
+    s.last_fault[k] = Some(std::time::Instant::now());
     if s.active[k] {
         return;
     }
@@ -509,10 +533,23 @@ mod tests {
             assert!(f.posture_at(t, &mut poses));
         }
         assert_eq!(faults(&f), [JointProblem::Stale]);
+        // Fresh again within the second: a stale posture right after is not said again (a
+        // publisher slower than max_age gives one event, not one a message)...
         f.push(250_000_000, ["j1", "j2"], &[0.0, 0.0]);
         assert!(f.posture_at(260_000_000, &mut poses));
         assert!(f.posture_at(400_000_000, &mut poses));
+        assert_eq!(faults(&f), []);
+        // ...but after a second fresh, it is.
+        f.push(450_000_000, ["j1", "j2"], &[0.0, 0.0]);
+        f.0.state.lock().unwrap().last_fault = [None; PROBLEMS];
+        assert!(f.posture_at(460_000_000, &mut poses));
+        assert!(f.posture_at(600_000_000, &mut poses));
         assert_eq!(faults(&f), [JointProblem::Stale]);
+        // Joint states on another clock than the frames' are said.
+        let other = feed(None);
+        other.push(50_000_000_000, ["j1", "j2"], &[0.0, 0.0]);
+        assert!(!other.posture_at(1_000_000, &mut poses));
+        assert_eq!(faults(&other), [JointProblem::Stale]);
     }
 
     #[test]

@@ -17,7 +17,10 @@ impl Session {
         } = self;
         let mut fresh = Session::new(setup.links, pipeline.restarted()?, setup.options)?;
         fresh.setup.can = setup.can;
-        fresh.setup.stitching = setup.stitching;
+        fresh.setup.stitching = setup.stitching.map(|mut s| {
+            s.clear_live_posture();
+            s
+        });
         // The same script, nothing scored.
         fresh.tally = tally.map(|t| Tally::new(t.into_script()));
         fresh.setup.source = setup.source;

@@ -97,6 +97,12 @@ impl Stitching {
         self.chain.set_live_posture(poses)
     }
 
+    /// Back to the poses' postures (a new input): the live posture is forgotten.
+    pub fn clear_live_posture(&mut self) {
+        self.chain.clear_live_posture();
+        self.joined = false;
+    }
+
     /// Where each link's map lies in the stitched plane at the posture in effect at `time` (s),
     /// links in chain order (the layout's).
     pub fn placements_at(&self, time: f64) -> &[skin_geom::Placement] {

@@ -3,7 +3,10 @@
 //! [`SessionOptions::baseline_frames`](super::SessionOptions) frames learn it as the first ones
 //! did; the skin reads no pressure until they are in. A tare is refused while a touch is on
 //! the skin, whose pressure would be learned as the skin at rest, unless forced: a forced tare
-//! first releases the touches open.
+//! first releases the touches open. Even forced, it is refused while the gate stops the arm for
+//! a touch (releasing it would let the arm go on while the touch is still there), and while the
+//! baseline is being learned (a tare would only start that again). A plain tare answered yes
+//! whose frame finds a touch begun meanwhile waits for a frame without one.
 //!
 //! The request is taken at once (the answer says whether it will happen) and carried out at
 //! the start of the next frame, so another thread (a ROS service, a UI) may ask through a
@@ -12,7 +15,7 @@
 use super::{Event, Session, SessionError, Sink, send};
 use skin_core::{BaselineLearner, BaselineOptions};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicUsize, Ordering};
 
 /// A tare that will happen: the frames that learn the baseline again.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,7 +51,17 @@ pub enum TareRefused {
         /// Touches open.
         touches: usize,
     },
-    /// The session has ended (a sink said stop).
+    /// The gate stops the arm for a touch now: a forced tare would release the touch, and the
+    /// gate with it, while the touch is still there (and learn it as the skin at rest).
+    #[error(
+        "the gate stops the arm for a touch on the skin now: a tare would release it while it still presses; tare once the touch is gone"
+    )]
+    GateStops,
+    /// The baseline is being learned (at the start, or after a tare): a tare now would only
+    /// start it again.
+    #[error("the baseline is being learned now (the skin reads no pressure until it is): tare once it is")]
+    Learning,
+    /// The session has ended (a sink said stop, an error, or the end of its input).
     #[error("the session has stopped: it takes no more frames")]
     Stopped,
 }
@@ -65,6 +78,9 @@ struct Shared {
     request: AtomicU8,
     /// Touches open after the last frame.
     touches: AtomicUsize,
+    /// After the last frame: the gate stops the arm / the baseline is being learned.
+    gate_stops: AtomicBool,
+    learning: AtomicBool,
     frames: usize,
 }
 
@@ -73,16 +89,23 @@ struct Shared {
 pub struct TareHandle(Arc<Shared>);
 
 impl TareHandle {
-    /// Asks for a tare at the next frame; refused while a touch is on the skin (as of the last
-    /// frame) unless `force`.
+    /// Asks for a tare at the next frame; refused (as of the last frame) while a touch is on
+    /// the skin unless `force`, and even forced while the gate stops the arm for a touch or
+    /// the baseline is being learned.
     pub fn tare(&self, force: bool) -> Result<TareStarted, TareRefused> {
         let s = &self.0;
         if s.request.load(Ordering::Acquire) == STOPPED {
             return Err(TareRefused::Stopped);
         }
+        if s.learning.load(Ordering::Acquire) {
+            return Err(TareRefused::Learning);
+        }
         let touches = s.touches.load(Ordering::Acquire);
         if touches > 0 && !force {
             return Err(TareRefused::Touching { touches });
+        }
+        if touches > 0 && s.gate_stops.load(Ordering::Acquire) {
+            return Err(TareRefused::GateStops);
         }
         let want = if force { FORCED } else { TARE };
         // A forced request is not weakened by a plain one made after it.
@@ -108,8 +131,27 @@ impl Tares {
     pub(super) fn new(frames: usize) -> Tares {
         Tares(Arc::new(Shared {
             frames,
+            // A session starts by learning its baseline.
+            learning: AtomicBool::new(true),
             ..Shared::default()
         }))
+    }
+
+    /// After a frame: whether the gate stops the arm, and whether the baseline is being learned.
+    pub(super) fn set_state(&self, gate_stops: bool, learning: bool) {
+        self.0.gate_stops.store(gate_stops, Ordering::Release);
+        self.0.learning.store(learning, Ordering::Release);
+    }
+
+    /// A plain request found touches at its frame (one began after it was answered): it waits
+    /// for a frame without one.
+    fn defer(&self) {
+        let _ = self
+            .0
+            .request
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |r| {
+                (r == NONE).then_some(TARE)
+            });
     }
 
     /// The request made since the last frame: none, or whether it is forced.
@@ -176,6 +218,17 @@ impl Session {
         let open = (0..self.setup.links.len())
             .filter(|&l| self.pipeline.touching(l))
             .count();
+        let stops = self.gate == Some(skin_control::hri::GateAction::Stop);
+        if open > 0 && (!forced || stops) {
+            // A touch began after the request was answered: a plain tare waits for a frame
+            // without one; a forced one is not taken while the gate stops the arm for it.
+            if !forced {
+                self.tares.defer();
+            }
+            return Ok(());
+        }
+        // A correction going on ends (its event, its counts) before the offsets are learned anew.
+        self.end_corrections(time, 0, sink)?;
         if open > 0 {
             self.touch_events.clear();
             self.pipeline.finish(time, &mut self.touch_events)?;
@@ -190,9 +243,13 @@ impl Session {
         b.learner = BaselineLearner::new(&sizes, self.setup.options.baseline_frames, options)?;
         b.baselines.clear();
         b.health.clear();
-        b.correcting.iter_mut().for_each(|c| *c = Default::default());
+        for c in &mut b.correcting {
+            c.since = None;
+            c.quiet = 0;
+        }
         self.pressures.iter_mut().for_each(|p| p.fill(0.0));
         self.tares.set_touches(0);
+        self.tares.set_state(false, true);
         let event = Event::Tare {
             time,
             frames: self.setup.options.baseline_frames,
@@ -200,5 +257,36 @@ impl Session {
             released: open,
         };
         send(&mut self.stopped, sink, |s| s.event(&event))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tare_is_refused_while_learning_and_forced_while_the_gate_stops_for_a_touch() {
+        let tares = Tares::new(20);
+        let handle = TareHandle(tares.0.clone());
+        assert_eq!(handle.tare(true), Err(TareRefused::Learning));
+        tares.set_state(true, false);
+        tares.set_touches(1);
+        assert_eq!(handle.tare(false), Err(TareRefused::Touching { touches: 1 }));
+        assert_eq!(handle.tare(true), Err(TareRefused::GateStops));
+        tares.set_state(false, false);
+        assert_eq!(
+            handle.tare(true),
+            Ok(TareStarted {
+                frames: 20,
+                releases: 1
+            })
+        );
+        // A plain request after a forced one does not weaken it.
+        tares.set_touches(0);
+        assert!(handle.tare(false).is_ok());
+        assert_eq!(tares.take(), Some(true));
+        assert_eq!(tares.take(), None);
+        tares.stop();
+        assert_eq!(handle.tare(false), Err(TareRefused::Stopped));
     }
 }
