@@ -80,13 +80,15 @@ def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
     assert typed.EVENT_KINDS == tuple(skin._skin.EVENT_KINDS)
     by_kind = {t.__annotations__["event"].__args__[0]: t for t in typing.get_args(typed.EventDict)}
     assert set(by_kind) == set(typed.EVENT_KINDS)
-    # Every kind the fixture session, a missing module and the stitched arm's touch across its
-    # joint make (7 of the 9).
+    # Every kind the fixture session, a missing module, a tare and the stitched arm's touch
+    # across its joint make (8 of the 11).
     busmap = skin.BusMap.read(FIXTURES / "forearm" / "busmap.toml")
     session = skin.Session.from_config(CONFIG)
     rest = np.full(len(busmap.ids), 100.0)
     more = [e for k in range(25) for e in session.push_bus(rest, 0.05 * k)]
     more += session.push_bus(rest, 1.25, [("can0", 5)])
+    session.tare()
+    more += session.push_bus(rest, 1.3)
     arm = skin.Session.from_config(FIXTURES / "arm" / "run.toml")
     more += arm.run_log(FIXTURES / "arm" / "touch.candump.log")
     seen = set()
@@ -95,7 +97,7 @@ def test_every_event_kind_is_typed_as_skin_events_says(builtin_session_events):
         assert event.kind == line["event"] and event.kind in typed.EVENT_KINDS
         conforms(line, by_kind[event.kind])
         seen.add(event.kind)
-    assert {"appeared", "classified", "released", "gate", "incomplete", "across_joint", "across_joint_end"} <= seen
+    assert {"appeared", "classified", "released", "gate", "incomplete", "across_joint", "across_joint_end", "tare"} <= seen
 
 
 def log_frames():

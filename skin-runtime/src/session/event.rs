@@ -574,6 +574,18 @@ mod tests {
                 link,
                 taxels: 2,
             },
+            Event::Tare {
+                time: 0.0,
+                frames: 20,
+                forced: true,
+                released: 1,
+            },
+            Event::JointStates {
+                time: 0.0,
+                problem: super::super::JointProblem::Missing,
+                joints: vec!["wrist_roll".into()],
+                detail: "the last good posture holds".into(),
+            },
         ]
     }
 
