@@ -563,15 +563,25 @@ mod tests {
             },
             Event::AcrossJoint {
                 time: 0.0,
-                links: vec![link.clone()],
+                links: vec![link],
                 taxels: 3,
                 centroid: [0.0; 3],
             },
+        ]
+        .into_iter()
+        .chain(the_robots_events())
+        .collect()
+    }
+
+    /// The end of a contact across joints, a baseline correction, and the events of taring and
+    /// of the robot's joint states.
+    fn the_robots_events() -> [Event; 4] {
+        [
             Event::AcrossJointEnd { time: 0.0 },
             Event::BaselineCorrected {
                 time: 0.0,
                 since: 0.0,
-                link,
+                link: "forearm".into(),
                 taxels: 2,
             },
             Event::Tare {
