@@ -18,7 +18,7 @@ use crate::topics::{PrefixError, Topics};
 use skin_core::LinkSkin;
 use skin_core::image::ImageView;
 use skin_runtime::parts::PartContact;
-use skin_runtime::session::{Description, Event, Flow, ProcessedFrame, Readings, Sink, Units};
+use skin_runtime::session::{Description, Event, Flow, ProcessedFrame, Readings, Sink};
 use skin_runtime::touch::Footprint;
 
 /// Where a [`RosSink`]'s messages go.
@@ -364,14 +364,10 @@ impl<O: Outlet> RosSink<O> {
             return Ok(());
         };
         let topic = topics.state;
-        let units = match readings {
-            Readings::Counts(_) => Units::Counts,
-            Readings::Newtons(_) => Units::Newtons,
-        };
         let names = (
             frame_id(&self.topics.frame_ids, l),
             self.names[l].as_str(),
-            units.name(),
+            readings.units().name(),
         );
         match readings {
             Readings::Counts(p) => {

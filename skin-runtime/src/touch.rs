@@ -496,6 +496,11 @@ impl TouchPipeline {
         self.links.get(link).is_some_and(|l| l.touch.is_some())
     }
 
+    /// Touches open now, over every link.
+    pub fn open_touches(&self) -> usize {
+        self.links.iter().filter(|l| l.touch.is_some()).count()
+    }
+
     /// The decisions of the touches in progress that have been decided, one per link at most.
     pub fn open_decisions(&self) -> impl Iterator<Item = &Decision> + '_ {
         self.links

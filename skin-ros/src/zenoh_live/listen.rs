@@ -10,7 +10,7 @@
 //! only reads the feed.
 
 use super::config::zenoh_error;
-use super::names::{dds_type, mangle};
+use super::names::{Place, dds_type};
 use crate::RosError;
 use crate::interfaces::Interfaces;
 use skin_runtime::session::PostureFeed;
@@ -50,7 +50,8 @@ pub(super) fn joint_states(
     session: &zenoh::Session,
     topic: &str,
     feed: PostureFeed,
-    place: &super::services::Place<'_>,
+    place: &Place<'_>,
+    id: usize,
 ) -> Result<Listening, RosError> {
     let name = crate::topics::check_prefix(topic)?;
     let hash = Interfaces::skin()?
@@ -70,15 +71,7 @@ pub(super) fn joint_states(
         .wait()
         .map_err(zenoh_error)?;
     // Reliable, volatile, keep last 10: rclcpp's default subscription.
-    let token = format!(
-        "@ros2_lv/{}/{}/0/{}/MS/%/{}/{}/{}/{dds}/{hash}/1:2:1,10:,:,:,,",
-        place.domain,
-        place.zid,
-        place.first_id,
-        mangle(place.namespace.trim_end_matches('/')),
-        place.node,
-        mangle(&name),
-    );
+    let token = place.token(id, "MS", &name, &dds, &hash, "1:2:1,10:,:,:,,");
     let token = session
         .liveliness()
         .declare_token(token)

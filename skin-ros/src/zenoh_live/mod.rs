@@ -78,7 +78,7 @@ use skin_runtime::session::PostureFeed;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 /// What became of one topic's messages.
@@ -251,14 +251,9 @@ impl ZenohOutlet {
     /// are answered on Zenoh's threads, never the frame path's.
     pub fn serve(&mut self, topics: &Topics, services: Services) -> Result<(), RosError> {
         let zid = self.session.zid().to_string();
-        let place = services::Place {
-            domain: self.options.domain,
-            zid: &zid,
-            namespace: &self.options.namespace,
-            node: &self.options.node,
-            first_id: self.tokens.len() + 1,
-        };
-        self.served = Some(services::serve(&self.session, topics, services, &place)?);
+        let first_id = self.tokens.len() + 1;
+        let served = services::serve(&self.session, topics, services, &self.place(&zid), first_id)?;
+        self.served = Some(served);
         Ok(())
     }
 
@@ -266,17 +261,21 @@ impl ZenohOutlet {
     /// `sensor_msgs/JointState` to `feed` (on Zenoh's threads).
     pub fn listen_joint_states(&mut self, topic: &str, feed: PostureFeed) -> Result<(), RosError> {
         let zid = self.session.zid().to_string();
-        let place = services::Place {
+        // After the publishers and the services (three at most).
+        let id = self.tokens.len() + 4 + self.listening.len();
+        let listening = listen::joint_states(&self.session, topic, feed, &self.place(&zid), id)?;
+        self.listening.push(listening);
+        Ok(())
+    }
+
+    /// Where this node is, for its entities' tokens.
+    fn place<'a>(&'a self, zid: &'a str) -> names::Place<'a> {
+        names::Place {
             domain: self.options.domain,
-            zid: &zid,
+            zid,
             namespace: &self.options.namespace,
             node: &self.options.node,
-            // After the publishers and the services (three at most).
-            first_id: self.tokens.len() + 4 + self.listening.len(),
-        };
-        self.listening
-            .push(listen::joint_states(&self.session, topic, feed, &place)?);
-        Ok(())
+        }
     }
 
     /// What each subscription did with its samples so far: (topic, received, fed, of another
@@ -463,14 +462,7 @@ impl Outlet for ZenohOutlet {
         };
         *seq += 1;
         self.given[topic] += 1;
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
-        let mut attachment = [0u8; 33];
-        attachment[..8].copy_from_slice(&seq.to_le_bytes());
-        attachment[8..16].copy_from_slice(&now.to_le_bytes());
-        attachment[16] = 16;
-        attachment[17..].copy_from_slice(&self.gids[topic]);
+        let attachment = names::attachment(*seq, &self.gids[topic]);
         let mut payload = self.pool.try_recv().unwrap_or_default();
         payload.clear();
         payload.extend_from_slice(cdr);

@@ -15,7 +15,7 @@
 //! CDR request is counted and answered with an error reply, never served.
 
 use super::config::zenoh_error;
-use super::names::{dds_type, mangle};
+use super::names::{Place, attachment as attachment_of, dds_type, sender_of};
 use crate::RosError;
 use crate::cdr::{CDR_LE, CdrWriter};
 use crate::interfaces::Interfaces;
@@ -63,22 +63,13 @@ enum Answer {
     Describe(Arc<Vec<u8>>),
 }
 
-/// Where a node is, for the keys and tokens of its services.
-pub(super) struct Place<'a> {
-    pub domain: u32,
-    pub zid: &'a str,
-    pub namespace: &'a str,
-    pub node: &'a str,
-    /// The first entity id free for them.
-    pub first_id: usize,
-}
-
 /// Declares the services `services` asks for, under `topics.prefix`.
 pub(super) fn serve(
     session: &zenoh::Session,
     topics: &Topics,
     services: Services,
     place: &Place<'_>,
+    first_id: usize,
 ) -> Result<Served, RosError> {
     let interfaces = Interfaces::skin()?;
     let mut wanted: Vec<(String, &'static str, Answer)> = Vec::new();
@@ -129,15 +120,8 @@ pub(super) fn serve(
             .callback(move |query| answer_query(&query, &reply_key, &answer, &c))
             .wait()
             .map_err(zenoh_error)?;
-        let token = format!(
-            "@ros2_lv/{}/{}/0/{}/SS/%/{}/{}/{}/{dds}/{hash}/::,10:,:,:,,",
-            place.domain,
-            place.zid,
-            place.first_id + k,
-            mangle(place.namespace.trim_end_matches('/')),
-            place.node,
-            mangle(&name),
-        );
+        // Default service QoS, as rmw_zenoh writes it.
+        let token = place.token(first_id + k, "SS", &name, &dds, &hash, "::,10:,:,:,,");
         served._tokens.push(
             session
                 .liveliness()
@@ -151,23 +135,10 @@ pub(super) fn serve(
     Ok(served)
 }
 
-/// A client's sequence number and GID, from an rmw_zenoh attachment (33 bytes: sequence i64
-/// LE, time i64 LE, 16, GID).
-pub(super) fn client_of(attachment: &[u8]) -> Option<(i64, [u8; 16])> {
-    if attachment.len() != 33 || attachment[16] != 16 {
-        return None;
-    }
-    let mut seq = [0u8; 8];
-    seq.copy_from_slice(&attachment[..8]);
-    let mut gid = [0u8; 16];
-    gid.copy_from_slice(&attachment[17..]);
-    Some((i64::from_le_bytes(seq), gid))
-}
-
 /// Answers one query.
 fn answer_query(query: &zenoh::query::Query, key: &str, answer: &Answer, counts: &ServiceCounts) {
     let attachment = query.attachment().map(|a| a.to_bytes().into_owned());
-    let client = attachment.as_deref().and_then(client_of);
+    let client = attachment.as_deref().and_then(sender_of);
     let request_ok = query
         .payload()
         .is_some_and(|p| p.to_bytes().get(..4) == Some(&CDR_LE[..]));
@@ -196,14 +167,8 @@ fn answer_query(query: &zenoh::query::Query, key: &str, answer: &Answer, counts:
         }
         Answer::Describe(bytes) => bytes.to_vec(),
     };
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
-    let mut reply = [0u8; 33];
-    reply[..8].copy_from_slice(&seq.to_le_bytes());
-    reply[8..16].copy_from_slice(&now.to_le_bytes());
-    reply[16] = 16;
-    reply[17..].copy_from_slice(&gid);
+    // The client's sequence number and GID, the server's time.
+    let reply = attachment_of(seq, &gid);
     if query
         .reply(key, payload)
         .attachment(reply.as_slice())
@@ -224,9 +189,11 @@ mod tests {
         a[..8].copy_from_slice(&7i64.to_le_bytes());
         a[16] = 16;
         a[17..].copy_from_slice(&[9u8; 16]);
-        assert_eq!(client_of(&a), Some((7, [9u8; 16])));
-        assert_eq!(client_of(&a[..32]), None);
+        assert_eq!(sender_of(&a), Some((7, [9u8; 16])));
+        assert_eq!(sender_of(&a[..32]), None);
         a[16] = 15;
-        assert_eq!(client_of(&a), None);
+        assert_eq!(sender_of(&a), None);
+        let made = attachment_of(7, &[9u8; 16]);
+        assert_eq!(sender_of(&made), Some((7, [9u8; 16])));
     }
 }

@@ -119,3 +119,13 @@ pub enum Readings<'a> {
     /// Newtons per taxel (layout order), zero outside contacts.
     Newtons(&'a [f64]),
 }
+
+impl Readings<'_> {
+    /// Their unit.
+    pub fn units(&self) -> Units {
+        match self {
+            Readings::Counts(_) => Units::Counts,
+            Readings::Newtons(_) => Units::Newtons,
+        }
+    }
+}

@@ -122,10 +122,7 @@ impl Session {
         }
         self.across_joints(time, cycle, sink)?;
         self.stats.output += t.elapsed();
-        let open = (0..self.setup.links.len())
-            .filter(|&l| self.pipeline.touching(l))
-            .count();
-        self.tares.set_touches(open);
+        self.tares.set_touches(self.pipeline.open_touches());
         Ok(())
     }
 

@@ -230,10 +230,14 @@ impl PostureFeed {
             let why = format!("none of the chain's joints ({})", self.0.joints.join(", "));
             return Err(fault(JointProblem::OtherRobot, shown, why));
         }
-        let missing: Vec<String> = (self.0.joints.iter().zip(&at))
-            .filter(|(_, a)| a.is_none())
-            .map(|(j, _)| j.clone())
-            .collect();
+        // The chain's joints whose value `bad` says is wrong.
+        let at_fault = |bad: &dyn Fn(usize) -> bool| -> Vec<String> {
+            (self.0.joints.iter().enumerate())
+                .filter(|(k, _)| bad(*k))
+                .map(|(_, j)| j.clone())
+                .collect()
+        };
+        let missing = at_fault(&|k| at[k].is_none());
         if !missing.is_empty() {
             return Err(fault(
                 JointProblem::Missing,
@@ -242,10 +246,7 @@ impl PostureFeed {
             ));
         }
         let q: Vec<f64> = at.iter().flatten().map(|&i| positions[i]).collect();
-        let bad: Vec<String> = (self.0.joints.iter().zip(&q))
-            .filter(|(_, v)| !v.is_finite())
-            .map(|(j, _)| j.clone())
-            .collect();
+        let bad = at_fault(&|k| !q[k].is_finite());
         if !bad.is_empty() {
             return Err(fault(
                 JointProblem::NotFinite,

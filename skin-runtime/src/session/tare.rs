@@ -215,9 +215,7 @@ impl Session {
         let Some(forced) = self.tares.take() else {
             return Ok(());
         };
-        let open = (0..self.setup.links.len())
-            .filter(|&l| self.pipeline.touching(l))
-            .count();
+        let open = self.pipeline.open_touches();
         let stops = self.gate == Some(skin_control::hri::GateAction::Stop);
         if open > 0 && (!forced || stops) {
             // A touch began after the request was answered: a plain tare waits for a frame
