@@ -532,8 +532,21 @@ impl<D: Decoder> Assembler<D> {
         }
     }
 
-    /// Delivers the cycles still pending (end of a log or of a live session).
+    /// Delivers the cycles still pending (end of a log or of a live session). A last cycle that
+    /// got its syncs and no data at all is not delivered but counted in
+    /// [`AssemblyStats::skipped`]: the input ended between a sync and its cycle's data (a writer
+    /// in lock-step sends the next cycle's syncs as soon as a frame's data is out), which loses
+    /// no module.
     pub fn finish(&mut self, emit: &mut dyn FnMut(&AssembledFrame)) {
+        let unbegun = self.delivered_up_to.is_some()
+            && self
+                .pending
+                .back()
+                .is_some_and(|p| p.received.iter().all(|&r| r == 0));
+        if unbegun && let Some(p) = self.pending.pop_back() {
+            self.stats.skipped += 1;
+            self.spare.push(p);
+        }
         self.deliver(true, emit);
     }
 }

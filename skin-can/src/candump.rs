@@ -137,6 +137,12 @@ pub trait CanSource {
     fn bytes_read(&self) -> u64 {
         0
     }
+    /// Whether frames arrive as they are made (a pipe another program writes as it goes): a
+    /// reader then takes each as it comes instead of waiting to fill a batch, so that a frame
+    /// is processed before its writer waits for the answer.
+    fn streams(&self) -> bool {
+        false
+    }
 }
 
 impl<T: CanSource + ?Sized> CanSource for &mut T {
@@ -150,6 +156,10 @@ impl<T: CanSource + ?Sized> CanSource for &mut T {
 
     fn error_frames(&self) -> usize {
         (**self).error_frames()
+    }
+
+    fn streams(&self) -> bool {
+        (**self).streams()
     }
 
     fn bytes_read(&self) -> u64 {
@@ -229,6 +239,7 @@ pub struct CandumpReader<R = Input> {
     interfaces: Vec<String>,
     error_frames: usize,
     frames: u64,
+    streams: bool,
 }
 
 impl CandumpReader<Input> {
@@ -246,7 +257,15 @@ impl<R: BufRead> CandumpReader<R> {
             interfaces: Vec::new(),
             error_frames: 0,
             frames: 0,
+            streams: false,
         }
+    }
+
+    /// Marks the log as written while it is read (a pipe: [`CanSource::streams`]).
+    #[must_use]
+    pub fn streaming(mut self, streams: bool) -> CandumpReader<R> {
+        self.streams = streams;
+        self
     }
 
     /// The next frame (blank lines and error frames skipped); `None` at the end of the log. An
@@ -330,6 +349,10 @@ impl<R: BufRead> CanSource for CandumpReader<R> {
 
     fn bytes_read(&self) -> u64 {
         self.lines.consumed()
+    }
+
+    fn streams(&self) -> bool {
+        self.streams
     }
 }
 

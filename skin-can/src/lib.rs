@@ -49,6 +49,7 @@ mod assembler;
 mod busmap;
 pub mod candump;
 pub mod decode;
+pub mod encode;
 mod error;
 mod layout_frames;
 pub mod live;

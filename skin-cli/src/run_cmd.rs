@@ -270,7 +270,8 @@ fn offline(session: &mut Session, log_path: &Path, sinks: &mut RunSinks, quiet: 
         // A pipe or a device: no length to go by.
         None => ProgressBar::new_spinner().with_style(style("{spinner} {bytes} of the log read")),
     };
-    let log = CandumpReader::new(input, log_path);
+    // A pipe (no length) is read as it is written: each frame goes through as it comes.
+    let log = CandumpReader::new(input, log_path).streaming(meter.len().is_none());
     let span = session.run_log(log, log_path, sinks, &mut |_, _| bar.set_position(meter.read()));
     bar.finish_and_clear();
     Ok(span?)

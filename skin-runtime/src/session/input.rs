@@ -251,12 +251,15 @@ impl Session {
         sink: &mut S,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(), SessionError> {
-        let mut batch: Vec<CanFrame> = Vec::with_capacity(BATCH);
+        // A log written while it is read goes a frame at a time: its writer may wait for what
+        // a frame gives (a simulation in lock-step with the session) before writing more.
+        let size = if log.streams() { 1 } else { BATCH };
+        let mut batch: Vec<CanFrame> = Vec::with_capacity(size);
         let mut ended = false;
         while !ended && !self.stopped {
             batch.clear();
             let mut read_error = None;
-            while batch.len() < BATCH {
+            while batch.len() < size {
                 match log.next_frame() {
                     Ok(Some(frame)) => batch.push(frame),
                     Ok(None) => ended = true,
