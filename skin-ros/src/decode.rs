@@ -413,26 +413,46 @@ mod tests {
     use crate::cdr::CdrWriter;
     use crate::messages::{self, ContactMsg, EventKind, PointCloud, TouchEventMsg};
 
-    /// A JointState as rmw_zenoh writes it (rosbags' serialisation is checked against the same
-    /// layout in the joint-state interop test).
+    /// A JointState as a robot driver writes it ([`messages::joint_state`]; rosbags' serialisation
+    /// is checked against it in the Python package's Zenoh test).
     fn joint_state_cdr(names: &[&str], positions: &[f64], velocities: usize) -> Vec<u8> {
         let mut w = CdrWriter::new();
-        w.start();
-        w.i32(1_700_000_001).u32(500).string("base");
-        w.seq_len(names.len());
-        for n in names {
-            w.string(n);
-        }
-        w.seq_len(positions.len());
-        for &p in positions {
-            w.f64(p);
-        }
-        w.seq_len(velocities);
-        for _ in 0..velocities {
-            w.f64(0.25);
-        }
-        w.seq_len(0);
+        let stamp = Stamp {
+            sec: 1_700_000_001,
+            nanosec: 500,
+        };
+        messages::joint_state(
+            &mut w,
+            stamp,
+            "base",
+            names,
+            positions,
+            &vec![0.25; velocities],
+            &[],
+        );
         w.bytes().to_vec()
+    }
+
+    #[test]
+    fn a_joint_state_is_written_field_by_field() {
+        // CDR by hand: encapsulation, header (sec, nanosec, "base"), one name, one position,
+        // no velocities, no efforts.
+        let mut want = crate::cdr::CDR_LE.to_vec();
+        want.extend(1_700_000_001i32.to_le_bytes());
+        want.extend(500u32.to_le_bytes());
+        want.extend(5u32.to_le_bytes());
+        want.extend(b"base\0");
+        want.extend([0, 0, 0]);
+        want.extend(1u32.to_le_bytes());
+        want.extend(2u32.to_le_bytes());
+        want.extend(b"j\0");
+        want.extend([0, 0]);
+        want.extend(1u32.to_le_bytes());
+        want.extend([0, 0, 0, 0]);
+        want.extend(0.5f64.to_le_bytes());
+        want.extend(0u32.to_le_bytes());
+        want.extend(0u32.to_le_bytes());
+        assert_eq!(joint_state_cdr(&["j"], &[0.5], 0), want);
     }
 
     #[test]

@@ -52,6 +52,7 @@ pub mod interfaces;
 mod mcap_file;
 pub mod messages;
 mod outlets;
+pub mod rmw_zenoh;
 pub mod topics;
 pub mod type_hash;
 #[cfg(feature = "zenoh")]

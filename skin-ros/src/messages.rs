@@ -505,3 +505,29 @@ pub fn tactile_layout(
             .f32(d.touch_threshold_counts);
     }
 }
+
+/// `sensor_msgs/msg/JointState`: joint `names` with their `positions` (rad or m), and
+/// `velocities` and `efforts` (each empty, or one per joint), as a robot driver publishes them
+/// (skin reads them back with [`crate::decode::joint_state`]).
+pub fn joint_state(
+    w: &mut CdrWriter,
+    stamp: Stamp,
+    frame_id: &str,
+    names: &[&str],
+    positions: &[f64],
+    velocities: &[f64],
+    efforts: &[f64],
+) {
+    w.start();
+    header(w, stamp, frame_id);
+    w.seq_len(names.len());
+    for n in names {
+        w.string(n);
+    }
+    for values in [positions, velocities, efforts] {
+        w.seq_len(values.len());
+        for &v in values {
+            w.f64(v);
+        }
+    }
+}

@@ -76,7 +76,7 @@ use names::Names;
 use publish::{Counts, Outgoing, Queue, Shared, declare_latched, declare_publishers};
 use skin_runtime::session::PostureFeed;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
@@ -149,6 +149,8 @@ pub struct ZenohOutlet {
     given: Vec<u64>,
     dropped: Vec<u64>,
     sequence: Vec<i64>,
+    /// Messages handed to the events' thread so far (frame messages wait for them).
+    events_queued: u64,
     gids: Vec<[u8; 16]>,
     events_topic: usize,
     layout_topic: usize,
@@ -202,6 +204,7 @@ impl ZenohOutlet {
                 Some(key) => Some((topics.layout, declare_latched(&session, key)?)),
                 None => None,
             },
+            events_put: AtomicU64::new(0),
         });
         let (give_back, pool) = mpsc::channel::<Vec<u8>>();
         let (frames, frames_queue) = mpsc::sync_channel::<Outgoing>(options.queue.max(1));
@@ -232,6 +235,7 @@ impl ZenohOutlet {
             given: vec![0; n],
             dropped: vec![0; n],
             sequence: vec![0; n],
+            events_queued: 0,
             gids: names.gids,
             events_topic: topics.events,
             layout_topic: topics.layout,
@@ -470,11 +474,15 @@ impl Outlet for ZenohOutlet {
             topic,
             attachment,
             payload,
+            after_events: self.events_queued,
         };
         if topic == self.events_topic || topic == self.layout_topic {
             if let Some(events) = &self.events {
-                // A send fails only when the thread is gone: counted as undelivered.
-                let _ = events.send(m);
+                // A send fails only when the thread is gone: counted as undelivered (and
+                // the frames stop waiting for it at once).
+                if events.send(m).is_ok() {
+                    self.events_queued += 1;
+                }
             }
             return Ok(());
         }

@@ -14,7 +14,18 @@ pub(super) struct Outgoing {
     pub topic: usize,
     pub attachment: [u8; 33],
     pub payload: Vec<u8>,
+    /// Messages handed to the events' thread before this one: a frame message is put only once
+    /// they are ([`EVENTS_FIRST`]).
+    pub after_events: u64,
 }
+
+/// How long a frame message waits, at most, for the events queued before it to be put. Events
+/// and frames go out on two threads (events must never be dropped, frames may be), yet a
+/// subscriber of both (a controller in lock-step with the skin) must see a frame's events before
+/// the frame's own messages, as the session gave them. Events are rare and put at once, so the
+/// wait is nearly always none; past this bound (a network that blocks the events) the frame goes
+/// anyway, and the frame path itself never waits.
+pub(super) const EVENTS_FIRST: std::time::Duration = std::time::Duration::from_millis(200);
 
 /// What a publishing thread did with each topic's messages.
 #[derive(Debug, Default)]
@@ -36,6 +47,8 @@ pub(super) struct Shared {
     /// The transient-local topic (the layout) and its publisher with a cache, which late
     /// subscribers query, as rmw_zenoh's transient-local publishers are.
     pub latched: Option<(usize, zenoh_ext::AdvancedPublisher<'static>)>,
+    /// Messages the events' thread has put (or failed to), in order.
+    pub events_put: AtomicU64,
 }
 
 impl Shared {
@@ -158,6 +171,14 @@ impl Queue {
             ) else {
                 continue;
             };
+            if matches!(self_kind, Kind::Frames) {
+                let since = std::time::Instant::now();
+                while shared.events_put.load(Ordering::Acquire) < m.after_events
+                    && since.elapsed() < EVENTS_FIRST
+                {
+                    std::thread::sleep(std::time::Duration::from_micros(50));
+                }
+            }
             let matched = matching.load(Ordering::Relaxed);
             // Blocking here (events) holds only this thread; the frame path never waits.
             let put = match &shared.latched {
@@ -177,6 +198,7 @@ impl Queue {
             };
             count.fetch_add(1, Ordering::Relaxed);
             if matches!(self_kind, Kind::Events) {
+                shared.events_put.fetch_add(1, Ordering::Release);
                 // Rare enough to note who is there each time (a peer that leaves is said).
                 let _ = shared.peers();
             }
