@@ -54,6 +54,11 @@ __all__ = [
     "Contact",
     "_event",
     "_contact",
+    "_ros_type_hash",
+    "_ros_joint_state",
+    "_ros_event",
+    "_rmw_zenoh_entity",
+    "_rmw_zenoh_attachment",
     "read_sim_config",
     "read_session_settings",
     "Calibration",
@@ -210,6 +215,18 @@ class BusMap:
     @property
     def modules(self) -> List[Tuple[str, int, List[int]]]:
         """(interface, address, its slots as indices into `ids`), in bus-map order."""
+    def candump(
+        self,
+        values: _Array,
+        time: float,
+        cycle: int,
+        missing: Sequence[Tuple[str, int]] = ...,  # none missing
+        sync: bool = True,
+    ) -> str:
+        """One frame's traffic as candump lines (skin16): the cycle's syncs when `sync`, then the
+        data of each module not in `missing`; `values` (S,) counts in slot order, `time` in s."""
+    def candump_sync(self, time: float, cycle: int) -> str:
+        """Every bus's sync for `cycle` at `time` (s): completes the cycle before."""
 
 @final
 class CanFrame:
@@ -295,6 +312,20 @@ class Contact:
     def __eq__(self, other: object, /) -> bool: ...
     __hash__: ClassVar[None]  # type: ignore[assignment]  # compared by value: unhashable
 
+def _ros_type_hash(type_name: str) -> str: ...
+def _ros_joint_state(
+    time: float,
+    names: List[str],
+    positions: List[float],
+    velocities: List[float] = ...,
+    frame_id: str = "",
+) -> bytes: ...
+def _ros_event(cdr: bytes) -> Event: ...
+def _rmw_zenoh_entity(
+    domain: int, zid: str, namespace: str, node: str, id: int, kind: str, topic: str, type_name: str, qos: str
+) -> Tuple[str, str, str, bytes]:
+    """(data key expression, the node's liveliness token, the entity's, its 16-byte GID)."""
+def _rmw_zenoh_attachment(seq: int, gid: bytes) -> bytes: ...
 def _contact(
     taxels: Sequence[int],
     taxel_ids: Sequence[int],

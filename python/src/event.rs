@@ -109,6 +109,16 @@ pub(crate) fn _event(kind: String, fields: &str, image: Option<Bound<'_, PyAny>>
 }
 
 impl Event {
+    /// An event of `kind` with these fields (an events.jsonl line without its `"event"`), no
+    /// image.
+    pub(crate) fn from_fields(kind: String, fields: serde_json::Map<String, serde_json::Value>) -> Event {
+        Event {
+            kind,
+            fields,
+            image: None,
+        }
+    }
+
     /// A field, or the value a field `events.jsonl` leaves out stands for: no `parts` on a
     /// decision that is not a hand (an empty list), no `class` or `probability` on a touch
     /// released undecided (None).

@@ -11,6 +11,7 @@
 //! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
 //! | `synthesize`, `read_grey`, `Dataset` | skin-learn synth, dataset ([`synth`]) |
 //! | `TaskStack` | skin-control ([`control`]) |
+//! | `_ros_*`, `_rmw_zenoh_*` (for `skin.sim.zenoh`), `BusMap.candump` | skin-ros, skin-can ([`ros`]) |
 
 mod arrays;
 mod calibration;
@@ -22,6 +23,7 @@ mod geometry;
 mod interrupt;
 mod models;
 mod recordings;
+mod ros;
 mod session;
 mod settings;
 mod synth;
@@ -64,6 +66,11 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<event::Contact>()?;
     m.add_function(wrap_pyfunction!(event::_event, m)?)?;
     m.add_function(wrap_pyfunction!(event::_contact, m)?)?;
+    m.add_function(wrap_pyfunction!(ros::_ros_type_hash, m)?)?;
+    m.add_function(wrap_pyfunction!(ros::_ros_joint_state, m)?)?;
+    m.add_function(wrap_pyfunction!(ros::_ros_event, m)?)?;
+    m.add_function(wrap_pyfunction!(ros::_rmw_zenoh_entity, m)?)?;
+    m.add_function(wrap_pyfunction!(ros::_rmw_zenoh_attachment, m)?)?;
     m.add_function(wrap_pyfunction!(settings::read_sim_config, m)?)?;
     m.add_function(wrap_pyfunction!(settings::read_session_settings, m)?)?;
     m.add_class::<calibration::Calibration>()?;

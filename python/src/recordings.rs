@@ -259,6 +259,37 @@ impl BusMap {
             .collect()
     }
 
+    /// One frame's traffic as candump lines (what `candump -L` writes), for a reader such as
+    /// `skin run --log` on a pipe: when `sync`, every bus's sync for `cycle` at `time` (s), then
+    /// the data of each module not in `missing` (interface, address), as `Session.push_bus`
+    /// takes a frame. skin16 bus maps only. A skin16 cycle is complete when the next one's syncs
+    /// come: a writer waiting on the reader sends those (`candump_sync`) right after.
+    #[pyo3(signature = (values, time, cycle, missing = Vec::new(), sync = true))]
+    fn candump(
+        &self,
+        values: &Bound<'_, PyAny>,
+        time: f64,
+        cycle: u64,
+        missing: Vec<(String, u32)>,
+        sync: bool,
+    ) -> PyResult<String> {
+        let time_us = crate::session::seconds("time", time)?;
+        let (values, refs) = bus_values(&self.inner, values, &missing)?;
+        let values: Vec<u16> = values.iter().map(|v| v.unwrap_or(0)).collect();
+        let log = skin_can::encode::encode_frame(&self.inner, &values, cycle, time_us, &refs, sync)
+            .map_err(|e| errors::error(Kind::Input, e))?;
+        Ok(log.to_text())
+    }
+
+    /// Every bus's sync for `cycle` at `time` (s), as candump lines: opens that cycle and
+    /// completes the one before.
+    fn candump_sync(&self, time: f64, cycle: u64) -> PyResult<String> {
+        let time_us = crate::session::seconds("time", time)?;
+        let log = skin_can::encode::encode_syncs(&self.inner, cycle, time_us)
+            .map_err(|e| errors::error(Kind::Input, e))?;
+        Ok(log.to_text())
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "BusMap(interfaces {:?}, {} slots)",
@@ -266,6 +297,62 @@ impl BusMap {
             self.inner.taxel_ids().len()
         )
     }
+}
+
+/// A frame as the buses carry it, checked: `values` (S,) counts in bus-map slot order, rounded
+/// and held within 0 and 65,535, and the modules `missing` (interface, address), whose slots are
+/// not read. Returns the slots' values (None on a missing module) and the modules as the
+/// assembler names them. `Session.push_bus` and `BusMap.candump` both take frames through it.
+pub(crate) fn bus_values(
+    busmap: &RustBusMap,
+    values: &Bound<'_, PyAny>,
+    missing: &[(String, u32)],
+) -> PyResult<(Vec<Option<u16>>, Vec<skin_can::ModuleRef>)> {
+    let values = array::<f32>("values", values, "float32", 1)?;
+    let values = slice("values", &values)?;
+    let slots = busmap.slot_count();
+    if values.len() != slots {
+        return Err(arg(
+            "values",
+            format!("{} values, the bus map has {slots} slots", values.len()),
+        ));
+    }
+    let mut refs = Vec::with_capacity(missing.len());
+    let mut skip = vec![false; slots];
+    for (interface, address) in missing {
+        let found = busmap
+            .module_slots()
+            .find(|(b, m, _)| busmap.buses[*b].interface == *interface && m.address == *address)
+            .map(|(b, _, range)| (b, range));
+        let Some((bus, range)) = found else {
+            return Err(arg(
+                "missing",
+                format!("no module {interface}:{address} in the bus map"),
+            ));
+        };
+        skip[range].iter_mut().for_each(|s| *s = true);
+        refs.push(skin_can::ModuleRef {
+            bus: u16::try_from(bus).unwrap_or(u16::MAX),
+            address: *address,
+        });
+    }
+    let mut out = Vec::with_capacity(slots);
+    for (i, (&v, &skipped)) in values.iter().zip(&skip).enumerate() {
+        if skipped {
+            out.push(None);
+        } else if v.is_finite() {
+            out.push(Some(v.round().clamp(0.0, 65_535.0) as u16));
+        } else {
+            return Err(arg(
+                "values",
+                format!(
+                    "slot {i} (taxel {}) is {v}: give its module in `missing` instead",
+                    busmap.taxel_ids()[i].0
+                ),
+            ));
+        }
+    }
+    Ok((out, refs))
 }
 
 /// One assembled frame of a CAN log: per link its readings (NaN where a module's data did not

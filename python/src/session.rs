@@ -254,53 +254,7 @@ impl Session {
         let Some(busmap) = inner.session.busmap() else {
             return Err(no_busmap());
         };
-        let values = array::<f32>("values", values, "float32", 1)?;
-        let values = slice("values", &values)?;
-        let slots = busmap.slot_count();
-        if values.len() != slots {
-            return Err(arg(
-                "values",
-                format!(
-                    "{} values, this session's bus map has {slots} slots",
-                    values.len()
-                ),
-            ));
-        }
-        let mut refs = Vec::with_capacity(missing.len());
-        let mut skip = vec![false; slots];
-        for (interface, address) in &missing {
-            let found = busmap
-                .module_slots()
-                .find(|(b, m, _)| busmap.buses[*b].interface == *interface && m.address == *address)
-                .map(|(b, _, range)| (b, range));
-            let Some((bus, range)) = found else {
-                return Err(arg(
-                    "missing",
-                    format!("no module {interface}:{address} in this session's bus map"),
-                ));
-            };
-            skip[range].iter_mut().for_each(|s| *s = true);
-            refs.push(skin_can::ModuleRef {
-                bus: u16::try_from(bus).unwrap_or(u16::MAX),
-                address: *address,
-            });
-        }
-        let mut out = Vec::with_capacity(slots);
-        for (i, (&v, &skipped)) in values.iter().zip(&skip).enumerate() {
-            if skipped {
-                out.push(None);
-            } else if v.is_finite() {
-                out.push(Some(v.round().clamp(0.0, 65_535.0) as u16));
-            } else {
-                return Err(arg(
-                    "values",
-                    format!(
-                        "slot {i} (taxel {}) is {v}: give its module in `missing` instead",
-                        busmap.taxel_ids()[i].0
-                    ),
-                ));
-            }
-        }
+        let (out, refs) = crate::recordings::bus_values(busmap, values, &missing)?;
         taking(inner, "time", time_us)?;
         inner.last_us = Some(time_us);
         inner.cycle += 1;
@@ -829,7 +783,7 @@ fn no_busmap() -> PyErr {
 const MAX_SECONDS: f64 = 1.8e13;
 
 /// Seconds as whole microseconds.
-fn seconds(name: &str, t: f64) -> PyResult<u64> {
+pub(crate) fn seconds(name: &str, t: f64) -> PyResult<u64> {
     if !(0.0..MAX_SECONDS).contains(&t) {
         return Err(arg(
             name,

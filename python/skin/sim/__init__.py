@@ -31,6 +31,11 @@ gives and then through the link. `Kit` refuses a press beyond its tool's `Kit.fo
 grows with the tool's mass); `SkinLoop` warns of anything pressed deeper at any step
 (`skin.SkinWarning`) and keeps it (`SkinLoop.overpresses`, `Overpress`).
 
+Over ROS 2's middleware. `skin.sim.zenoh.ZenohLoop` runs the same scene against a `skin run`
+node in its own process: the robot's joint states go out on Zenoh as an rmw_zenoh node sends
+them, the skin's CAN traffic through a pipe, and the controller hears the gate on /skin/events
+(the same events as `SkinLoop`'s; needs `pip install eclipse-zenoh`).
+
 Needs `pip install mujoco` (MuJoCo 4, Python 3.11 or later). Units: metres, newtons, seconds,
 pascals for stress, raw counts for readings.
 """

@@ -29,6 +29,10 @@
 //!   [`ZenohOptions::queue`] of them wait, new ones are dropped here and counted. Zenoh too
 //!   may drop one on a congested link, without a count. Dropped messages leave gaps in the
 //!   sequence numbers a subscriber sees.
+//! - **Order**: a frame message is put only after the events queued before it (waiting at
+//!   most [`publish::EVENTS_FIRST`], on its thread), so a subscriber of both hears a frame's
+//!   events before the frame's `tactile_state`, as the session gave them: what lets a
+//!   simulation run in lock-step with the skin (`skin.sim.zenoh`).
 //! - [`Outlet::publish`] never waits for the network: it copies the message into a buffer
 //!   taken from a pool and queues it. Memory stays bounded by the frame queue and the events.
 //! - A peer that reads slowly is waited for, not cut off: Zenoh closes a link on which a

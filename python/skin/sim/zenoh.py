@@ -1,0 +1,404 @@
+"""The simulated robot and its skin over ROS 2's middleware: the loop robot -> joint states ->
+skin -> events -> controller, with the skin in its own process as on a real robot.
+
+`SkinLoop` runs the session in-process. `ZenohLoop` runs the same scene against a `skin run`
+node instead: it writes the skin's CAN traffic into the pipe that node reads (`--log PIPE`, as
+the buses would carry it), publishes the robot's `/joint_states` as an rmw_zenoh node does, and
+hears the node's events on `/skin/events` over Zenoh, where the controller reads the gate's
+action. The two loops give the same events for the same scene.
+
+    # a shell: the skin node, listening for this loop's Zenoh peer
+    mkfifo /tmp/skin.can
+    skin run arm/run.toml --log /tmp/skin.can -o out --zenoh-listen tcp/127.0.0.1:7447 \\
+        --joint-states /joint_states
+
+    # Python: the robot
+    from skin.sim.zenoh import RosNode, ZenohLoop
+    with RosNode("tcp/127.0.0.1:7447") as node, open("/tmp/skin.can", "w") as can:
+        loop = ZenohLoop(model, data, bridge, node, can, settings=skin.read_session_settings("arm/run.toml"),
+                         joints=["shoulder", "elbow"], control=arm)
+        events = loop.run(10.0) + loop.finish()
+
+Lock-step: after each frame the loop waits for the node to have processed it (its
+`tactile_state`, which the node puts on the network only after the frame's events), so the
+controller acts on exactly the events an in-process session would have given by then. The
+frames that learn the baseline (the first `[baseline] frames` ones, and those after a tare)
+give no `tactile_state` and are not waited for.
+
+The names, attachments and CDR of what goes over Zenoh are skin-ros's (the crate `skin run`
+publishes with), reached through the native module. Needs `pip install eclipse-zenoh`.
+"""
+
+from __future__ import annotations
+
+import queue
+import struct
+import threading
+from collections import deque
+from typing import IO, Any, Callable, Deque, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .. import _skin
+from .._errors import ArrayError, SessionError, UnknownNameError
+from .bridge import SimFrame, SkinBridge, _mujoco
+from .loop import MAX_EVENTS
+
+#: Seconds a frame is waited for before the loop gives up on the node (a node that stopped, a
+#: pipe nobody reads).
+FRAME_TIMEOUT_S = 10.0
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+TOUCH_EVENT = "skin_msgs/msg/TouchEvent"
+TACTILE_STATE = "skin_msgs/msg/TactileState"
+
+
+def _zenoh():
+    try:
+        import zenoh
+    except ImportError as e:  # pragma: no cover - said to the user
+        raise ImportError("skin.sim.zenoh needs Zenoh's Python package: pip install eclipse-zenoh") from e
+    return zenoh
+
+
+class RosNode:
+    """A Zenoh session that speaks as an rmw_zenoh node named `name`: a peer connected to
+    `connect` (`tcp/HOST:PORT`, a `skin run --zenoh-listen` endpoint or a Zenoh router), its
+    node and entities announced by liveliness tokens, its samples carrying rmw_zenoh's
+    attachment. `domain`: the ROS domain id. Close it (or use `with`)."""
+
+    def __init__(self, connect: str, *, name: str = "skin_sim", namespace: str = "/", domain: int = 0) -> None:
+        zenoh = _zenoh()
+        conf = zenoh.Config()
+        conf.insert_json5("mode", '"peer"')
+        conf.insert_json5("connect/endpoints", _json_list([connect]))
+        conf.insert_json5("listen/endpoints", "[]")
+        # The skin node may start after this one: keep trying to reach it (the loop waits for
+        # it, with its own timeout, before the first frame).
+        conf.insert_json5("connect/timeout_ms", "-1")
+        conf.insert_json5("connect/exit_on_failure", "false")
+        conf.insert_json5("scouting/multicast/enabled", "false")
+        self.name, self.namespace, self.domain = name, namespace, domain
+        self.session = zenoh.open(conf)
+        self.zid = str(self.session.zid())
+        self._ids = 0
+        self._tokens: List[Any] = []
+        self._closed = False
+
+    def entity(self, kind: str, topic: str, type_name: str, qos: str) -> tuple:
+        """Announces the node's next entity (`MP` publisher, `MS` subscription) on `topic`;
+        returns its data key expression and GID."""
+        self._ids += 1
+        key, node_token, token, gid = _skin._rmw_zenoh_entity(
+            self.domain, self.zid, self.namespace, self.name, self._ids, kind, topic, type_name, qos
+        )
+        live = self.session.liveliness()
+        if not self._tokens:
+            self._tokens.append(live.declare_token(node_token))
+        self._tokens.append(live.declare_token(token))
+        return key, gid
+
+    def joint_states(self, topic: str = "/joint_states") -> "JointStatePublisher":
+        return JointStatePublisher(self, topic)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for t in reversed(self._tokens):
+            t.undeclare()
+        self.session.close()
+
+    def __enter__(self) -> "RosNode":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _json_list(items: Sequence[str]) -> str:
+    return "[" + ", ".join('"' + i.replace("\\", "\\\\").replace('"', '\\"') + '"' for i in items) + "]"
+
+
+class JointStatePublisher:
+    """`sensor_msgs/msg/JointState` on `topic`, as a robot driver publishes it over rmw_zenoh
+    (reliable, volatile, keep last 10)."""
+
+    def __init__(self, node: RosNode, topic: str = "/joint_states") -> None:
+        zenoh = _zenoh()
+        key, self._gid = node.entity("MP", topic, JOINT_STATE, "frames")
+        self._publisher = node.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
+        self._seq = 0
+        #: Messages published.
+        self.published = 0
+
+    def publish(self, time: float, names: Sequence[str], positions, velocities=()) -> None:
+        """One message stamped `time` (s, the skin's clock): positions (rad or m) and velocities
+        (none, or one per joint) of the joints `names`."""
+        cdr = _skin._ros_joint_state(time, list(names), [float(p) for p in positions], [float(v) for v in velocities])
+        self._seq += 1
+        self._publisher.put(cdr, attachment=_skin._rmw_zenoh_attachment(self._seq, self._gid))
+        self.published += 1
+
+    @property
+    def matched(self) -> bool:
+        """A subscription (the skin node's) hears this topic now."""
+        return bool(self._publisher.matching_status.matching)
+
+    def close(self) -> None:
+        self._publisher.undeclare()
+
+
+class SkinListener:
+    """A skin node's events (`PREFIX/events`) and the frames it finished (`PREFIX/*/tactile_state`
+    of every link), heard in the order the node put them out (one subscription over both)."""
+
+    def __init__(self, node: RosNode, links: int, *, prefix: str = "/skin") -> None:
+        zenoh = _zenoh()
+        self._events_key, _ = node.entity("MS", prefix.rstrip("/") + "/events", TOUCH_EVENT, "events")
+        # Every link's tactile_state key ends alike: its type and hash.
+        state_key, _ = node.entity("MS", prefix.rstrip("/") + "/any/tactile_state", TACTILE_STATE, "frames")
+        self._state_tail = state_key.split("/any/", 1)[1]
+        self._links = links
+        self._samples: "queue.SimpleQueue" = queue.SimpleQueue()
+        self._subscriber = node.session.declare_subscriber(
+            f"{node.domain}/{prefix.strip('/')}/**", lambda s: self._samples.put((str(s.key_expr), bytes(s.payload.to_bytes())))
+        )
+        #: Per frame stamp (s), how many links' tactile_state came.
+        self._states: dict = {}
+        # The node's events publisher, as its liveliness token shows it: there, then gone when
+        # its run ends (its events all sent before: the node drains them first).
+        events_topic = "%" + prefix.strip("/").replace("/", "%") + "%events"
+        self._gone = threading.Event()
+        self._alive = threading.Event()
+        self._tokens = node.session.liveliness().declare_subscriber(
+            f"@ros2_lv/{node.domain}/*/0/*/MP/%/*/*/{events_topic}/**", self._token, history=True
+        )
+
+    def wait(self, time: float, timeout: float, stop: Callable[[Any], bool]) -> List:
+        """The events heard until every link's tactile_state of the frame at `time` (s) came, or
+        an event for which `stop(event)` is true; raises SessionError after `timeout` s."""
+        got: List = []
+        key = round(time * 1e6)
+        while self._states.get(key, 0) < self._links:
+            try:
+                k, payload = self._samples.get(timeout=timeout)
+            except queue.Empty:
+                raise SessionError(
+                    f"no word from the skin node on frame t = {time:.3f} s within {timeout:g} s: is `skin run` "
+                    "reading the pipe and listening where this node connects?"
+                ) from None
+            event = self._take(k, payload)
+            if event is not None:
+                got.append(event)
+                if stop(event):
+                    break
+        self._states.pop(key, None)
+        return got
+
+    def _token(self, sample) -> None:
+        if sample.kind == _zenoh().SampleKind.DELETE:
+            self._gone.set()
+        else:
+            self._alive.set()
+
+    @property
+    def alive(self) -> bool:
+        """The node's events publisher is on the network."""
+        return self._alive.is_set()
+
+    def until_gone(self, timeout: float) -> bool:
+        """Waits up to `timeout` s for the node's events publisher to leave; whether it did."""
+        return self._gone.wait(timeout)
+
+    def drain(self) -> List:
+        """The events heard so far, without waiting."""
+        got: List = []
+        while True:
+            try:
+                k, payload = self._samples.get_nowait()
+            except queue.Empty:
+                return got
+            event = self._take(k, payload)
+            if event is not None:
+                got.append(event)
+
+    def _take(self, key: str, payload: bytes):
+        if key == self._events_key:
+            return _skin._ros_event(payload)
+        if key.endswith("/" + self._state_tail) and len(payload) >= 12:
+            # The CDR header (4 bytes), then the stamp: sec (int32), nanosec (uint32).
+            sec, nsec = struct.unpack_from("<iI", payload, 4)
+            stamp = round(sec * 1e6 + nsec / 1e3)
+            self._states[stamp] = self._states.get(stamp, 0) + 1
+        return None
+
+    def close(self) -> None:
+        self._tokens.undeclare()
+        self._subscriber.undeclare()
+
+
+Control = Callable[["ZenohLoop"], None]
+
+
+class ZenohLoop:
+    """A MuJoCo model stepped with a `skin run` node over Zenoh (see the module's docs): the
+    twin of `SkinLoop` with the session in another process. `can`: the text stream the node
+    reads as its `--log` (a named pipe); `node`: this loop's `RosNode`, connected to the skin
+    node; `settings`: the node's session settings (`skin.read_session_settings(its run.toml)`),
+    for the frames that learn its baseline; `joints`: the robot's joints whose positions go out
+    on `joint_states` (the names its URDF gives them, MuJoCo's joints of those names), at every
+    skin frame and every `joint_period` s between. A controller `control` is called before
+    every step with this loop: `loop.gate` is the last gate action heard."""
+
+    def __init__(
+        self,
+        model,
+        data,
+        bridge: SkinBridge,
+        node: RosNode,
+        can: IO[str],
+        *,
+        settings: Mapping[str, Any],
+        joints: Sequence[str],
+        control: Optional[Control] = None,
+        prefix: str = "/skin",
+        joint_states: str = "/joint_states",
+        joint_period: float = 0.01,
+        timeout: float = FRAME_TIMEOUT_S,
+        max_events: Optional[int] = MAX_EVENTS,
+    ) -> None:
+        mujoco = _mujoco()
+        self.model, self.data, self.bridge, self.control = model, data, bridge, control
+        bridge.bind(model)
+        if bridge.busmap is None:
+            raise ArrayError("the bridge has no bus map: a skin node reads CAN traffic (give the config's busmap)")
+        self.joints = list(joints)
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.joints]
+        missing = [j for j, i in zip(self.joints, ids) if i < 0]
+        if missing:
+            raise UnknownNameError(f"no joint {missing[0]!r} in the model")
+        self._qadr = [int(model.jnt_qposadr[i]) for i in ids]
+        self._vadr = [int(model.jnt_dofadr[i]) for i in ids]
+        if not (np.isfinite(joint_period) and joint_period > 0):
+            raise ArrayError(f"joint_period = {joint_period}: seconds, more than 0")
+        self._joint_every = max(1, round(joint_period / model.opt.timestep))
+        self._baseline = int(settings["baseline"]["frames"])
+        self._can = can
+        self._publisher = node.joint_states(joint_states)
+        self._listener = SkinListener(node, len(bridge.links), prefix=prefix)
+        self._timeout = timeout
+        #: The events heard, oldest first (the latest `max_events`).
+        self.events: Deque = deque(maxlen=max_events)
+        #: The gate's action last heard (None before any).
+        self.gate: Optional[str] = None
+        #: The last frame the skin delivered.
+        self.frame: Optional[SimFrame] = None
+        self.framed = False
+        self._cycle = 0
+        # Frames still learning a baseline (the node puts out no tactile_state for them).
+        self._learning = self._baseline
+        self._new: List = []
+        self._wait_for_node()
+
+    def _wait_for_node(self) -> None:
+        """Until the skin node hears this loop's joint states and publishes its events (what
+        either sends before that would be lost, and the node would report joint states missing)."""
+        import time as _time
+
+        since = _time.monotonic()
+        while not (self._publisher.matched and self._listener.alive):
+            if _time.monotonic() - since > self._timeout:
+                raise SessionError(
+                    f"no skin node within {self._timeout:g} s: is `skin run ... --joint-states` listening where "
+                    "this node connects (--zenoh-listen)?"
+                )
+            _time.sleep(0.01)
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def joint_states_published(self) -> int:
+        """The joint-state messages this loop published."""
+        return self._publisher.published
+
+    def new_events(self) -> List:
+        """The events heard since the last call."""
+        new, self._new = self._new, []
+        return new
+
+    def _heard(self, events: List) -> None:
+        for e in events:
+            if e.kind == "gate":
+                self.gate = e.action
+        self.events.extend(events)
+        self._new.extend(events)
+
+    def step(self) -> List:
+        """One control step and one MuJoCo step; returns the events heard at it."""
+        if self.control is not None:
+            self.control(self)
+        mujoco = _mujoco()
+        before = self.data.time
+        k = round(before / self.model.opt.timestep)
+        frame_step = k % self.bridge.steps_per_frame == 0
+        if frame_step or k % self._joint_every == 0:
+            q = [self.data.qpos[a] for a in self._qadr]
+            v = [self.data.qvel[a] for a in self._vadr]
+            self._publisher.publish(before, self.joints, q, v)
+        mujoco.mj_step(self.model, self.data)
+        self.framed = frame_step
+        if self.data.time <= before:
+            raise SessionError(f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it (see its warning)")
+        heard = self._listener.drain()
+        if frame_step:
+            heard += self._send(self.bridge.frame(self.data))
+        self._heard(heard)
+        return heard
+
+    def _send(self, frame: SimFrame) -> List:
+        """The frame into the pipe, then (past the baseline) the node's answer to it."""
+        self.frame = frame
+        busmap = self.bridge.busmap
+        period = self.bridge.steps_per_frame * self.model.opt.timestep
+        text = busmap.candump(frame.slots, frame.time, self._cycle, frame.missing, sync=self._cycle == 0)
+        # The next cycle's syncs complete this one: the node takes the frame now.
+        text += busmap.candump_sync(frame.time + period, self._cycle + 1)
+        self._cycle += 1
+        self._can.write(text)
+        self._can.flush()
+        if self._learning > 0:
+            self._learning -= int(not frame.missing)
+            return []
+        tare = lambda e: e.kind == "tare"
+        got = self._listener.wait(frame.time, self._timeout, tare)
+        if any(tare(e) for e in got):
+            # The tare frame and the next ones learn the baseline again: no tactile_state.
+            self._learning = self._baseline - int(not frame.missing)
+        return got
+
+    def run(self, seconds: float) -> List:
+        """Steps for `seconds` of simulated time; returns the events heard."""
+        if not (np.isfinite(seconds) and seconds >= 0):
+            raise ArrayError(f"seconds = {seconds}: simulated seconds, 0 or more")
+        out: List = []
+        end = self.data.time + seconds - 0.5 * self.model.opt.timestep
+        while self.data.time < end:
+            out.extend(self.step())
+        return out
+
+    def finish(self, wait: float = FRAME_TIMEOUT_S) -> List:
+        """Ends the skin's input: the pipe closes, the node releases its open touches and ends
+        its run. Returns the events it sent until its events publisher left the network (its
+        liveliness token gone: the run is over), or `wait` s passed."""
+        self._can.close()
+        self._listener.until_gone(wait)
+        got = self._listener.drain()
+        self._heard(got)
+        return got
+
+    def close(self) -> None:
+        self._listener.close()
+        self._publisher.close()
