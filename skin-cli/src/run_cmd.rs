@@ -70,7 +70,8 @@ use std::time::Instant;
 ///
 /// Offline (--log): writes OUT/events.jsonl (one JSON object a line: appeared, classified,
 /// released, across_joint, gate, incomplete; times in s, centroids in m in the link frame,
-/// areas in cm², pressures in counts), OUT/touches/*.png (the image each decision was made
+/// and with joint states or poses also in the chain's base frame (centroid_base), areas in
+/// cm², pressures in counts; a named pipe is read as it is written), OUT/touches/*.png (the image each decision was made
 /// on), with --frames OUT/frames/<link>/*.png, and OUT/summary.txt; prints the summary.
 /// The output folder appears whole or not at all. Live (--can): events go to standard
 /// output as they happen; Ctrl-C or --duration ends the run and prints the summary.

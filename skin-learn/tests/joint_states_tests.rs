@@ -163,3 +163,100 @@ fn faulty_joint_states_are_one_event_each_and_the_run_goes_on() {
     let released = out.events.iter().filter(|e| e.contains("\"released\"")).count();
     assert!(appeared > 0 && appeared == released, "{:?}", out.events);
 }
+
+/// `centroid_base` of an event's JSON, and its link-frame `centroid`.
+fn centroids(e: &serde_json::Value) -> Option<(nalgebra::Point3<f64>, nalgebra::Point3<f64>)> {
+    let p = |v: &serde_json::Value| {
+        let c: Vec<f64> = serde_json::from_value(v.clone()).ok()?;
+        Some(nalgebra::Point3::new(c[0], c[1], c[2]))
+    };
+    Some((p(&e["centroid"])?, p(e.get("centroid_base")?)?))
+}
+
+#[test]
+fn joint_states_place_every_touch_in_the_base_frame() {
+    // The fixture arm: the forearm is the chain's base, the wrist rolls about y at 0.342 m.
+    let mut s = session_of(true);
+    let feed = s.joint_state_feed(None, false).unwrap();
+    publish(&feed, &["wrist_roll"], |t| vec![roll(t)]);
+    let out = run(s);
+    let mut placed = 0;
+    for e in out
+        .events
+        .iter()
+        .map(|e| serde_json::from_str::<serde_json::Value>(e).unwrap())
+    {
+        if e["event"] != "appeared" {
+            continue;
+        }
+        let (c, base) = centroids(&e).expect("every touch placed");
+        let pose = match e["link"].as_str().unwrap() {
+            "forearm" => nalgebra::Isometry3::identity(),
+            _ => {
+                let t = e["time"].as_f64().unwrap();
+                nalgebra::Isometry3::new(
+                    nalgebra::Vector3::new(0.0, 0.342, 0.0),
+                    nalgebra::Vector3::y() * roll(t),
+                )
+            }
+        };
+        // Both rounded to 0.1 mm in JSON.
+        assert!((pose * c - base).norm() < 2e-4, "{e}");
+        placed += usize::from(e["link"] == "wrist");
+    }
+    assert!(placed > 0, "no touch on the wrist: {:?}", out.events);
+    // Without joint states, stitched only at the middle of the joint's limits (no poses file):
+    // no posture is the robot's, so no touch is placed.
+    let unplaced = run(session_of(true));
+    assert!(unplaced.events.iter().all(|e| !e.contains("centroid_base")));
+}
+
+#[test]
+fn a_single_link_is_placed_by_the_joint_states_of_its_urdf() {
+    // The fixture forearm (one link, nothing to stitch) on an elbow 0.3 m out along x, turning
+    // about z: its touches are given in the base frame at the elbow's angle.
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
+    std::fs::write(
+        dir.path().join("arm.urdf"),
+        r#"<robot name="one"><link name="base"/><link name="forearm"/>
+        <joint name="elbow" type="revolute"><parent link="base"/><child link="forearm"/>
+        <origin xyz="0.3 0 0"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint></robot>"#,
+    )
+    .unwrap();
+    let config = dir.path().join("run.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "layout = {:?}\nbusmap = {:?}\ncache = {:?}\n[stitch]\nurdf = \"arm.urdf\"\nbase = \"base\"\n",
+            fixtures.join("forearm/layout.json"),
+            fixtures.join("forearm/busmap.toml"),
+            fixtures.join("../target/skin-cache"),
+        ),
+    )
+    .unwrap();
+    let mut s = Session::from_config(&SessionConfig::read(&config).unwrap()).unwrap();
+    let feed = s.joint_state_feed(None, false).unwrap();
+    let angle = |t: f64| 0.8 * (t / 5.0).sin();
+    for k in 0..3200 {
+        feed.push(T0_NS + k * 10_000_000, ["elbow"], &[angle(k as f64 * 0.01)]);
+    }
+    let log = fixtures.join("session/session.candump.log");
+    let mut out = Run::default();
+    s.run_log(&CandumpLog::read(&log).unwrap(), &log, &mut out, &mut |_, _| {})
+        .unwrap();
+    let appeared: Vec<serde_json::Value> = (out.events.iter())
+        .map(|e| serde_json::from_str::<serde_json::Value>(e).unwrap())
+        .filter(|e| e["event"] == "appeared")
+        .collect();
+    assert!(appeared.len() >= 5, "{:?}", out.events);
+    for e in &appeared {
+        let (c, base) = centroids(e).expect("placed");
+        let t = e["time"].as_f64().unwrap();
+        let pose = nalgebra::Isometry3::new(
+            nalgebra::Vector3::new(0.3, 0.0, 0.0),
+            nalgebra::Vector3::z() * angle(t),
+        );
+        assert!((pose * c - base).norm() < 2e-4, "{e}");
+    }
+}

@@ -183,6 +183,7 @@ fn footprint_of(contacts: &[Contact], area_per_taxel_cm2: f64) -> Option<(Footpr
         mean_pressure: (total / taxels as f64) as f32,
         force_n,
         centroid: Point3::from(moment / total),
+        centroid_base: None,
     };
     Some((footprint, total))
 }
@@ -229,6 +230,9 @@ struct Link {
     border_mm: Vec<f32>,
     /// The force model, with a force calibration.
     force: Option<LinkForce>,
+    /// The link's pose in the chain's base frame at this frame, when known
+    /// ([`TouchPipeline::set_pose`]).
+    pose: Option<nalgebra::Isometry3<f64>>,
 }
 
 impl Link {
@@ -317,6 +321,7 @@ impl TouchPipeline {
                 dead: Vec::new(),
                 border_mm,
                 force: None,
+                pose: None,
             });
         }
         Ok(TouchPipeline {
@@ -491,6 +496,15 @@ impl TouchPipeline {
         self.links.get(link).map(|l| l.area_per_taxel_cm2)
     }
 
+    /// Link `link`'s pose in the chain's base frame (link frame to base frame) for the frames
+    /// from now on, or None when it is not known: footprints give their centroid in the base
+    /// frame too ([`Footprint::centroid_base`]) while it is. A link out of range is ignored.
+    pub fn set_pose(&mut self, link: usize, pose: Option<nalgebra::Isometry3<f64>>) {
+        if let Some(l) = self.links.get_mut(link) {
+            l.pose = pose;
+        }
+    }
+
     /// A touch is in progress on `link`.
     pub fn touching(&self, link: usize) -> bool {
         self.links.get(link).is_some_and(|l| l.touch.is_some())
@@ -627,7 +641,7 @@ impl TouchPipeline {
                 .map_err(frame_error)?;
         }
         let contacts = link.finder.last();
-        let Some((footprint, total)) = footprint_of(contacts, link.area_per_taxel_cm2) else {
+        let Some((mut footprint, total)) = footprint_of(contacts, link.area_per_taxel_cm2) else {
             self.times.contacts += t0.elapsed();
             if let Some(t) = &mut link.touch {
                 t.quiet += 1;
@@ -638,6 +652,7 @@ impl TouchPipeline {
             return Ok(());
         };
         self.times.contacts += t0.elapsed();
+        footprint.centroid_base = link.pose.map(|pose| pose * footprint.centroid);
         let touch = match &mut link.touch {
             Some(t) => t,
             None => {

@@ -238,6 +238,20 @@ impl PostureChain {
         self.whole.report(at).map_or(&[], |r| r.placements.as_slice())
     }
 
+    /// Each link's pose (link frame to the common frame) at `time` (s), chain order: the live
+    /// posture once one is set ([`PostureChain::set_live_posture`]), else the poses file's
+    /// posture in effect then.
+    pub fn poses_at(&self, time: f64) -> &[Isometry3<f64>] {
+        match &self.live {
+            Some((_, poses)) => poses,
+            None => self
+                .postures
+                .postures
+                .get(self.postures.at(time))
+                .map_or(&[], |p| p.poses.as_slice()),
+        }
+    }
+
     /// Stitches the frames from now on at `poses` (one per map, link frame to the common
     /// frame): the robot's posture as its joint states give it, instead of the poses file's
     /// posture of their time. The chain is solved again (as a posture of the file is) when a

@@ -129,6 +129,9 @@ fn build(
         .with_source(&config.path);
     if let Some(s) = stitching {
         session = session.with_stitching(s)?;
+        // Stitched at the middle of the joints' limits for want of a poses file: a posture to
+        // draw the maps at, not where the robot is.
+        session.setup.posed_by_file = files.poses.is_some();
     }
     if let Some((chain, max_age)) = kinematics {
         session = session.with_kinematics(chain, max_age)?;
@@ -207,6 +210,9 @@ fn stitching(
         _ => None,
     };
     let stitching = match (&files.poses, &kinematics) {
+        // One link has nothing to stitch: with a URDF, its joint states still place it (its
+        // contacts are given in the base frame too).
+        (None, Some(_)) if links.len() < 2 => None,
         (Some(p), _) => {
             let postures = skin_core::format::poses::Postures::read(p)?;
             Some(Stitching::new(maps, postures, p)?)

@@ -4,7 +4,8 @@
 //! snake case, keys sorted) and the decision images with [`PngImages`](super::PngImages).
 //!
 //! Units: times in seconds from the session's first frame, centroids in metres (in the link's
-//! frame, or the poses' common frame for a contact across joints), areas in cm², pressures in
+//! frame, or the poses' common frame for a contact across joints; a footprint's
+//! `centroid_base` in that common frame, the chain's base, where the link's pose is known), areas in cm², pressures in
 //! counts above the baseline. In JSON, times are rounded to 1 ms, centroids to 0.1 mm, areas to
 //! 0.01 cm², pressures to 0.1 count and probabilities to 1e-4; the events themselves carry the
 //! full values.
@@ -389,6 +390,10 @@ impl Footprint {
             "centroid",
             &[self.centroid.x, self.centroid.y, self.centroid.z].map(|x| round(x, 4)),
         )?;
+        // Only where the link's pose is known: never a guessed posture.
+        if let Some(c) = self.centroid_base {
+            m.serialize_entry("centroid_base", &[c.x, c.y, c.z].map(|x| round(x, 4)))?;
+        }
         m.serialize_entry("contacts", &self.contacts)?;
         // Newtons only where the link has a force model: never a guess (to micronewtons: what
         // a message elsewhere carries can be held to the event to 1e-6 N).
@@ -503,6 +508,7 @@ mod tests {
             mean_pressure: 50.0,
             force_n: None,
             centroid: Point3::new(0.0, 0.1, 0.2),
+            centroid_base: None,
         };
         let decision = touch::Decision {
             class: crate::model::Classes::hand_or_not().get(0).unwrap().clone(),
@@ -529,7 +535,10 @@ mod tests {
                     link: 0,
                     id: 0,
                     time: 0.0,
-                    footprint,
+                    footprint: touch::Footprint {
+                        centroid_base: Some(Point3::new(0.31234, -0.05, 0.2)),
+                        ..footprint
+                    },
                 },
             },
             Event::Classified {
@@ -608,5 +617,15 @@ mod tests {
             assert_eq!(json["event"], kind);
             assert_eq!(event.kind(), kind);
         }
+    }
+
+    #[test]
+    fn a_centroid_in_the_base_frame_is_written_only_where_it_is_known() {
+        let events = one_of_each();
+        let appeared = serde_json::to_value(&events[2]).unwrap();
+        assert_eq!(appeared["centroid_base"], serde_json::json!([0.3123, -0.05, 0.2]));
+        assert_eq!(appeared["centroid"], serde_json::json!([0.0, 0.1, 0.2]));
+        let released = serde_json::to_value(&events[4]).unwrap();
+        assert!(released.get("centroid_base").is_none(), "{released}");
     }
 }

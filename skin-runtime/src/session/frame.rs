@@ -93,11 +93,12 @@ impl Session {
         self.stats.baseline += started.elapsed();
         self.end_corrections(time, CORRECTION_QUIET_FRAMES, sink)?;
         self.touch_events.clear();
+        self.place_links(time_us, time);
         self.pipeline
             .process(time, &self.pressures, &mut self.touch_events)?;
         let t = Instant::now();
         self.emit(sink)?;
-        self.follow_joint_states(time_us, time, sink)?;
+        self.report_joint_faults(time, sink)?;
         let frame = ProcessedFrame {
             time_us,
             time,

@@ -398,28 +398,60 @@ impl Session {
         Ok(self)
     }
 
-    /// At a frame stamped `time_us`, `time` s into the session: the robot's posture then, from
-    /// the joint states, for the stitching; and an event for each fault begun since.
-    pub(super) fn follow_joint_states<S: Sink + ?Sized>(
+    /// At a frame stamped `time_us`, `time` s into the session: where its links are. With joint
+    /// states, the robot's posture then (the stitching follows it); else the poses file's
+    /// posture then. The touch pipeline gets each link's pose in the chain's base frame, or
+    /// none while it is not known (no joint state yet, or a chain stitched at the middle of
+    /// its joints' limits for want of any): a contact's base-frame centroid is never a guess.
+    pub(super) fn place_links(&mut self, time_us: u64, time: f64) {
+        let live = match &self.setup.feed {
+            Some((feed, rebased)) => {
+                let t0 = if *rebased { self.t0_us.unwrap_or(0) } else { 0 };
+                let frame_ns = i128::from(time_us.saturating_sub(t0)) * 1000;
+                let posed = feed.posture_at(frame_ns, &mut self.live_poses);
+                if posed && let Some(st) = &mut self.setup.stitching {
+                    match st.set_live_posture(&self.live_poses) {
+                        Ok(true) => feed.stitched(),
+                        Ok(false) => {}
+                        Err(e) => feed.unstitchable(format!(
+                            "the chain cannot be stitched at the posture of the joint states: {e}"
+                        )),
+                    }
+                }
+                self.posed |= posed;
+                true
+            }
+            None => false,
+        };
+        let poses: &[nalgebra::Isometry3<f64>] = match &self.setup.stitching {
+            _ if live => {
+                if self.posed {
+                    &self.live_poses
+                } else {
+                    &[]
+                }
+            }
+            Some(st) if self.setup.posed_by_file => st.poses_at(time),
+            _ => &[],
+        };
+        if poses.is_empty() && !self.placed {
+            return;
+        }
+        for l in 0..self.setup.links.len() {
+            self.pipeline.set_pose(l, poses.get(l).copied());
+        }
+        self.placed = !poses.is_empty();
+    }
+
+    /// An event for each joint-state fault begun since the last frame (at `time`, s).
+    pub(super) fn report_joint_faults<S: Sink + ?Sized>(
         &mut self,
-        time_us: u64,
         time: f64,
         sink: &mut S,
     ) -> Result<(), SessionError> {
-        let (Some((feed, rebased)), Some(st)) = (&self.setup.feed, &mut self.setup.stitching) else {
+        let Some((feed, _)) = &self.setup.feed else {
             return Ok(());
         };
-        let t0 = if *rebased { self.t0_us.unwrap_or(0) } else { 0 };
-        let frame_ns = i128::from(time_us.saturating_sub(t0)) * 1000;
-        if feed.posture_at(frame_ns, &mut self.live_poses) {
-            match st.set_live_posture(&self.live_poses) {
-                Ok(true) => feed.stitched(),
-                Ok(false) => {}
-                Err(e) => feed.unstitchable(format!(
-                    "the chain cannot be stitched at the posture of the joint states: {e}"
-                )),
-            }
-        }
         feed.take_faults(&mut self.joint_faults);
         for f in std::mem::take(&mut self.joint_faults) {
             let event = Event::JointStates {

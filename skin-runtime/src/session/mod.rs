@@ -154,6 +154,10 @@ struct Setup {
     simulated: bool,
     /// Per link, the force calibration its newtons come from (empty: none).
     calibration_ids: Vec<String>,
+    /// The stitching's postures are the robot's (a poses file, or [`Session::with_stitching`]),
+    /// not a posture made up to draw the maps at: they place the links' contacts in the base
+    /// frame.
+    posed_by_file: bool,
     /// The stitched chain's kinematics (`[stitch] urdf`) and how old a posture may be.
     kinematics: Option<(skin_control::Chain, std::time::Duration)>,
     /// The robot's joint states, when a feed was asked for ([`Session::joint_state_feed`]),
@@ -186,6 +190,10 @@ pub struct Session {
     stopped: bool,
     /// The posture a frame got from the joint states (kept to copy into).
     live_poses: Vec<nalgebra::Isometry3<f64>>,
+    /// The joint states gave a posture at some frame (`live_poses` holds the last).
+    posed: bool,
+    /// The touch pipeline holds the links' poses (else it holds none).
+    placed: bool,
     /// Faults of the joint states taken at a frame (kept to copy into).
     joint_faults: Vec<JointFault>,
     /// Tares asked for ([`Session::tare`], [`TareHandle`]).
@@ -249,6 +257,7 @@ impl Session {
                 settings: None,
                 simulated: false,
                 calibration_ids: vec![String::new(); sizes.len()],
+                posed_by_file: false,
                 kinematics: None,
                 feed: None,
             },
@@ -264,6 +273,8 @@ impl Session {
             notes: Vec::new(),
             stopped: false,
             live_poses: Vec::new(),
+            posed: false,
+            placed: false,
             joint_faults: Vec::new(),
             tares: tare::Tares::new(baseline_frames),
             learned: false,
@@ -303,6 +314,7 @@ impl Session {
             stitching.set_dead(&self.setup.dead)?;
         }
         self.setup.stitching = Some(stitching);
+        self.setup.posed_by_file = true;
         Ok(self)
     }
 

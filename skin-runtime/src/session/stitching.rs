@@ -109,6 +109,12 @@ impl Stitching {
         self.chain.placements_at(time)
     }
 
+    /// Each link's pose in the chain's common frame at `time` (s), chain order: the live posture
+    /// once one is set, else the poses' posture then.
+    pub fn poses_at(&self, time: f64) -> &[nalgebra::Isometry3<f64>] {
+        self.chain.poses_at(time)
+    }
+
     /// The stitched tactile image of the last frame (contact-max grey, 1 mm pixels).
     pub fn image(&mut self) -> Result<ImageView<'_, u8>, skin_geom::Error> {
         self.chain.image()

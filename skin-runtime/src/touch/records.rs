@@ -22,6 +22,10 @@ pub struct Footprint {
     pub force_n: Option<f64>,
     /// Pressure-weighted centroid of the pressed taxels, metres in the link frame.
     pub centroid: Point3<f64>,
+    /// The same centroid in the chain's base frame (the common frame of the links' poses), at
+    /// the posture of the footprint's frame: where the robot was touched. None when the link's
+    /// pose then is not known (no chain, or no joint state yet): never a guessed posture.
+    pub centroid_base: Option<Point3<f64>>,
 }
 
 /// A decision on a touch.
