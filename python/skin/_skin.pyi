@@ -394,6 +394,9 @@ class Session:
         """Learns the baseline again over the next baseline frames (they read no pressure).
         Raises SessionError while a touch is on the skin unless force (touches released first),
         and even forced while the gate stops the arm for a touch or the baseline is learned."""
+    def joint_states(self, time: float, names: List[str], positions: List[float]) -> None:
+        """The robot's joint angles at `time` (s, the frames' clock), by name; needs [stitch] urdf.
+        Frames then take the posture of their time; touches get `centroid_base`."""
     def describe(self) -> Dict[str, Any]:
         """The skin as skin_msgs/TactileLayout describes it: simulated, source,
         touch_threshold_counts, and per link name, ids, positions, normals (m), areas (m²),

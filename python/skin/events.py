@@ -12,7 +12,8 @@ A type checker then knows each kind's fields::
             print(line["action"])  # "stop" | "comply" | "slow" | "resume"
 
 Units as in events.jsonl: times in seconds from the session's first frame (rounded to 1 ms),
-centroids in metres (to 0.1 mm), areas in cm², pressures in counts above the baseline. The kinds
+centroids in metres (to 0.1 mm; `centroid` in the link's frame, `centroid_base` in the chain's
+base frame), areas in cm², pressures in counts above the baseline. The kinds
 are those of the Rust `skin_runtime::session::Event`; `tests/test_session.py` holds the events
 of the fixture sessions (7 of the 11 kinds: all but `counter_reset`, `baseline_corrected`, `tare` and `joint_states`) to
 these keys and types.
@@ -69,10 +70,13 @@ PartName = Literal["thumb", "index", "middle", "ring", "pinkie", "palm"]
 
 class _Force(TypedDict, total=False):
     force_n: float
+    centroid_base: List[float]
 
 
 class Footprint(_Force):
-    """A touch's extent in one frame; `force_n` (newtons) on a link with a force calibration."""
+    """A touch's extent in one frame; `force_n` (newtons) on a link with a force calibration;
+    `centroid_base` (metres, the chain's base frame) where the link's pose then is known (joint
+    states with `[stitch] urdf`, or a poses file)."""
 
     contacts: int
     taxels: int
@@ -119,7 +123,8 @@ CounterResetEvent = TypedDict(
 
 class AppearedEvent(_Force):
     """A touch began on a link: its number and its footprint's fields (`force_n`, newtons, on a
-    link with a force calibration)."""
+    link with a force calibration; `centroid_base`, metres in the chain's base frame, where the
+    link's pose is known)."""
 
     event: Literal["appeared"]
     time: float

@@ -36,6 +36,8 @@ struct Inner {
     last_us: Option<u64>,
     /// What ended the session (`finish()`, a whole log or recording): it takes no more frames.
     ended: Option<&'static str>,
+    /// The robot's joint states, from the first `joint_states()` call on.
+    feed: Option<skin_learn::session::PostureFeed>,
 }
 
 /// The whole per-frame pipeline of a skin (what `skin run` does), for a Python loop: readings
@@ -442,6 +444,40 @@ impl Session {
             .map_err(|e| errors::error(Kind::Session, format!("tare(): {e}")))
     }
 
+    /// The robot's joint angles at `time` (s, the frames' clock), as a `sensor_msgs/JointState`
+    /// gives them: joint `names` (any order, other joints ignored) and their `positions` (rad or
+    /// m). Needs `[stitch] urdf` in the configuration. Each frame then takes the posture of its
+    /// time: the stitched links are stitched there, and every touch is also given in the chain's
+    /// base frame (`centroid_base`). A joint missing, NaN, a message out of order or of another
+    /// robot, or a posture older than `max_age_s` is a `joint_states` event at the next frame
+    /// (the last good posture holds), as `skin run --joint-states` reports it.
+    fn joint_states(&self, time: f64, names: Vec<String>, positions: Vec<f64>) -> PyResult<()> {
+        let stamp_us = seconds("time", time)?;
+        if positions.len() != names.len() {
+            return Err(arg(
+                "positions",
+                format!("{} positions for {} joint names", positions.len(), names.len()),
+            ));
+        }
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        if inner.feed.is_none() {
+            let feed = inner
+                .session
+                .joint_state_feed(None, false)
+                .map_err(errors::session)?;
+            inner.feed = Some(feed);
+        }
+        if let Some(feed) = &inner.feed {
+            feed.push(
+                i128::from(stamp_us) * 1000,
+                names.iter().map(String::as_str),
+                &positions,
+            );
+        }
+        Ok(())
+    }
+
     /// What the skin is, as `skin_msgs/TactileLayout` publishes it: a dict with "simulated",
     /// "source", "touch_threshold_counts" and "links", each link a dict of its "name", "ids",
     /// "positions" and "normals" ((N, 3), m, link frame), "areas" (N,) m², "modules", "units"
@@ -593,6 +629,7 @@ impl Session {
                 events: Vec::new(),
                 last_us: None,
                 ended: None,
+                feed: None,
             }),
             names,
             sizes,

@@ -109,3 +109,35 @@ def test_a_log_frame_can_be_pushed_once_the_session_has_the_busmap(tmp_path):
     no_can = skin.Session.from_layout(layout)
     with pytest.raises(skin.SkinError, match="bus map"):
         no_can.push_can(next(frames))
+
+
+def test_frames_written_as_can_traffic_read_back_as_they_were(tmp_path):
+    # BusMap.candump writes what the buses would carry; read_log assembles it back: the same
+    # counts per taxel, the module left out reported missing, and no frame for the last
+    # cycle's syncs (written in lock-step style: the next cycle's syncs right after a frame).
+    busmap = skin.BusMap.read(BUSMAP)
+    layout = skin.read_layout(LAYOUT)
+    rng = np.random.default_rng(3)
+    frames = [rng.integers(0, 4096, len(busmap.ids)).astype(np.float32) for _ in range(4)]
+    text = ""
+    for k, values in enumerate(frames):
+        missing = [("can0", 2)] if k == 2 else []
+        text += busmap.candump(values, 1.0 + 0.05 * k, k, missing, sync=k == 0)
+        text += busmap.candump_sync(1.05 + 0.05 * k, k + 1)
+    log = tmp_path / "written.log"
+    log.write_text(text)
+    back = list(skin.read_log(log, busmap, layout))
+    assert [round(f.time, 6) for f in back] == [1.0, 1.05, 1.1, 1.15]
+    assert [f.missing for f in back] == [[], [], [("can0", 2)], []]
+    # Per layout taxel, its slot's count (NaN where the module was left out).
+    slot = {int(t): i for i, t in enumerate(busmap.ids)}
+    order = np.array([slot[int(t)] for t in layout[0].ids])
+    for f, values in zip(back, frames):
+        got = f.values[0]
+        known = ~np.isnan(got)
+        assert np.array_equal(got[known], values[order][known])
+    assert np.isnan(back[2].values[0]).sum() == 11
+    with pytest.raises(ValueError, match="3 values, the bus map has 715 slots"):
+        busmap.candump(np.zeros(3), 0.0, 0)
+    with pytest.raises(ValueError, match="no module can0:99"):
+        busmap.candump(frames[0], 0.0, 0, [("can0", 99)])

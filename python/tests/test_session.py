@@ -158,7 +158,7 @@ def test_push_bus_reports_a_missing_module_and_refuses_what_does_not_fit():
     assert session.stats["incomplete"] == 1
     with pytest.raises(ValueError, match="no module can0:99"):
         session.push_bus(rest, 1.3, [("can0", 99)])
-    with pytest.raises(ValueError, match="714 values, this session's bus map has 715 slots"):
+    with pytest.raises(ValueError, match="714 values, the bus map has 715 slots"):
         session.push_bus(rest[1:], 1.3)
     bad = rest.copy()
     bad[3] = np.nan
@@ -540,3 +540,11 @@ def test_describe_gives_the_layout_units_and_calibration():
     assert link["positions"].shape == (len(link["ids"]), 3)
     assert (link["ids"] == layout["forearm"].ids).all()
     assert link["areas"].sum() > 0.0 and (link["modules"] == link["ids"] >> 4).all()
+
+
+def test_joint_states_need_a_urdf_and_a_position_per_joint():
+    session = skin.Session.from_config(CONFIG)
+    with pytest.raises(skin.ConfigError, match=r"\[stitch\] urdf"):
+        session.joint_states(0.0, ["elbow"], [0.1])
+    with pytest.raises(ValueError, match="2 positions for 1 joint names"):
+        session.joint_states(0.0, ["elbow"], [0.1, 0.2])

@@ -94,9 +94,14 @@ def scene(run_toml: Path):
     def control(loop):
         kit.control(loop)
         arm(loop)
-        trace.append((loop.time, loop.gate, arm.s))
+        trace.append((loop.time, loop.gate, arm.s, arm.q()))
 
     return bridge, model, data, control, trace
+
+
+def rz(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def free_port() -> int:
@@ -111,7 +116,7 @@ def test_the_arm_over_zenoh_gives_the_in_process_events_and_halts_on_the_gate(tm
 
     # In-process: the session in this process, its gate read directly.
     bridge, model, data, control, _ = scene(run_toml)
-    loop = SkinLoop(model, data, bridge, skin.Session.from_config(run_toml), control=control)
+    loop = SkinLoop(model, data, bridge, skin.Session.from_config(run_toml), control=control, joints=JOINTS)
     here = loop.run(seconds) + loop.finish()
 
     # Over Zenoh: `skin run` reads the pipe and the joint states, the arm hears its events.
@@ -139,7 +144,8 @@ def test_the_arm_over_zenoh_gives_the_in_process_events_and_halts_on_the_gate(tm
             proc.communicate()
     assert proc.returncode == 0, stderr
 
-    # The same events, heard over Zenoh and written by the node.
+    # The same events, heard over Zenoh and written by the node (each session placing its
+    # touches by the joint states it was given).
     assert [e.to_dict() for e in there] == [e.to_dict() for e in here]
     assert read_events(out / "events.jsonl") == [e.to_dict() for e in here]
     kinds = [e.kind for e in here]
@@ -153,8 +159,18 @@ def test_the_arm_over_zenoh_gives_the_in_process_events_and_halts_on_the_gate(tm
     assert heard, stderr
     assert int(heard[1]) == int(heard[2]) == published >= seconds * 100
 
+    # Each touch placed in the base frame where the arm was: the forearm at the shoulder's and
+    # the elbow's angles at the touch's frame (both centroids rounded to 0.1 mm in JSON).
+    at = {round(t, 6): q for t, _, _, q in trace}
+    placed = [e for e in there if e.kind == "appeared"]
+    assert placed
+    for e in placed:
+        shoulder, elbow = at[round(e.time, 6)][:2]
+        expected = rz(shoulder) @ (np.array([0.3, 0.0, 0.0]) + rz(elbow) @ np.array(e.centroid))
+        assert np.abs(np.array(e.centroid_base) - expected).max() < 2e-4, e
+
     # The arm halted on the action heard over Zenoh: its path stood still while complying.
-    t, gates, s = zip(*trace)
+    t, gates, s, _ = zip(*trace)
     t, s = np.array(t), np.array(s)
     comply = np.array([g == "comply" for g in gates])
     assert comply.any()

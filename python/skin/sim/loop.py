@@ -7,11 +7,11 @@ from __future__ import annotations
 import warnings
 from collections import deque
 from dataclasses import dataclass
-from typing import Callable, Deque, Dict, List, Optional, Tuple
+from typing import Callable, Deque, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .._errors import ArrayError, SessionError, SkinWarning
+from .._errors import ArrayError, SessionError, SkinWarning, UnknownNameError
 from .bridge import SimFrame, SkinBridge, _mujoco
 
 #: control(loop) before each MuJoCo step: read loop.gate, loop.new_events(), loop.data.
@@ -22,6 +22,33 @@ Control = Callable[["SkinLoop"], None]
 #: without pause (about 160 events a simulated minute in python/bench/sim_memory.py), however
 #: long the session runs; every event of it, kept, would grow its memory without end.
 MAX_EVENTS = 1_000
+
+
+class JointReader:
+    """The robot's joints a loop reports as joint states: `joints`, MuJoCo's joints of those
+    names (the names its URDF gives them), read at every skin frame's step and every `period`
+    seconds between (a robot driver publishes at 100 Hz or more)."""
+
+    def __init__(self, model, joints: Sequence[str], period: float = 0.01) -> None:
+        mujoco = _mujoco()
+        self.names = list(joints)
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.names]
+        missing = [j for j, i in zip(self.names, ids) if i < 0]
+        if missing:
+            raise UnknownNameError(f"no joint {missing[0]!r} in the model")
+        if not (np.isfinite(period) and period > 0):
+            raise ArrayError(f"joint_period = {period}: seconds, more than 0")
+        self._qadr = [int(model.jnt_qposadr[i]) for i in ids]
+        self._vadr = [int(model.jnt_dofadr[i]) for i in ids]
+        self._every = max(1, round(period / model.opt.timestep))
+
+    def due(self, step: int, frame_step: bool) -> bool:
+        """The step of this number (from time 0) reports the joints."""
+        return frame_step or step % self._every == 0
+
+    def read(self, data) -> Tuple[List[float], List[float]]:
+        """Positions (rad or m) and velocities of the joints now."""
+        return [float(data.qpos[a]) for a in self._qadr], [float(data.qvel[a]) for a in self._vadr]
 
 
 @dataclass
@@ -60,7 +87,12 @@ class SkinLoop:
 
     At every step the loop also looks for geoms pressed into a link's skin deeper than a skin
     gives: each such press warns (`skin.SkinWarning`) when it starts and if it goes through the
-    link, and is kept in `loop.overpresses` (`Overpress`)."""
+    link, and is kept in `loop.overpresses` (`Overpress`).
+
+    `joints`: the robot's joints (MuJoCo's, named as the session's `[stitch] urdf` names them)
+    whose angles go to the session as joint states (`Session.joint_states`) at every skin frame
+    and every `joint_period` s between, as a robot's driver would send them: the session then
+    places every touch in the chain's base frame (`centroid_base`)."""
 
     def __init__(
         self,
@@ -71,6 +103,8 @@ class SkinLoop:
         *,
         control: Optional[Control] = None,
         max_events: Optional[int] = MAX_EVENTS,
+        joints: Optional[Sequence[str]] = None,
+        joint_period: float = 0.01,
     ) -> None:
         if max_events is not None and (isinstance(max_events, bool) or not isinstance(max_events, int) or max_events < 0):
             raise ArrayError(f"max_events = {max_events!r}: a number of events, 0 or more (None keeps every one)")
@@ -97,6 +131,7 @@ class SkinLoop:
         # lost to its bound; None until its first call (no reader yet: nothing kept twice).
         self._unread: Optional[List] = None
         self._mj = _mujoco()
+        self._joints = JointReader(model, joints, joint_period) if joints is not None else None
         bridge.bind(model)
         _check_session(bridge, session)
         # When the skin's sensors are the model's only ones, MuJoCo computes none between skin
@@ -153,7 +188,11 @@ class SkinLoop:
         # the loop starts at (a reset, a keyframe, steps made before), a frame's step is one
         # whose start is a whole number of frame periods.
         before = self.data.time
-        frame_step = round(before / self.model.opt.timestep) % self.bridge.steps_per_frame == 0
+        step = round(before / self.model.opt.timestep)
+        frame_step = step % self.bridge.steps_per_frame == 0
+        if self._joints is not None and self._joints.due(step, frame_step):
+            q, _ = self._joints.read(self.data)
+            self.session.joint_states(before, self._joints.names, q)
         if self._toggle:
             opt = self.model.opt
             if frame_step:

@@ -40,9 +40,9 @@ from typing import IO, Any, Callable, Deque, List, Mapping, Optional, Sequence
 import numpy as np
 
 from .. import _skin
-from .._errors import ArrayError, SessionError, UnknownNameError
+from .._errors import ArrayError, SessionError
 from .bridge import SimFrame, SkinBridge, _mujoco
-from .loop import MAX_EVENTS
+from .loop import MAX_EVENTS, JointReader
 
 #: Seconds a frame is waited for before the loop gives up on the node (a node that stopped, a
 #: pipe nobody reads).
@@ -268,21 +268,11 @@ class ZenohLoop:
         timeout: float = FRAME_TIMEOUT_S,
         max_events: Optional[int] = MAX_EVENTS,
     ) -> None:
-        mujoco = _mujoco()
         self.model, self.data, self.bridge, self.control = model, data, bridge, control
         bridge.bind(model)
         if bridge.busmap is None:
             raise ArrayError("the bridge has no bus map: a skin node reads CAN traffic (give the config's busmap)")
-        self.joints = list(joints)
-        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.joints]
-        missing = [j for j, i in zip(self.joints, ids) if i < 0]
-        if missing:
-            raise UnknownNameError(f"no joint {missing[0]!r} in the model")
-        self._qadr = [int(model.jnt_qposadr[i]) for i in ids]
-        self._vadr = [int(model.jnt_dofadr[i]) for i in ids]
-        if not (np.isfinite(joint_period) and joint_period > 0):
-            raise ArrayError(f"joint_period = {joint_period}: seconds, more than 0")
-        self._joint_every = max(1, round(joint_period / model.opt.timestep))
+        self._joints = JointReader(model, joints, joint_period)
         self._baseline = int(settings["baseline"]["frames"])
         self._can = can
         self._publisher = node.joint_states(joint_states)
@@ -342,12 +332,11 @@ class ZenohLoop:
             self.control(self)
         mujoco = _mujoco()
         before = self.data.time
-        k = round(before / self.model.opt.timestep)
-        frame_step = k % self.bridge.steps_per_frame == 0
-        if frame_step or k % self._joint_every == 0:
-            q = [self.data.qpos[a] for a in self._qadr]
-            v = [self.data.qvel[a] for a in self._vadr]
-            self._publisher.publish(before, self.joints, q, v)
+        step = round(before / self.model.opt.timestep)
+        frame_step = step % self.bridge.steps_per_frame == 0
+        if self._joints.due(step, frame_step):
+            q, v = self._joints.read(self.data)
+            self._publisher.publish(before, self._joints.names, q, v)
         mujoco.mj_step(self.model, self.data)
         self.framed = frame_step
         if self.data.time <= before:
