@@ -89,6 +89,24 @@ fn mcap_of_the_fixture_session_reads_in_python() {
 }
 
 #[test]
+fn service_hashes_are_rosidl_s_as_rosbags_computes_them() {
+    // rmw_zenoh puts a service's hash in its key expression: a client whose hash differs never
+    // reaches the service. rosbags (independent of skin) computes std_srvs/Trigger's published
+    // hash by the same method, which pins every skin_msgs service's.
+    let Some(py) = python::python_with("rosbags") else {
+        return;
+    };
+    let said = python::run(&py, "ros2/service_hash.py", &[]);
+    let all = skin_ros::interfaces::Interfaces::skin().unwrap();
+    let lines: Vec<&str> = said.lines().collect();
+    assert!(lines.len() >= 2, "{said}");
+    for line in lines {
+        let (name, hash) = line.split_once(' ').unwrap();
+        assert_eq!(all.type_hash(name).as_deref(), Some(hash), "{name}");
+    }
+}
+
+#[test]
 fn convert_writes_frames_and_contacts_without_models() {
     let dir = tempfile::tempdir().unwrap();
     let mcap = dir.path().join("converted.mcap");
