@@ -158,6 +158,16 @@ fn faulty_joint_states_are_one_event_each_and_the_run_goes_on() {
     assert!((1..=2).contains(&stale), "{problems:?}");
     let other = faults.iter().find(|e| e["problem"] == "other_robot").unwrap();
     assert_eq!(other["joints"], serde_json::json!(["elbow"]));
+    // A touch while the posture is stale (the joint states stopped at 3 s, 0.5 s old by 3.5 s)
+    // is not placed in the base frame: that posture is not where the robot is now.
+    let parsed: Vec<serde_json::Value> = (out.events.iter())
+        .map(|e| serde_json::from_str(e).unwrap())
+        .collect();
+    let late: Vec<&serde_json::Value> = (parsed.iter())
+        .filter(|e| e["event"] == "appeared" && e["time"].as_f64().unwrap() > 3.6)
+        .collect();
+    assert!(!late.is_empty(), "{:?}", out.events);
+    assert!(late.iter().all(|e| e.get("centroid_base").is_none()), "{late:?}");
     // Every touch is still tracked to its end.
     let appeared = out.events.iter().filter(|e| e.contains("\"appeared\"")).count();
     let released = out.events.iter().filter(|e| e.contains("\"released\"")).count();
@@ -237,6 +247,12 @@ fn a_single_link_is_placed_by_the_joint_states_of_its_urdf() {
     .unwrap();
     let mut s = Session::from_config(&SessionConfig::read(&config).unwrap()).unwrap();
     let feed = s.joint_state_feed(None, false).unwrap();
+    // Without `base`, the one link would be its own base: no joint to place it by, said so.
+    let text = std::fs::read_to_string(&config).unwrap();
+    let baseless = dir.path().join("baseless.toml");
+    std::fs::write(&baseless, text.replace("base = \"base\"\n", "")).unwrap();
+    let refused = Session::from_config(&SessionConfig::read(&baseless).unwrap()).unwrap_err();
+    assert!(refused.to_string().contains("set [stitch] base"), "{refused}");
     let angle = |t: f64| 0.8 * (t / 5.0).sin();
     for k in 0..3200 {
         feed.push(T0_NS + k * 10_000_000, ["elbow"], &[angle(k as f64 * 0.01)]);

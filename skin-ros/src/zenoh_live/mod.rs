@@ -482,8 +482,8 @@ impl Outlet for ZenohOutlet {
         };
         if topic == self.events_topic || topic == self.layout_topic {
             if let Some(events) = &self.events {
-                // A send fails only when the thread is gone: counted as undelivered (and
-                // the frames stop waiting for it at once).
+                // A send fails only when the thread is gone: counted as undelivered, and
+                // not waited for by the frames.
                 if events.send(m).is_ok() {
                     self.events_queued += 1;
                 }

@@ -24,7 +24,8 @@ pub(super) struct Outgoing {
 /// subscriber of both (a controller in lock-step with the skin) must see a frame's events before
 /// the frame's own messages, as the session gave them. Events are rare and put at once, so the
 /// wait is nearly always none; past this bound (a network that blocks the events) the frame goes
-/// anyway, and the frame path itself never waits.
+/// anyway, and so do the frames after it until newer events are due; the frame path itself never
+/// waits.
 pub(super) const EVENTS_FIRST: std::time::Duration = std::time::Duration::from_millis(200);
 
 /// What a publishing thread did with each topic's messages.
@@ -163,6 +164,8 @@ impl Queue {
             Queue::Events(q) => (Kind::Events, q),
             Queue::Frames(q) => (Kind::Frames, q),
         };
+        // Events the frames stopped waiting for (see the wait below).
+        let mut gave_up = 0u64;
         for m in queue {
             let (Some(publisher), Some(counts), Some(matching)) = (
                 shared.publishers.get(m.topic),
@@ -171,11 +174,15 @@ impl Queue {
             ) else {
                 continue;
             };
-            if matches!(self_kind, Kind::Frames) {
+            if matches!(self_kind, Kind::Frames) && m.after_events > gave_up {
                 let since = std::time::Instant::now();
-                while shared.events_put.load(Ordering::Acquire) < m.after_events
-                    && since.elapsed() < EVENTS_FIRST
-                {
+                while shared.events_put.load(Ordering::Acquire) < m.after_events {
+                    if since.elapsed() >= EVENTS_FIRST {
+                        // The events are held up (a blocked link, their thread gone): the frames
+                        // go on without them, not 200 ms late each, until newer events are due.
+                        gave_up = m.after_events;
+                        break;
+                    }
                     std::thread::sleep(std::time::Duration::from_micros(50));
                 }
             }

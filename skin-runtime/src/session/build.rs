@@ -252,6 +252,15 @@ fn kinematics(
     let chain = skin_control::Chain::from_urdf(urdf, base, last).map_err(|e| ConfigError::Kinematics {
         why: format!("{}: {e}", urdf.display()),
     })?;
+    // A single link is its own base by default: no joint between, nothing a joint state moves.
+    if chain.dof() == 0 {
+        return Err(ConfigError::Kinematics {
+            why: format!(
+                "{}: no joint from {base:?} to {last:?}, so no joint state can place the skin: set [stitch] base to a link above it (the robot's base link)",
+                urdf.display()
+            ),
+        });
+    }
     let max_age = stitch.max_age_s.unwrap_or(super::config::DEFAULT_MAX_AGE_S);
     if !(max_age > 0.0 && max_age <= 3600.0) {
         return Err(ConfigError::Kinematics {

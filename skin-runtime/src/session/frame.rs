@@ -99,6 +99,7 @@ impl Session {
         let t = Instant::now();
         self.emit(sink)?;
         self.report_joint_faults(time, sink)?;
+        self.across_joints(time, sink)?;
         let frame = ProcessedFrame {
             time_us,
             time,
@@ -121,7 +122,7 @@ impl Session {
                 }
             }
         }
-        self.across_joints(time, cycle, sink)?;
+        self.stitched_image(cycle, sink)?;
         self.stats.output += t.elapsed();
         self.tares.set_touches(self.pipeline.open_touches());
         Ok(())
@@ -166,14 +167,10 @@ impl Session {
         Ok(())
     }
 
-    /// Contacts across joints (an event when one begins and when none is left) and stitched
-    /// images.
-    fn across_joints<S: Sink + ?Sized>(
-        &mut self,
-        time: f64,
-        cycle: u64,
-        sink: &mut S,
-    ) -> Result<(), SessionError> {
+    /// Contacts across joints: an event when one begins and when none is left. Before the
+    /// frame goes to the sinks, as every event of the frame does: a consumer that waits for a
+    /// frame has its events by then.
+    fn across_joints<S: Sink + ?Sized>(&mut self, time: f64, sink: &mut S) -> Result<(), SessionError> {
         let Some(st) = &mut self.setup.stitching else {
             return Ok(());
         };
@@ -197,7 +194,16 @@ impl Session {
             })?;
         }
         st.joined = !spans.is_empty();
-        if self.setup.options.frame_images && (0..links.len()).any(|l| self.pipeline.touching(l)) {
+        Ok(())
+    }
+
+    /// The stitched image of a frame with a touch (with frame images asked for).
+    fn stitched_image<S: Sink + ?Sized>(&mut self, cycle: u64, sink: &mut S) -> Result<(), SessionError> {
+        let Some(st) = &mut self.setup.stitching else {
+            return Ok(());
+        };
+        let links = self.setup.links.len();
+        if self.setup.options.frame_images && (0..links).any(|l| self.pipeline.touching(l)) {
             let image = st.image()?;
             send(&mut self.stopped, sink, |s| {
                 s.frame_image(FrameView::Stitched, cycle, image)

@@ -266,12 +266,14 @@ impl PostureFeed {
     }
 
     /// The posture of a frame stamped `frame_ns`: the latest one stamped at or before it,
-    /// copied into `out`; false when there is none yet. Replaying (a feed with `wait`), waits up
+    /// copied into `out`, and whether it is fresh (within `max_age` of the frame: a stale one
+    /// still holds for the stitching, but says nothing of where the robot is now); None when
+    /// there is none yet. Replaying (a feed with `wait`), waits up
     /// to that long for one stamped at or after the frame. A posture older than `max_age`
     /// begins a stale fault.
-    pub(super) fn posture_at(&self, frame_ns: i128, out: &mut Vec<Isometry3<f64>>) -> bool {
+    pub(super) fn posture_at(&self, frame_ns: i128, out: &mut Vec<Isometry3<f64>>) -> Option<bool> {
         let Ok(mut s) = self.0.state.lock() else {
-            return false;
+            return None;
         };
         if let Some(wait) = self.0.wait
             && !s.starved
@@ -307,12 +309,13 @@ impl PostureFeed {
                     },
                 );
             }
-            return false;
+            return None;
         };
         let age = frame_ns - stamp;
         out.clear();
         out.extend_from_slice(poses);
-        if age > self.0.max_age_ns {
+        let fresh = age <= self.0.max_age_ns;
+        if !fresh {
             let detail = format!(
                 "the last joint state is {:.3} s older than the frame (more than {:.3} s): its posture holds",
                 age as f64 * 1e-9,
@@ -330,7 +333,7 @@ impl PostureFeed {
             // Fresh again, and for a second: a stale posture will be said again.
             s.active[JointProblem::Stale.index()] = false;
         }
-        true
+        Some(fresh)
     }
 
     /// The chain was stitched at the posture a frame got: a later posture that cannot be is
@@ -399,41 +402,39 @@ impl Session {
     }
 
     /// At a frame stamped `time_us`, `time` s into the session: where its links are. With joint
-    /// states, the robot's posture then (the stitching follows it); else the poses file's
-    /// posture then. The touch pipeline gets each link's pose in the chain's base frame, or
-    /// none while it is not known (no joint state yet, or a chain stitched at the middle of
-    /// its joints' limits for want of any): a contact's base-frame centroid is never a guess.
+    /// states, the robot's posture then (the stitching follows it, and holds the last one when
+    /// they stop); the poses file's posture then until the first one comes, or without them.
+    /// The touch pipeline gets each link's pose in the chain's base frame only while it is the
+    /// robot's: not from a joint state older than `max_age_s` (stale), nor from a chain stitched
+    /// at the middle of its joints' limits for want of a posture. A contact's base-frame
+    /// centroid is never a guess.
     pub(super) fn place_links(&mut self, time_us: u64, time: f64) {
-        let live = match &self.setup.feed {
-            Some((feed, rebased)) => {
-                let t0 = if *rebased { self.t0_us.unwrap_or(0) } else { 0 };
-                let frame_ns = i128::from(time_us.saturating_sub(t0)) * 1000;
-                let posed = feed.posture_at(frame_ns, &mut self.live_poses);
-                if posed && let Some(st) = &mut self.setup.stitching {
-                    match st.set_live_posture(&self.live_poses) {
-                        Ok(true) => feed.stitched(),
-                        Ok(false) => {}
-                        Err(e) => feed.unstitchable(format!(
-                            "the chain cannot be stitched at the posture of the joint states: {e}"
-                        )),
-                    }
-                }
-                self.posed |= posed;
-                true
-            }
-            None => false,
-        };
-        let poses: &[nalgebra::Isometry3<f64>] = match &self.setup.stitching {
-            _ if live => {
-                if self.posed {
-                    &self.live_poses
-                } else {
-                    &[]
+        let mut fresh = None;
+        if let Some((feed, rebased)) = &self.setup.feed {
+            let t0 = if *rebased { self.t0_us.unwrap_or(0) } else { 0 };
+            let frame_ns = i128::from(time_us.saturating_sub(t0)) * 1000;
+            fresh = feed.posture_at(frame_ns, &mut self.live_poses);
+            if fresh.is_some()
+                && let Some(st) = &mut self.setup.stitching
+            {
+                match st.set_live_posture(&self.live_poses) {
+                    Ok(true) => feed.stitched(),
+                    Ok(false) => {}
+                    Err(e) => feed.unstitchable(format!(
+                        "the chain cannot be stitched at the posture of the joint states: {e}"
+                    )),
                 }
             }
-            Some(st) if self.setup.posed_by_file => st.poses_at(time),
-            _ => &[],
+        }
+        let poses: &[nalgebra::Isometry3<f64>] = match (fresh, &self.setup.stitching) {
+            (Some(true), _) => &self.live_poses,
+            // A stale posture, or none yet while one was: not where the robot is now.
+            (Some(false), _) => &[],
+            (None, _) if self.live_placed => &[],
+            (None, Some(st)) if self.setup.posed_by_file => st.poses_at(time),
+            (None, _) => &[],
         };
+        self.live_placed |= fresh.is_some();
         if poses.is_empty() && !self.placed {
             return;
         }
@@ -511,10 +512,10 @@ mod tests {
     fn postures_follow_the_stamps_and_bad_messages_keep_the_last_good_one() {
         let f = feed(None);
         let mut poses = Vec::new();
-        assert!(!f.posture_at(0, &mut poses));
+        assert!(f.posture_at(0, &mut poses).is_none());
         // Joints in any order, with others: matched by name.
         f.push(1_000, ["gripper", "j2", "j1"], &[0.3, 0.0, 0.5]);
-        assert!(f.posture_at(1_000, &mut poses));
+        assert!(f.posture_at(1_000, &mut poses).is_some());
         let turned = poses[1].rotation.angle();
         assert!((turned - 0.5).abs() < 1e-12, "{turned}");
         assert_eq!(poses[0], Isometry3::identity());
@@ -535,7 +536,7 @@ mod tests {
                 JointProblem::Malformed
             ]
         );
-        assert!(f.posture_at(5_000, &mut poses));
+        assert!(f.posture_at(5_000, &mut poses).is_some());
         assert!((poses[1].rotation.angle() - 0.5).abs() < 1e-12);
         // A good message right after does not end them: a missing joint within the second is
         // not said again (a gripper's own joint states between the arm's).
@@ -563,25 +564,25 @@ mod tests {
         let mut poses = Vec::new();
         f.push(0, ["j1", "j2"], &[0.0, 0.0]);
         for t in [50_000_000, 150_000_000, 200_000_000] {
-            assert!(f.posture_at(t, &mut poses));
+            assert!(f.posture_at(t, &mut poses).is_some());
         }
         assert_eq!(faults(&f), [JointProblem::Stale]);
         // Fresh again within the second: a stale posture right after is not said again (a
         // publisher slower than max_age gives one event, not one a message)...
         f.push(250_000_000, ["j1", "j2"], &[0.0, 0.0]);
-        assert!(f.posture_at(260_000_000, &mut poses));
-        assert!(f.posture_at(400_000_000, &mut poses));
+        assert!(f.posture_at(260_000_000, &mut poses).is_some());
+        assert!(f.posture_at(400_000_000, &mut poses).is_some());
         assert_eq!(faults(&f), []);
         // ...but after a second fresh, it is.
         f.push(450_000_000, ["j1", "j2"], &[0.0, 0.0]);
         f.0.state.lock().unwrap().last_fault = [None; PROBLEMS];
-        assert!(f.posture_at(460_000_000, &mut poses));
-        assert!(f.posture_at(600_000_000, &mut poses));
+        assert!(f.posture_at(460_000_000, &mut poses).is_some());
+        assert!(f.posture_at(600_000_000, &mut poses).is_some());
         assert_eq!(faults(&f), [JointProblem::Stale]);
         // Joint states on another clock than the frames' are said.
         let other = feed(None);
         other.push(50_000_000_000, ["j1", "j2"], &[0.0, 0.0]);
-        assert!(!other.posture_at(1_000_000, &mut poses));
+        assert!(other.posture_at(1_000_000, &mut poses).is_none());
         assert_eq!(faults(&other), [JointProblem::Stale]);
     }
 
@@ -595,14 +596,14 @@ mod tests {
             writer.push(2_000, ["j1", "j2"], &[0.5, 0.0]);
         });
         let mut poses = Vec::new();
-        assert!(f.posture_at(2_000, &mut poses));
+        assert!(f.posture_at(2_000, &mut poses).is_some());
         t.join().unwrap();
         assert!((poses[1].rotation.angle() - 0.5).abs() < 1e-12);
         // The joint states stop: one wait runs out, and the frames after it do not wait again
         // until a message comes.
         let quick = feed(Some(Duration::from_millis(20)));
         quick.push(0, ["j1", "j2"], &[0.0, 0.0]);
-        assert!(quick.posture_at(10_000_000, &mut poses));
+        assert!(quick.posture_at(10_000_000, &mut poses).is_some());
         assert!(quick.0.state.lock().unwrap().starved);
         quick.push(20_000_000, ["j1", "j2"], &[0.0, 0.0]);
         assert!(!quick.0.state.lock().unwrap().starved);

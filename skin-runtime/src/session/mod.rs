@@ -190,8 +190,9 @@ pub struct Session {
     stopped: bool,
     /// The posture a frame got from the joint states (kept to copy into).
     live_poses: Vec<nalgebra::Isometry3<f64>>,
-    /// The joint states gave a posture at some frame (`live_poses` holds the last).
-    posed: bool,
+    /// The joint states gave a posture at some frame: from then on, the poses file's postures
+    /// no longer say where the robot is.
+    live_placed: bool,
     /// The touch pipeline holds the links' poses (else it holds none).
     placed: bool,
     /// Faults of the joint states taken at a frame (kept to copy into).
@@ -273,7 +274,7 @@ impl Session {
             notes: Vec::new(),
             stopped: false,
             live_poses: Vec::new(),
-            posed: false,
+            live_placed: false,
             placed: false,
             joint_faults: Vec::new(),
             tares: tare::Tares::new(baseline_frames),
