@@ -23,7 +23,7 @@ import numpy as np
 
 import skin
 from skin.sim import Kit, PathFollower, SkinBridge, two_joint_arm
-from skin.sim.zenoh import RosNode, ZenohLoop
+from skin.sim.zenoh import RosNode, ZenohLoop, open_pipe
 
 SKIN = sys.argv[1] if len(sys.argv) > 1 else "skin"
 FIXTURES = Path("fixtures").resolve()
@@ -85,7 +85,7 @@ node = subprocess.Popen(
     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
 )
 try:
-    with RosNode(endpoint, name="arm") as ros, open(pipe, "w") as can:
+    with RosNode(endpoint, name="arm") as ros, open_pipe(pipe, node) as can:
         loop = ZenohLoop(model, data, bridge, ros, can, settings=skin.read_session_settings(config),
                          joints=["shoulder", "elbow"], control=control)
         events = loop.run(6.0) + loop.finish()

@@ -75,8 +75,8 @@ class _Force(TypedDict, total=False):
 
 class Footprint(_Force):
     """A touch's extent in one frame; `force_n` (newtons) on a link with a force calibration;
-    `centroid_base` (metres, the chain's base frame) where the link's pose then is known (joint
-    states with `[stitch] urdf`, or a poses file)."""
+    `centroid_base` (metres, in the frame of `[stitch] base`, or of a poses file's poses) where
+    the link's pose then is known (fresh joint states with `[stitch] urdf`, or a poses file)."""
 
     contacts: int
     taxels: int

@@ -27,7 +27,7 @@ except ImportError:  # pragma: no cover - depends on the machine
     pytest.skip("MuJoCo or eclipse-zenoh is not installed (pip install -r python/tests/requirements.txt)", allow_module_level=True)
 
 from skin.sim import Kit, PathFollower, SkinBridge, SkinLoop, two_joint_arm
-from skin.sim.zenoh import RosNode, ZenohLoop
+from skin.sim.zenoh import RosNode, ZenohLoop, open_pipe
 
 ARM = FIXTURES / "arm"
 JOINTS = ["shoulder", "elbow", "wrist_roll"]
@@ -130,7 +130,7 @@ def test_the_arm_over_zenoh_gives_the_in_process_events_and_halts_on_the_gate(tm
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         with RosNode(f"tcp/127.0.0.1:{port}", name="sim_arm") as node:
-            with open(pipe, "w") as can:
+            with open_pipe(pipe, proc) as can:
                 zloop = ZenohLoop(model, data, bridge, node, can, settings=skin.read_session_settings(run_toml),
                                   joints=JOINTS, control=control)
                 there = zloop.run(seconds)

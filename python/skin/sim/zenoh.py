@@ -13,17 +13,19 @@ action. The two loops give the same events for the same scene.
         --joint-states /joint_states
 
     # Python: the robot
-    from skin.sim.zenoh import RosNode, ZenohLoop
-    with RosNode("tcp/127.0.0.1:7447") as node, open("/tmp/skin.can", "w") as can:
+    from skin.sim.zenoh import RosNode, ZenohLoop, open_pipe
+    with RosNode("tcp/127.0.0.1:7447") as node, open_pipe("/tmp/skin.can") as can:
         loop = ZenohLoop(model, data, bridge, node, can, settings=skin.read_session_settings("arm/run.toml"),
                          joints=["shoulder", "elbow"], control=arm)
         events = loop.run(10.0) + loop.finish()
 
 Lock-step: after each frame the loop waits for the node to have processed it (its
-`tactile_state`, which the node puts on the network only after the frame's events), so the
-controller acts on exactly the events an in-process session would have given by then. The
-frames that learn the baseline (the first `[baseline] frames` ones, and those after a tare)
-give no `tactile_state` and are not waited for.
+`tactile_state`, which the node puts on the network only after the events it gave at that
+frame), so the controller acts on exactly the events an in-process session would have given by
+then. The complete frames that learn the baseline (the first `[baseline] frames`, and those
+after a tare) give no `tactile_state` and are not waited for. The node must stamp on the input's
+clock (`skin run`'s default, not `--ros-time rebase`): frames and joint states are matched by
+their stamps, to the microsecond.
 
 The names, attachments and CDR of what goes over Zenoh are skin-ros's (the crate `skin run`
 publishes with), reached through the native module. Needs `pip install eclipse-zenoh`.
@@ -31,9 +33,13 @@ publishes with), reached through the native module. Needs `pip install eclipse-z
 
 from __future__ import annotations
 
+import errno
+import math
+import os
 import queue
 import struct
 import threading
+import time
 from collections import deque
 from typing import IO, Any, Callable, Deque, List, Mapping, Optional, Sequence
 
@@ -47,6 +53,38 @@ from .loop import MAX_EVENTS, JointReader
 #: Seconds a frame is waited for before the loop gives up on the node (a node that stopped, a
 #: pipe nobody reads).
 FRAME_TIMEOUT_S = 10.0
+
+#: Seconds `ZenohLoop.finish` waits for the node to end (it drains its events to the network
+#: first: up to `skin run --zenoh-drain`, 30 s by default, on a congested link).
+FINISH_TIMEOUT_S = 60.0
+
+
+def _us(t: float) -> int:
+    """Seconds to whole microseconds as `skin` rounds them (half away from zero), exactly."""
+    x = t * 1e6
+    f = math.floor(x)
+    return int(f) + (1 if x - f >= 0.5 else 0)
+
+
+def open_pipe(path, node=None, timeout: float = FRAME_TIMEOUT_S) -> IO[str]:
+    """Opens the named pipe `path` for writing once its reader (the skin node) has opened it:
+    SessionError after `timeout` s, or as soon as `node` (its `subprocess.Popen`) has exited,
+    instead of waiting for a reader forever."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+            break
+        except OSError as e:
+            if e.errno != errno.ENXIO:
+                raise
+        if node is not None and node.poll() is not None:
+            raise SessionError(f"the skin node exited (status {node.returncode}) before reading {path}: its standard error says why")
+        if time.monotonic() > deadline:
+            raise SessionError(f"nobody opened {path} for reading within {timeout:g} s: is `skin run --log {path}` running?")
+        time.sleep(0.01)
+    os.set_blocking(fd, True)
+    return os.fdopen(fd, "w")
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 TOUCH_EVENT = "skin_msgs/msg/TouchEvent"
@@ -98,6 +136,10 @@ class RosNode:
         self._tokens.append(live.declare_token(token))
         return key, gid
 
+    def key(self, topic: str, type_name: str) -> str:
+        """The data key expression of `topic` (its type's name and hash in it), nothing declared."""
+        return _skin._rmw_zenoh_entity(self.domain, self.zid, self.namespace, self.name, 0, "MS", topic, type_name, "frames")[0]
+
     def joint_states(self, topic: str = "/joint_states") -> "JointStatePublisher":
         return JointStatePublisher(self, topic)
 
@@ -121,11 +163,15 @@ def _json_list(items: Sequence[str]) -> str:
 
 
 class JointStatePublisher:
-    """`sensor_msgs/msg/JointState` on `topic`, as a robot driver publishes it over rmw_zenoh
-    (reliable, volatile, keep last 10)."""
+    """`sensor_msgs/msg/JointState` on `topic`, announced as rmw_zenoh announces a driver's
+    publisher (reliable, volatile, keep last 10). Its samples are put with Zenoh's blocking
+    congestion control, not rmw_zenoh's dropping one for keep-last topics: a simulation in
+    lock-step with the skin loses no joint state to a busy link, it waits."""
 
     def __init__(self, node: RosNode, topic: str = "/joint_states") -> None:
         zenoh = _zenoh()
+        #: The topic, as given.
+        self.topic = topic
         key, self._gid = node.entity("MP", topic, JOINT_STATE, "frames")
         self._publisher = node.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
         self._seq = 0
@@ -154,58 +200,75 @@ class SkinListener:
     of every link), heard in the order the node put them out (one subscription over both)."""
 
     def __init__(self, node: RosNode, links: int, *, prefix: str = "/skin") -> None:
-        zenoh = _zenoh()
-        self._events_key, _ = node.entity("MS", prefix.rstrip("/") + "/events", TOUCH_EVENT, "events")
-        # Every link's tactile_state key ends alike: its type and hash.
-        state_key, _ = node.entity("MS", prefix.rstrip("/") + "/any/tactile_state", TACTILE_STATE, "frames")
-        self._state_tail = state_key.split("/any/", 1)[1]
+        prefix = "/" + prefix.strip("/")
+        self._prefix = prefix
+        #: The node's events topic.
+        self.events_topic = prefix + "/events"
+        self._events_key, _ = node.entity("MS", prefix + "/events", TOUCH_EVENT, "events")
+        # Every link's tactile_state key ends alike: the topic's last token, its type and hash.
+        self._state_tail = "/tactile_state/" + node.key("/x/tactile_state", TACTILE_STATE).split("/x/tactile_state/", 1)[1]
         self._links = links
         self._samples: "queue.SimpleQueue" = queue.SimpleQueue()
+        # One subscription over the node's topics (its images and clouds too): Zenoh hands one
+        # subscription's samples over in the order they came, which two would not promise.
         self._subscriber = node.session.declare_subscriber(
             f"{node.domain}/{prefix.strip('/')}/**", lambda s: self._samples.put((str(s.key_expr), bytes(s.payload.to_bytes())))
         )
-        #: Per frame stamp (s), how many links' tactile_state came.
+        #: Per frame stamp (µs), how many links' tactile_state came.
         self._states: dict = {}
         # The node's events publisher, as its liveliness token shows it: there, then gone when
-        # its run ends (its events all sent before: the node drains them first).
+        # its run ends (its events all sent before: the node drains them first). Only the first
+        # node seen counts, and it is back if it reconnects.
         events_topic = "%" + prefix.strip("/").replace("/", "%") + "%events"
+        self._lock = threading.Lock()
+        self._node: Optional[str] = None
         self._gone = threading.Event()
         self._alive = threading.Event()
         self._tokens = node.session.liveliness().declare_subscriber(
             f"@ros2_lv/{node.domain}/*/0/*/MP/%/*/*/{events_topic}/**", self._token, history=True
         )
 
-    def wait(self, time: float, timeout: float, stop: Callable[[Any], bool]) -> List:
-        """The events heard until every link's tactile_state of the frame at `time` (s) came, or
-        an event for which `stop(event)` is true; raises SessionError after `timeout` s."""
+    def wait(self, stamp_us: int, timeout: float, stop: Callable[[Any], bool]) -> List:
+        """The events heard until every link's tactile_state stamped `stamp_us` (µs) came, or an
+        event for which `stop(event)` is true; raises SessionError when that takes longer than
+        `timeout` s."""
         got: List = []
-        key = round(time * 1e6)
-        while self._states.get(key, 0) < self._links:
+        deadline = time.monotonic() + timeout
+        while self._states.get(stamp_us, 0) < self._links:
             try:
-                k, payload = self._samples.get(timeout=timeout)
+                k, payload = self._samples.get(timeout=max(0.0, deadline - time.monotonic()))
             except queue.Empty:
                 raise SessionError(
-                    f"no word from the skin node on frame t = {time:.3f} s within {timeout:g} s: is `skin run` "
-                    "reading the pipe and listening where this node connects?"
+                    f"no word from the skin node on its frame t = {stamp_us * 1e-6:.6f} s within {timeout:g} s: "
+                    "is `skin run` still running (its standard error says why not), reading the pipe, on the "
+                    f"input's clock (not --ros-time rebase), under the prefix {self._prefix}? Were the loop's "
+                    "settings read from its run.toml? (A tactile_state dropped on a congested link stops it too.)"
                 ) from None
             event = self._take(k, payload)
             if event is not None:
                 got.append(event)
                 if stop(event):
                     break
-        self._states.pop(key, None)
+        self._states.pop(stamp_us, None)
         return got
 
     def _token(self, sample) -> None:
-        if sample.kind == _zenoh().SampleKind.DELETE:
-            self._gone.set()
-        else:
-            self._alive.set()
+        node = str(sample.key_expr).split("/")[2]
+        with self._lock:
+            if self._node is None:
+                self._node = node
+            if node != self._node:
+                return
+            if sample.kind == _zenoh().SampleKind.DELETE:
+                self._gone.set()
+            else:
+                self._gone.clear()
+                self._alive.set()
 
     @property
     def alive(self) -> bool:
         """The node's events publisher is on the network."""
-        return self._alive.is_set()
+        return self._alive.is_set() and not self._gone.is_set()
 
     def until_gone(self, timeout: float) -> bool:
         """Waits up to `timeout` s for the node's events publisher to leave; whether it did."""
@@ -226,10 +289,10 @@ class SkinListener:
     def _take(self, key: str, payload: bytes):
         if key == self._events_key:
             return _skin._ros_event(payload)
-        if key.endswith("/" + self._state_tail) and len(payload) >= 12:
+        if key.endswith(self._state_tail) and len(payload) >= 12:
             # The CDR header (4 bytes), then the stamp: sec (int32), nanosec (uint32).
             sec, nsec = struct.unpack_from("<iI", payload, 4)
-            stamp = round(sec * 1e6 + nsec / 1e3)
+            stamp = sec * 1_000_000 + nsec // 1000
             self._states[stamp] = self._states.get(stamp, 0) + 1
         return None
 
@@ -246,7 +309,7 @@ class ZenohLoop:
     twin of `SkinLoop` with the session in another process. `can`: the text stream the node
     reads as its `--log` (a named pipe); `node`: this loop's `RosNode`, connected to the skin
     node; `settings`: the node's session settings (`skin.read_session_settings(its run.toml)`),
-    for the frames that learn its baseline; `joints`: the robot's joints whose positions go out
+    for the complete frames that learn its baseline; `joints`: the robot's joints whose positions go out
     on `joint_states` (the names its URDF gives them, MuJoCo's joints of those names), at every
     skin frame and every `joint_period` s between. A controller `control` is called before
     every step with this loop: `loop.gate` is the last gate action heard."""
@@ -286,7 +349,9 @@ class ZenohLoop:
         self.frame: Optional[SimFrame] = None
         self.framed = False
         self._cycle = 0
-        # Frames still learning a baseline (the node puts out no tactile_state for them).
+        # The time the node stamps the next frame with: that of its syncs, written a frame ahead.
+        self._next_time: Optional[float] = None
+        # Complete frames still learning a baseline (the node puts out no tactile_state for them).
         self._learning = self._baseline
         self._new: List = []
         self._wait_for_node()
@@ -294,16 +359,20 @@ class ZenohLoop:
     def _wait_for_node(self) -> None:
         """Until the skin node hears this loop's joint states and publishes its events (what
         either sends before that would be lost, and the node would report joint states missing)."""
-        import time as _time
-
-        since = _time.monotonic()
+        since = time.monotonic()
         while not (self._publisher.matched and self._listener.alive):
-            if _time.monotonic() - since > self._timeout:
+            if time.monotonic() - since > self._timeout:
+                missing = []
+                if not self._publisher.matched:
+                    missing.append(f"a subscription to {self._publisher.topic} (skin run --joint-states {self._publisher.topic})")
+                if not self._listener.alive:
+                    missing.append(f"a publisher of {self._listener.events_topic} (the run's --ros-prefix and domain)")
                 raise SessionError(
-                    f"no skin node within {self._timeout:g} s: is `skin run ... --joint-states` listening where "
-                    "this node connects (--zenoh-listen)?"
+                    f"no skin node within {self._timeout:g} s: not seen {' nor '.join(missing)}. Is `skin run` "
+                    "running (its standard error says why not) and listening where this node connects "
+                    "(--zenoh-listen), in the same ROS domain?"
                 )
-            _time.sleep(0.01)
+            time.sleep(0.01)
 
     @property
     def time(self) -> float:
@@ -334,27 +403,30 @@ class ZenohLoop:
         before = self.data.time
         step = round(before / self.model.opt.timestep)
         frame_step = step % self.bridge.steps_per_frame == 0
+        # A frame's joint state is stamped with the frame's own time, to the microsecond.
+        stamp = self._next_time if frame_step and self._next_time is not None else before
         if self._joints.due(step, frame_step):
             q, v = self._joints.read(self.data)
-            self._publisher.publish(before, self._joints.names, q, v)
+            self._publisher.publish(stamp, self._joints.names, q, v)
         mujoco.mj_step(self.model, self.data)
         self.framed = frame_step
         if self.data.time <= before:
             raise SessionError(f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it (see its warning)")
         heard = self._listener.drain()
         if frame_step:
-            heard += self._send(self.bridge.frame(self.data))
+            heard += self._send(self.bridge.frame(self.data), stamp)
         self._heard(heard)
         return heard
 
-    def _send(self, frame: SimFrame) -> List:
-        """The frame into the pipe, then (past the baseline) the node's answer to it."""
+    def _send(self, frame: SimFrame, stamp: float) -> List:
+        """The frame into the pipe at `stamp` (s), then (past the baseline) the node's answer."""
         self.frame = frame
         busmap = self.bridge.busmap
         period = self.bridge.steps_per_frame * self.model.opt.timestep
-        text = busmap.candump(frame.slots, frame.time, self._cycle, frame.missing, sync=self._cycle == 0)
+        text = busmap.candump(frame.slots, stamp, self._cycle, frame.missing, sync=self._cycle == 0)
         # The next cycle's syncs complete this one: the node takes the frame now.
-        text += busmap.candump_sync(frame.time + period, self._cycle + 1)
+        self._next_time = stamp + period
+        text += busmap.candump_sync(self._next_time, self._cycle + 1)
         self._cycle += 1
         self._can.write(text)
         self._can.flush()
@@ -362,10 +434,11 @@ class ZenohLoop:
             self._learning -= int(not frame.missing)
             return []
         tare = lambda e: e.kind == "tare"
-        got = self._listener.wait(frame.time, self._timeout, tare)
-        if any(tare(e) for e in got):
+        got = self._listener.wait(_us(stamp), self._timeout, tare)
+        told = [e for e in got if tare(e)]
+        if told:
             # The tare frame and the next ones learn the baseline again: no tactile_state.
-            self._learning = self._baseline - int(not frame.missing)
+            self._learning = int(told[-1]["frames"]) - int(not frame.missing)
         return got
 
     def run(self, seconds: float) -> List:
@@ -378,14 +451,20 @@ class ZenohLoop:
             out.extend(self.step())
         return out
 
-    def finish(self, wait: float = FRAME_TIMEOUT_S) -> List:
+    def finish(self, wait: float = FINISH_TIMEOUT_S) -> List:
         """Ends the skin's input: the pipe closes, the node releases its open touches and ends
         its run. Returns the events it sent until its events publisher left the network (its
-        liveliness token gone: the run is over), or `wait` s passed."""
+        liveliness token gone: the run is over, its events drained first); SessionError if that
+        takes longer than `wait` s (the events heard are kept in `events` all the same)."""
         self._can.close()
-        self._listener.until_gone(wait)
+        ended = self._listener.until_gone(wait)
         got = self._listener.drain()
         self._heard(got)
+        if not ended:
+            raise SessionError(
+                f"the skin node did not end within {wait:g} s of its input's end: its last events may be missing "
+                "(a long --zenoh-drain? its standard error says more)"
+            )
         return got
 
     def close(self) -> None:
