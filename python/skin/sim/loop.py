@@ -133,17 +133,36 @@ class SkinLoop:
         self._mj = _mujoco()
         self._joints = JointReader(model, joints, joint_period) if joints is not None else None
         bridge.bind(model)
-        _check_session(bridge, session)
+        self._check_session()
         # When the skin's sensors are the model's only ones, MuJoCo computes none between skin
         # frames (the same readings, without the sensor's per-step bookkeeping); any other
         # sensor keeps them all on, at every step.
         self._sensor_bit = int(self._mj.mjtDisableBit.mjDSBL_SENSOR)
         self._toggle = bridge.owns_all_sensors(model)
 
+    # Where the session is: in this process here; a subclass puts it elsewhere (`ZenohLoop`:
+    # in a `skin run` node) by overriding these five.
+
+    def _check_session(self) -> None:
+        _check_session(self.bridge, self.session)
+
     @property
     def gate(self) -> Optional[str]:
         """The gate's action now (None without a gate)."""
         return self.session.gate
+
+    def _send_joints(self, joints: JointReader, before: float, frame_step: bool) -> None:
+        """The robot's joints at the step starting at `before` (s) to the session."""
+        q, _ = joints.read(self.data)
+        self.session.joint_states(before, joints.names, q)
+
+    def _deliver(self, frame: SimFrame, before: float) -> List:
+        """The frame of the step starting at `before` to the session; its events."""
+        return frame.push(self.session)
+
+    def _between(self) -> List:
+        """Events of a step without a skin frame (none from an in-process session)."""
+        return []
 
     @property
     def time(self) -> float:
@@ -191,8 +210,7 @@ class SkinLoop:
         step = round(before / self.model.opt.timestep)
         frame_step = step % self.bridge.steps_per_frame == 0
         if self._joints is not None and self._joints.due(step, frame_step):
-            q, _ = self._joints.read(self.data)
-            self.session.joint_states(before, self._joints.names, q)
+            self._send_joints(self._joints, before, frame_step)
         if self._toggle:
             opt = self.model.opt
             if frame_step:
@@ -215,9 +233,10 @@ class SkinLoop:
             )
         self._watch(before)
         if not frame_step:
-            return []
-        self.frame = self.bridge.frame(self.data)
-        events = self.frame.push(self.session)
+            events = self._between()
+        else:
+            self.frame = self.bridge.frame(self.data)
+            events = self._deliver(self.frame, before)
         self._record(events)
         return events
 

@@ -40,15 +40,12 @@ import queue
 import struct
 import threading
 import time
-from collections import deque
-from typing import IO, Any, Callable, Deque, List, Mapping, Optional, Sequence
-
-import numpy as np
+from typing import IO, Any, Callable, List, Mapping, Optional, Sequence
 
 from .. import _skin
 from .._errors import ArrayError, SessionError
-from .bridge import SimFrame, SkinBridge, _mujoco
-from .loop import MAX_EVENTS, JointReader
+from .bridge import SimFrame, SkinBridge
+from .loop import MAX_EVENTS, Control, JointReader, SkinLoop
 
 #: Seconds a frame is waited for before the loop gives up on the node (a node that stopped, a
 #: pipe nobody reads).
@@ -301,16 +298,15 @@ class SkinListener:
         self._subscriber.undeclare()
 
 
-Control = Callable[["ZenohLoop"], None]
-
-
-class ZenohLoop:
-    """A MuJoCo model stepped with a `skin run` node over Zenoh (see the module's docs): the
-    twin of `SkinLoop` with the session in another process. `can`: the text stream the node
-    reads as its `--log` (a named pipe); `node`: this loop's `RosNode`, connected to the skin
-    node; `settings`: the node's session settings (`skin.read_session_settings(its run.toml)`),
-    for the complete frames that learn its baseline; `joints`: the robot's joints whose positions go out
-    on `joint_states` (the names its URDF gives them, MuJoCo's joints of those names), at every
+class ZenohLoop(SkinLoop):
+    """A MuJoCo model stepped with a `skin run` node over Zenoh (see the module's docs): a
+    `SkinLoop` whose session is in another process, everything else its own (the frames' clock,
+    sensors computed only at frames, presses deeper than a skin gives watched, `events`,
+    `new_events`, `run`). `can`: the text stream the node reads as its `--log` (a named pipe,
+    `open_pipe`); `node`: this loop's `RosNode`, connected to the skin node; `settings`: the
+    node's session settings (`skin.read_session_settings(its run.toml)`), for the complete
+    frames that learn its baseline; `joints`: the robot's joints whose positions go out on
+    `joint_states` (the names its URDF gives them, MuJoCo's joints of those names), at every
     skin frame and every `joint_period` s between. A controller `control` is called before
     every step with this loop: `loop.gate` is the last gate action heard."""
 
@@ -331,29 +327,20 @@ class ZenohLoop:
         timeout: float = FRAME_TIMEOUT_S,
         max_events: Optional[int] = MAX_EVENTS,
     ) -> None:
-        self.model, self.data, self.bridge, self.control = model, data, bridge, control
-        bridge.bind(model)
         if bridge.busmap is None:
             raise ArrayError("the bridge has no bus map: a skin node reads CAN traffic (give the config's busmap)")
-        self._joints = JointReader(model, joints, joint_period)
+        self._gate: Optional[str] = None
+        super().__init__(model, data, bridge, None, control=control, max_events=max_events, joints=joints, joint_period=joint_period)
         self._baseline = int(settings["baseline"]["frames"])
         self._can = can
         self._publisher = node.joint_states(joint_states)
         self._listener = SkinListener(node, len(bridge.links), prefix=prefix)
         self._timeout = timeout
-        #: The events heard, oldest first (the latest `max_events`).
-        self.events: Deque = deque(maxlen=max_events)
-        #: The gate's action last heard (None before any).
-        self.gate: Optional[str] = None
-        #: The last frame the skin delivered.
-        self.frame: Optional[SimFrame] = None
-        self.framed = False
         self._cycle = 0
         # The time the node stamps the next frame with: that of its syncs, written a frame ahead.
         self._next_time: Optional[float] = None
         # Complete frames still learning a baseline (the node puts out no tactile_state for them).
         self._learning = self._baseline
-        self._new: List = []
         self._wait_for_node()
 
     def _wait_for_node(self) -> None:
@@ -375,52 +362,43 @@ class ZenohLoop:
             time.sleep(0.01)
 
     @property
-    def time(self) -> float:
-        return float(self.data.time)
-
-    @property
     def joint_states_published(self) -> int:
         """The joint-state messages this loop published."""
         return self._publisher.published
 
-    def new_events(self) -> List:
-        """The events heard since the last call."""
-        new, self._new = self._new, []
-        return new
+    # SkinLoop's session hooks, over Zenoh.
 
-    def _heard(self, events: List) -> None:
+    def _check_session(self) -> None:
+        pass  # the node checks its input against its own layout
+
+    @property
+    def gate(self) -> Optional[str]:
+        """The gate's action last heard (None before any)."""
+        return self._gate
+
+    def _record(self, events: List) -> None:
         for e in events:
             if e.kind == "gate":
-                self.gate = e.action
-        self.events.extend(events)
-        self._new.extend(events)
+                self._gate = e.action
+        super()._record(events)
 
-    def step(self) -> List:
-        """One control step and one MuJoCo step; returns the events heard at it."""
-        if self.control is not None:
-            self.control(self)
-        mujoco = _mujoco()
-        before = self.data.time
-        step = round(before / self.model.opt.timestep)
-        frame_step = step % self.bridge.steps_per_frame == 0
-        # A frame's joint state is stamped with the frame's own time, to the microsecond.
-        stamp = self._next_time if frame_step and self._next_time is not None else before
-        if self._joints.due(step, frame_step):
-            q, v = self._joints.read(self.data)
-            self._publisher.publish(stamp, self._joints.names, q, v)
-        mujoco.mj_step(self.model, self.data)
-        self.framed = frame_step
-        if self.data.time <= before:
-            raise SessionError(f"the simulation diverged at t = {before:.4f} s and MuJoCo reset it (see its warning)")
+    def _stamp(self, before: float) -> float:
+        """The stamp of a frame starting at `before` (s): the time its syncs were written at,
+        to the microsecond as the node reads it."""
+        return self._next_time if self._next_time is not None else before
+
+    def _send_joints(self, joints: JointReader, before: float, frame_step: bool) -> None:
+        # A frame's joint state is stamped with the frame's own time.
+        q, v = joints.read(self.data)
+        self._publisher.publish(self._stamp(before) if frame_step else before, joints.names, q, v)
+
+    def _between(self) -> List:
+        return self._listener.drain()
+
+    def _deliver(self, frame: SimFrame, before: float) -> List:
+        """The frame into the pipe, then (past the baseline) the node's answer to it."""
+        stamp = self._stamp(before)
         heard = self._listener.drain()
-        if frame_step:
-            heard += self._send(self.bridge.frame(self.data), stamp)
-        self._heard(heard)
-        return heard
-
-    def _send(self, frame: SimFrame, stamp: float) -> List:
-        """The frame into the pipe at `stamp` (s), then (past the baseline) the node's answer."""
-        self.frame = frame
         busmap = self.bridge.busmap
         period = self.bridge.steps_per_frame * self.model.opt.timestep
         text = busmap.candump(frame.slots, stamp, self._cycle, frame.missing, sync=self._cycle == 0)
@@ -432,24 +410,14 @@ class ZenohLoop:
         self._can.flush()
         if self._learning > 0:
             self._learning -= int(not frame.missing)
-            return []
+            return heard
         tare = lambda e: e.kind == "tare"
         got = self._listener.wait(_us(stamp), self._timeout, tare)
         told = [e for e in got if tare(e)]
         if told:
             # The tare frame and the next ones learn the baseline again: no tactile_state.
             self._learning = int(told[-1]["frames"]) - int(not frame.missing)
-        return got
-
-    def run(self, seconds: float) -> List:
-        """Steps for `seconds` of simulated time; returns the events heard."""
-        if not (np.isfinite(seconds) and seconds >= 0):
-            raise ArrayError(f"seconds = {seconds}: simulated seconds, 0 or more")
-        out: List = []
-        end = self.data.time + seconds - 0.5 * self.model.opt.timestep
-        while self.data.time < end:
-            out.extend(self.step())
-        return out
+        return heard + got
 
     def finish(self, wait: float = FINISH_TIMEOUT_S) -> List:
         """Ends the skin's input: the pipe closes, the node releases its open touches and ends
@@ -459,7 +427,7 @@ class ZenohLoop:
         self._can.close()
         ended = self._listener.until_gone(wait)
         got = self._listener.drain()
-        self._heard(got)
+        self._record(got)
         if not ended:
             raise SessionError(
                 f"the skin node did not end within {wait:g} s of its input's end: its last events may be missing "
