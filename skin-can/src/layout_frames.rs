@@ -74,6 +74,12 @@ impl LayoutFrames {
         &self.uncovered
     }
 
+    /// Per column of the assembled frames (bus-map order: bus, module, slot): the (link, index
+    /// in the link) it is placed at.
+    pub fn slots(&self) -> &[(usize, usize)] {
+        &self.slots
+    }
+
     /// Taxels of each link.
     pub fn sizes(&self) -> &[usize] {
         &self.sizes

@@ -54,7 +54,12 @@ impl Traffic {
     /// Opens `path` and looks at its first non-blank line (in what the reader has buffered: a
     /// candump line is far shorter than the buffer), reading nothing away from it.
     pub fn open(path: &Path) -> Result<Traffic, TrafficError> {
-        let mut input = Input::open(path, Gzip::Read)?;
+        Traffic::from_input(Input::open(path, Gzip::Read)?, path)
+    }
+
+    /// As [`Traffic::open`], on an input opened elsewhere (bytes in memory, a pipe); `path`
+    /// names it in errors.
+    pub fn from_input(mut input: Input, path: &Path) -> Result<Traffic, TrafficError> {
         let head = input.fill_buf().map_err(|source| TrafficError::Read {
             path: path.to_owned(),
             source,

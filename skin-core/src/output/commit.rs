@@ -96,6 +96,9 @@ impl OutputDir {
     /// Files of the earlier output that this one (`names`) does not have: removed once the new
     /// files are in. The manifest lists them too, so one that cannot be removed stays skin's.
     fn stale(&self, names: &[String]) -> Vec<String> {
+        if self.keep {
+            return Vec::new();
+        }
         let new: BTreeSet<&String> = names.iter().collect();
         self.previous
             .iter()
@@ -111,7 +114,12 @@ impl OutputDir {
     fn records_aside(&self, names: &[String], old: &[String], steps: &mut Steps) -> Result<Aside> {
         let mut listed = names.to_vec();
         listed.extend(old.iter().cloned());
+        if self.keep {
+            let here = |f: &&String| std::fs::symlink_metadata(self.dir.join(f)).is_ok_and(|m| m.is_file());
+            listed.extend(self.previous.iter().filter(here).cloned());
+        }
         listed.sort();
+        listed.dedup();
         let manifest = Manifest {
             command: self.command.clone(),
             files: listed,

@@ -26,6 +26,8 @@ pub struct OutputDir {
     /// while the command ran is not written into (nor removed).
     pub(super) ids: (Option<FileId>, Option<FileId>),
     pub(super) committed: bool,
+    /// The previous output's files stay part of this one ([`OutputDir::keep_previous`]).
+    pub(super) keep: bool,
     _lock: File,
 }
 
@@ -93,6 +95,7 @@ impl OutputDir {
             lock_new,
             ids: (dir_id, staging_id),
             committed: false,
+            keep: false,
             _lock: lock,
         })
     }
@@ -167,6 +170,13 @@ impl OutputDir {
             files: foreign,
             command: command.to_owned(),
         })
+    }
+
+    /// Keeps the previous output's files as part of this one (an output that grows, as a
+    /// dataset appended to does): the commit removes none of them, and the manifest lists them
+    /// with the new files. A new file of the same name still replaces one of them.
+    pub fn keep_previous(&mut self) {
+        self.keep = true;
     }
 
     /// The folder to write the new files into (moved into place by [`OutputDir::commit`]).

@@ -321,6 +321,24 @@ impl std::fmt::Debug for ProcessedFrame<'_> {
     }
 }
 
+/// A frame as it came in, before the baseline or anything else touched it: each link's
+/// readings as the skin sent them (counts on the wire, or a recording's values), layout order.
+/// What a dataset keeps losslessly ([`Sink::raw_frame`](super::Sink::raw_frame)).
+#[derive(Debug, Clone, Copy)]
+pub struct RawFrame<'a> {
+    /// The frame's stamp on the input's clock, µs (as [`ProcessedFrame::time_us`]).
+    pub time_us: u64,
+    /// Seconds from the session's first frame.
+    pub time: f64,
+    /// The frame's number (CAN cycle, or the recording's frame number).
+    pub cycle: u64,
+    /// Every module answered (a missing module's taxels hold their last readings, and an
+    /// [`Event::Incomplete`] names it).
+    pub complete: bool,
+    /// Readings per link, layout order.
+    pub readings: &'a [Vec<f32>],
+}
+
 /// Where a frame image belongs (with [`SessionOptions::frame_images`](super::SessionOptions)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrameView<'a> {

@@ -62,6 +62,14 @@ impl Session {
         complete: bool,
         sink: &mut S,
     ) -> Result<(), SessionError> {
+        let raw = super::RawFrame {
+            time_us,
+            time,
+            cycle,
+            complete,
+            readings: &self.raw,
+        };
+        send(&mut self.stopped, sink, |s| s.raw_frame(&raw))?;
         let result = self.step_frame(time_us, time, cycle, complete, sink);
         let stops = self.gate == Some(skin_control::hri::GateAction::Stop);
         self.tares.set_state(stops, self.base.baselines.is_empty());

@@ -56,7 +56,7 @@ mod tare;
 pub use config::{ForceConfig, SessionConfig, SimConfig, StitchConfig};
 pub use describe::{Description, LinkDescription, Readings, Units};
 pub use error::{ConfigError, InputError, SessionError};
-pub use event::{Event, FrameView, MissingModule, OverForce, ProcessedFrame};
+pub use event::{Event, FrameView, MissingModule, OverForce, ProcessedFrame, RawFrame};
 pub use joint_states::{FEED_CAPACITY, FeedCounts, JointFault, JointProblem, PostureFeed};
 pub use models::{ModelRuntime, OwnModels};
 pub use settings::{BaselineConfig, ContactRule, SessionSettings, SettingError, SplitConfig, TouchConfig};
@@ -499,6 +499,33 @@ impl Session {
     /// The bus map frames are taken from, with [`Session::with_can`].
     pub fn busmap(&self) -> Option<&BusMap> {
         self.setup.can.as_ref().map(|c| &c.busmap)
+    }
+
+    /// Per link, its taxels (layout indices) in the order the input carries them: the bus
+    /// map's (bus, module, slot), then the taxels no bus carries in layout order; layout order
+    /// for a session without a bus map. The order `skin replay -o` writes a log's columns in.
+    pub fn wire_order(&self) -> Vec<Vec<usize>> {
+        let links = &self.setup.links;
+        let Some(can) = &self.setup.can else {
+            return links.iter().map(|l| (0..l.taxels.len()).collect()).collect();
+        };
+        let mut seen: Vec<Vec<bool>> = links.iter().map(|l| vec![false; l.taxels.len()]).collect();
+        let mut order: Vec<Vec<usize>> = vec![Vec::new(); links.len()];
+        for &(l, i) in can.layout.slots() {
+            if !std::mem::replace(&mut seen[l][i], true) {
+                order[l].push(i);
+            }
+        }
+        for (l, s) in seen.iter().enumerate() {
+            order[l].extend(s.iter().enumerate().filter(|(_, s)| !**s).map(|(i, _)| i));
+        }
+        order
+    }
+
+    /// The baselines in use, one per link (layout order): each taxel's offset and noise, in the
+    /// input's units; empty until the first frames have learned them.
+    pub fn baselines(&self) -> &[Baseline] {
+        &self.base.baselines
     }
 
     /// A sink said stop ([`Flow::Break`]): the session takes no more frames.

@@ -9,7 +9,7 @@
 //! Sinks combine whatever their error types: a pair `(A, B)` is a sink, and so is a [`Sinks`]
 //! list of any number; either fails with a [`SinkError`], the failing sink's own error inside.
 
-use super::event::{Event, FrameView, ProcessedFrame};
+use super::event::{Event, FrameView, ProcessedFrame, RawFrame};
 use skin_core::image::ImageView;
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -56,6 +56,14 @@ pub trait Sink {
     /// once, before anything else. Ignored unless implemented.
     fn origin(&mut self, origin_us: u64) -> Result<Flow, Self::Error> {
         let _ = origin_us;
+        Ok(GO)
+    }
+
+    /// Every frame as it came in (the frames that learn the baseline too), before its events:
+    /// each link's readings as the skin sent them. Called on the frame path: keep it short.
+    /// Ignored unless implemented.
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, Self::Error> {
+        let _ = frame;
         Ok(GO)
     }
 
@@ -219,6 +227,10 @@ impl<S: Sink> Sink for Boxed<S> {
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
         self.0.frame(frame).map_err(SinkError::new)
     }
+
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, SinkError> {
+        self.0.raw_frame(frame).map_err(SinkError::new)
+    }
 }
 
 /// Any number of sinks, whatever their error types, as one: each gets everything, in the order
@@ -322,6 +334,10 @@ impl Sink for Sinks<'_> {
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, SinkError> {
         self.each(|s| s.frame(frame))
     }
+
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, SinkError> {
+        self.each(|s| s.raw_frame(frame))
+    }
 }
 
 /// Both sinks get everything, `.0` first, whatever their error types; the run stops if either
@@ -354,6 +370,11 @@ impl<A: Sink, B: Sink> Sink for (A, B) {
         let a = self.0.frame(frame).map_err(SinkError::new)?;
         Ok(both(a, self.1.frame(frame).map_err(SinkError::new)?))
     }
+
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, SinkError> {
+        let a = self.0.raw_frame(frame).map_err(SinkError::new)?;
+        Ok(both(a, self.1.raw_frame(frame).map_err(SinkError::new)?))
+    }
 }
 
 /// A sink that may be absent.
@@ -380,6 +401,10 @@ impl<S: Sink> Sink for Option<S> {
 
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, S::Error> {
         self.as_mut().map_or(Ok(GO), |s| s.frame(frame))
+    }
+
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, S::Error> {
+        self.as_mut().map_or(Ok(GO), |s| s.raw_frame(frame))
     }
 }
 
@@ -415,5 +440,9 @@ impl<S: Sink + ?Sized> Sink for &mut S {
 
     fn frame(&mut self, frame: &ProcessedFrame<'_>) -> Result<Flow, S::Error> {
         (**self).frame(frame)
+    }
+
+    fn raw_frame(&mut self, frame: &RawFrame<'_>) -> Result<Flow, S::Error> {
+        (**self).raw_frame(frame)
     }
 }
