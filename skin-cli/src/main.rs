@@ -11,7 +11,8 @@
 //! contacts; `skin classify` tells hand touches from others with an ONNX model, `skin segment`
 //! labels the hand parts, `skin eval` scores either on a dataset; `skin run` does it all at once,
 //! from CAN traffic (a log or a live bus) to touch decisions, and `skin convert` turns a log or
-//! a recording into a rosbag2 MCAP file without the models; `skin run --view` shows a session
+//! a recording into a rosbag2 MCAP file without the models; `skin export` makes logs and
+//! recordings into a dataset (LeRobot v3 layout, Parquet); `skin run --view` shows a session
 //! live in a browser and `skin view` replays an MCAP file there. Run `skin help <command>` for details.
 
 mod busmap_cmd;
@@ -22,6 +23,7 @@ mod convert_cmd;
 mod degrade_cmd;
 #[cfg(feature = "onnx")]
 mod eval_cmd;
+mod export_cmd;
 mod flatten_cmd;
 mod force_cmd;
 mod image_cmd;
@@ -84,6 +86,7 @@ enum Command {
     Eval(eval_cmd::Args),
     Run(run_cmd::Args),
     Convert(convert_cmd::Args),
+    Export(export_cmd::Args),
     #[cfg(feature = "mcap")]
     View(view_cmd::Args),
 }
@@ -118,6 +121,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval_cmd::run(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Convert(args) => convert_cmd::run(args),
+        Command::Export(args) => export_cmd::run(args),
         #[cfg(feature = "mcap")]
         Command::View(args) => view_cmd::run(args),
     };
