@@ -13,6 +13,9 @@ session, with numpy arrays in and out::
     for event in session.run_log("fixtures/session/session.candump.log"):
         print(event.kind, event.time, getattr(event, "class", None))
 
+    skin.export(["fixtures/session/session.candump.log"], "fixtures/session/run.toml", "dataset")
+    # a LeRobot v3 dataset: raw counts per frame, events, contacts (skin.ray: on a Ray cluster)
+
 Units: metres, seconds, raw counts (pressures above the baseline in events); each event
 kind's fields as types in `skin.events`. Errors are
 `SkinError` subclasses carrying the command line's messages; bad arguments are `ArrayError`
@@ -50,6 +53,7 @@ from ._skin import (
     __version__,
     calibrate,
     calibrate_force,
+    export,
     flatten,
     read_grey,
     read_layout,
@@ -96,6 +100,7 @@ __all__ = [
     "calibrate",
     "calibrate_force",
     "events",
+    "export",
     "flatten",
     "read_grey",
     "read_layout",

@@ -496,8 +496,31 @@ def synthesize(
     blind_radius_mm: Optional[float] = None,  # 40.0; only with blind_spots
     blind_share: Optional[float] = None,  # 0.3; only with blind_spots
     small_objects: float = 0.0,  # share of non-hand samples that are small rigid prints (knob, rod)
+    part: Optional[Tuple[int, int]] = None,  # (start, stop): only samples start..stop-1 of the count
 ) -> Dict[str, Any]:
     """In parallel, the GIL released; Ctrl-C raises KeyboardInterrupt within a sample."""
+def export(
+    inputs: Sequence[_Path],
+    config: _Path,
+    out: _Path,
+    *,
+    task: str = "skin session",
+    robot_type: Optional[str] = None,
+    fps: Optional[int] = None,  # measured from the first input's stamps
+    append: bool = False,
+) -> Dict[str, Any]:
+    """Logs or recordings as a LeRobot v3 dataset, an episode each, as `skin export` writes it."""
+def export_bytes(
+    name: _Path,
+    data: bytes,
+    config: _Path,
+    out: _Path,
+    *,
+    task: str = "skin session",
+    robot_type: Optional[str] = None,
+    fps: Optional[int] = None,
+) -> Dict[str, Any]:
+    """One log or recording held in memory as a new dataset of one episode; the GIL released."""
 def read_grey(path: _Path) -> npt.NDArray[np.uint8]: ...
 
 @final

@@ -10,6 +10,7 @@
 //! | `Session`, `Event`, `Contact`, `read_sim_config`, `read_session_settings`, Python models | skin-learn session ([`session`], [`models`]) |
 //! | `read_probes`, `calibrate` | skin-learn calibration ([`calibration`]) |
 //! | `synthesize`, `read_grey`, `Dataset` | skin-learn synth, dataset ([`synth`]) |
+//! | `export`, `export_bytes` | skin-dataset ([`export`]) |
 //! | `TaskStack` | skin-control ([`control`]) |
 //! | `_ros_*`, `_rmw_zenoh_*` (for `skin.sim.zenoh`), `BusMap.candump` | skin-ros, skin-can ([`ros`]) |
 
@@ -18,6 +19,7 @@ mod calibration;
 mod control;
 mod errors;
 mod event;
+mod export;
 mod force;
 mod geometry;
 mod interrupt;
@@ -80,6 +82,8 @@ fn _skin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synth::synthesize, m)?)?;
     m.add_function(wrap_pyfunction!(synth::read_grey, m)?)?;
     m.add_class::<synth::Dataset>()?;
+    m.add_function(wrap_pyfunction!(export::export, m)?)?;
+    m.add_function(wrap_pyfunction!(export::export_bytes, m)?)?;
     m.add_class::<control::TaskStack>()?;
     Ok(())
 }

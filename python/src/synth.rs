@@ -29,11 +29,16 @@ const MAX_BYTES: usize = 8 << 30;
 /// `remove_up_to` with `thinned_share` (0.5), `blind_spots` with `blind_radius_mm` (40) and
 /// `blind_share` (0.3), `small_objects` (0: the share of non-hand samples that are small rigid
 /// prints, a knob or a rod); a share or radius given without the option it belongs to is refused.
+///
+/// `part=(start, stop)` makes only samples `start` to `stop - 1` of the `count`: the same arrays
+/// as `synthesize(map, count)[start:stop]`, each sample a function of the seed, its subject and
+/// its index alone, so that shards made anywhere, in any order, join into the whole set
+/// (`skin.ray.synthesize`).
 #[pyfunction]
 #[pyo3(signature = (
     map, count, *, seed = None, subjects = None, size = None, hand_fraction = 0.5,
     mask_labels = "pressing", remove_up_to = None, thinned_share = None, blind_spots = None,
-    blind_radius_mm = None, blind_share = None, small_objects = 0.0
+    blind_radius_mm = None, blind_share = None, small_objects = 0.0, part = None
 ))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin synth` has options
 pub(crate) fn synthesize<'py>(
@@ -51,8 +56,16 @@ pub(crate) fn synthesize<'py>(
     blind_radius_mm: Option<f64>,
     blind_share: Option<f64>,
     small_objects: f64,
+    part: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let count = arrays::count("count", count)?;
+    let (start, stop) = part.map_or(Ok((0, count)), |p| arrays::pair("part", p))?;
+    if start >= stop || stop > count {
+        return Err(arg(
+            "part",
+            format!("({start}, {stop}): expected start < stop <= count ({count})"),
+        ));
+    }
     let seed = seed.map_or(Ok(1), |s| arrays::count("seed", s))? as u64;
     let subjects = subjects.map(|s| arrays::count("subjects", s)).transpose()?;
     if subjects == Some(0) {
@@ -64,12 +77,13 @@ pub(crate) fn synthesize<'py>(
         return Err(arg("count", "0: at least one sample"));
     }
     let n = map.inner.ids.len();
-    let bytes = count.saturating_mul(image.pixels() * 2 + n * 5);
+    let bytes = (stop - start).saturating_mul(image.pixels() * 2 + n * 5);
     if bytes > MAX_BYTES {
         return Err(arg(
             "count",
             format!(
-                "{count} samples would take {:.1} GB; at most {} GB a call",
+                "{} samples would take {:.1} GB; at most {} GB a call",
+                stop - start,
                 bytes as f64 / 1e9,
                 MAX_BYTES >> 30
             ),
@@ -115,23 +129,25 @@ pub(crate) fn synthesize<'py>(
         &map.inner,
         seed,
     )?;
-    let samples = sample_all(py, &synth, seed, subjects, count)?;
+    let samples = sample_all(py, &synth, seed, subjects, count, start..stop)?;
     samples_dict(py, &samples, image, map.inner.ids.len())
 }
 
-/// The `count` samples of `subjects` subjects, made in parallel with the GIL released (sample i
-/// belongs to subject i * subjects / count); Ctrl-C stops it within a sample.
+/// Samples `part` of the `count` samples of `subjects` subjects, made in parallel with the GIL
+/// released (sample i belongs to subject i * subjects / count); Ctrl-C stops it within a
+/// sample.
 fn sample_all(
     py: Python<'_>,
     synth: &Synthesizer,
     seed: u64,
     subjects: usize,
     count: usize,
+    part: std::ops::Range<usize>,
 ) -> PyResult<Vec<skin_learn::synth::Sample>> {
     let watch = Watch::new();
     let samples: Option<Vec<_>> = py.detach(|| {
         interrupt::on_worker(&watch, |stop| {
-            (0..count)
+            part.clone()
                 .into_par_iter()
                 .map_init(
                     || synth.clone(),

@@ -57,3 +57,15 @@ def shared(*parts: str) -> Path:
     if not path.exists():
         pytest.skip(f"{path} is absent: the real third-party data lives in ../shared/data")
     return path
+
+
+@pytest.fixture(scope="session")
+def ray_local():
+    """A local Ray instance of two CPUs (as CI's machine has), started once for the whole run:
+    Ray Data reading datasets back and running skin.ray's recipe."""
+    ray = pytest.importorskip("ray", reason="Ray is not installed: pip install ray[data] (python/tests/requirements.txt)")
+    if not ray.is_initialized():
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    ctx = ray.data.DataContext.get_current()
+    ctx.enable_progress_bars = False
+    yield ray

@@ -39,3 +39,22 @@ def test_example_runs(name):
         assert "m from the shoulder" in out and "1 touch(es)" in out, out
     else:
         assert "200 images" in out and "dataset of 40" in out
+
+
+def test_the_readmes_at_scale_recipe_runs_as_written(tmp_path):
+    """README, "At scale": its first Python block, as a user pastes it at the repository's root
+    (here a copy of the root's fixtures, so its out/ is the test's), run twice: the second run
+    converts nothing again."""
+    pytest.importorskip("ray", reason="Ray is not installed: pip install ray[data]")
+    text = (REPO / "README.md").read_text()
+    section = text[text.index("## At scale") :]
+    block = section[section.index("```python\n") + len("```python\n") :]
+    block = block[: block.index("```\n")]
+    (tmp_path / "fixtures").symlink_to(REPO / "fixtures")
+    (tmp_path / "target").symlink_to(REPO / "target")
+    for run, expected in ((1, "{'converted': 8, 'skipped': 0, 'failed': 0}"), (2, "{'converted': 0, 'skipped': 8, 'failed': 0}")):
+        done = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        assert done.stdout.strip().splitlines()[-1] == expected, (run, done.stdout)
+    datasets = [d for d in (tmp_path / "out" / "fleet").iterdir()]
+    assert len(datasets) == 8 and all((d / "meta" / "info.json").is_file() for d in datasets)
