@@ -7,7 +7,7 @@ The recipe (README, "At scale")::
     ray.init()                                   # or ray.init(address="ray://head:10001")
     report = (
         ray.data.read_binary_files(logs, include_paths=True)
-        .map_batches(skin.ray.Convert("run.toml", "fleet"), batch_size=1, concurrency=2)
+        .map_batches(skin.ray.Convert("run.toml", "fleet"), batch_size=1)
     )
     report.write_parquet("fleet-report")         # a row per input: converted, skipped, failed
 
@@ -58,22 +58,37 @@ def finished(dataset: _Path) -> bool:
 
 
 def _rows(batch: Any) -> List[tuple]:
-    """The (path, bytes) of each row of a ``read_binary_files(..., include_paths=True)`` batch
-    (a dict of arrays, a pandas frame or a pyarrow table)."""
+    """The (path, bytes) of each row of a batch: ``read_binary_files(..., include_paths=True)``
+    rows (``bytes`` and ``path``), or rows of paths alone (``path``: each worker reads its own
+    file, from storage every node sees), as a dict of arrays, a pandas frame or a pyarrow table.
+    ``bytes`` is None for a path alone."""
     if hasattr(batch, "to_pydict"):
         batch = batch.to_pydict()
     elif hasattr(batch, "to_dict") and not isinstance(batch, dict):
         batch = {k: list(v) for k, v in batch.to_dict("list").items()}
+    if "bytes" not in batch and "path" not in batch:
+        raise SkinError("a batch of skin.ray needs a 'bytes' column (ray.data.read_binary_files) or a 'path' column")
     if "bytes" not in batch:
-        raise SkinError("a batch of skin.ray needs a 'bytes' column (ray.data.read_binary_files)")
+        return [(str(p), None) for p in batch["path"]]
     data = list(batch["bytes"])
     paths = list(batch["path"]) if "path" in batch else [f"input-{i}" for i in range(len(data))]
     return [(str(p), bytes(d)) for p, d in zip(paths, data)]
 
 
+def _file_sha256(path: str) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 class Convert:
     """A ``map_batches`` callable: each input of the batch (``bytes``, and ``path`` with
-    ``include_paths=True``) exported to ``OUT/<sha256>/`` as ``skin export`` exports it, through
+    ``include_paths=True``; or ``path`` alone, read by the worker) exported to
+    ``OUT/<sha256>/`` as ``skin export`` exports it, through
     a session of ``config`` (run.toml; its paths must be readable on every worker). Returns one
     row per input (``REPORT_COLUMNS``): ``status`` is ``converted``, ``skipped`` (its dataset was
     there whole) or ``failed`` (``error`` names the file and what is wrong: a corrupt log among
@@ -97,7 +112,14 @@ class Convert:
         os.makedirs(self.out, exist_ok=True)
         rows: Dict[str, List[Any]] = {k: [] for k in REPORT_COLUMNS}
         for path, data in _rows(batch):
-            sha = _sha256(data)
+            try:
+                sha = _sha256(data) if data is not None else _file_sha256(path)
+            except OSError as e:
+                sha = ""
+                status, error, frames, events, dataset = "failed", f"{path}: {e.strerror}", 0, 0, ""
+                for k, v in zip(REPORT_COLUMNS, (path, sha, status, frames, events, dataset, error)):
+                    rows[k].append(v)
+                continue
             dataset = os.path.join(self.out, sha)
             frames = events = 0
             error = ""
@@ -105,7 +127,12 @@ class Convert:
                 status = "skipped"
             else:
                 try:
-                    s = _skin.export_bytes(path, data, self.config, dataset, **self.options)
+                    if data is None:
+                        s = _skin.export([path], self.config, dataset, **self.options)
+                        if s["failed"]:
+                            raise SkinError(s["failed"][0][1])
+                    else:
+                        s = _skin.export_bytes(path, data, self.config, dataset, **self.options)
                     status = "converted"
                     frames = int(s["frames"])
                     events = int(s["added"][0]["events"])
@@ -137,10 +164,13 @@ class _Tables:
         for path, data in _rows(batch):
             with tempfile.TemporaryDirectory(prefix="skin-ray-") as tmp:
                 out = os.path.join(tmp, "dataset")
-                _skin.export_bytes(path, data, self.config, out, **self.options)
+                if data is None:
+                    s = _skin.export([path], self.config, out, **self.options)
+                else:
+                    s = _skin.export_bytes(path, data, self.config, out, **self.options)
                 t = pq.read_table(os.path.join(out, self.table))
             t = t.append_column("source", pa.array([path] * t.num_rows, pa.string()))
-            t = t.append_column("sha256", pa.array([_sha256(data)] * t.num_rows, pa.string()))
+            t = t.append_column("sha256", pa.array([s["added"][0]["sha256"]] * t.num_rows, pa.string()))
             tables.append(t)
         if not tables:
             return pa.table({})
@@ -245,7 +275,7 @@ def synthesize(
     ``hand``, ``kind``, ``subject``, ``partial``, ``fingertips``, ``pressures``,
     ``taxel_parts``, ``removed``, ``dead``). ``options`` are ``skin.synthesize``'s (``seed``,
     ``subjects``, ``size`` ...). Each sample depends on the seed, its subject and its index
-    alone, so the files are the same bytes whatever ``workers`` (Ray's concurrency; default all
+    alone, so the files are the same bytes whatever ``workers`` (tasks at once; default all
     of the cluster's CPUs); a shard already written is kept, so a rerun makes only the missing
     ones. Returns the shard files, in order."""
     import ray
@@ -259,7 +289,7 @@ def synthesize(
     shard = _Shard(os.path.abspath(os.fspath(layout)), link, count, out, dict(options))
     kwargs: Dict[str, Any] = {"batch_size": 1, "num_cpus": 1}
     if workers is not None:
-        kwargs["concurrency"] = workers
+        kwargs["compute"] = ray.data.TaskPoolStrategy(size=workers)
     ds = ray.data.from_items([{"start": a, "stop": b} for a, b in zip(bounds["start"], bounds["stop"])])
     names = ds.map_batches(shard, **kwargs).take_all()
     return sorted(str(r["file"]) for r in names)

@@ -125,7 +125,7 @@ pub(crate) fn export_bytes<'py>(
             let source = Source::from_bytes(&name, data)?;
             let mut session = Session::from_config(&config).map_err(|error| DatasetError::Session {
                 input: name.clone(),
-                error,
+                error: Box::new(error),
             })?;
             export_source(&mut dataset, &mut session, source)?;
             dataset.finish()

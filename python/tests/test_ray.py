@@ -54,7 +54,7 @@ def serial(config, logs, out):
 
 def recipe(config, inputs, out, concurrency=2):
     ds = ray.data.read_binary_files([str(p) for p in inputs], include_paths=True)
-    report = ds.map_batches(skin.ray.Convert(config, out), batch_size=1, concurrency=concurrency)
+    report = ds.map_batches(skin.ray.Convert(config, out), batch_size=1, compute=ray.data.TaskPoolStrategy(size=concurrency))
     return report.take_all()
 
 
@@ -95,7 +95,7 @@ class Slow(skin.ray.Convert):
         return out
 ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False)
 config, out, *logs = sys.argv[1:]
-ray.data.read_binary_files(logs, include_paths=True).map_batches(Slow(config, out), batch_size=1, concurrency=1).take_all()
+ray.data.read_binary_files(logs, include_paths=True).map_batches(Slow(config, out), batch_size=1, compute=ray.data.TaskPoolStrategy(size=1)).take_all()
 """
 
 

@@ -336,13 +336,12 @@ impl Dataset {
     }
 }
 
-/// Finishes a table file: footer written, flushed, synced.
+/// Finishes a table file: footer written, flushed (not synced: skin's outputs are whole once
+/// renamed into place, as every output of skin_core::output is, without an fsync per file).
 pub(crate) fn finish_table(table: TableFile, path: &Path) -> Result<()> {
     let out = table.finish().map_err(|e| table_error(path, e))?;
-    let file = out
-        .into_inner()
+    out.into_inner()
         .map_err(|e| crate::io_error(path, e.into_error()))?;
-    file.sync_all().map_err(|e| crate::io_error(path, e))?;
     Ok(())
 }
 

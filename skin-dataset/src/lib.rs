@@ -90,8 +90,9 @@ pub enum DatasetError {
     Session {
         /// The input.
         input: PathBuf,
-        /// What the session said.
-        error: SessionError,
+        /// What the session said (boxed: a session's error is large, and every `Result` of
+        /// this crate would carry its size).
+        error: Box<SessionError>,
     },
     /// A table could not be written.
     #[error("{}: {source}", path.display())]
@@ -187,7 +188,10 @@ pub fn export_source(dataset: &mut Dataset, session: &mut Session, source: Sourc
     };
     match run {
         Ok(()) => episode.finish(session),
-        Err(error) => Err(DatasetError::Session { input: path, error }),
+        Err(error) => Err(DatasetError::Session {
+            input: path,
+            error: Box::new(error),
+        }),
     }
 }
 
@@ -217,7 +221,7 @@ pub fn export_files(
         let result = Source::open(path).map_err(DatasetError::from).and_then(|source| {
             let mut s = session().map_err(|error| DatasetError::Session {
                 input: path.clone(),
-                error,
+                error: Box::new(error),
             })?;
             export_source(&mut dataset, &mut s, source)
         });

@@ -39,7 +39,7 @@ fn rows(path: &Path) -> Vec<Row> {
 }
 
 fn get<'a>(row: &'a Row, name: &str) -> &'a Field {
-    &row.get_column_iter()
+    row.get_column_iter()
         .find(|(k, _)| *k == name)
         .unwrap_or_else(|| panic!("no column {name}"))
         .1
@@ -74,7 +74,7 @@ fn a_log_comes_back_frame_by_frame_in_bus_map_order() {
     let log = repo().join("fixtures/arm/touch.candump.log");
     let root = tmp.path().join("ds");
     let export = export_files(
-        &[log.clone()],
+        std::slice::from_ref(&log),
         &mut || Session::from_config(&config),
         &root,
         DatasetOptions::default(),
@@ -208,18 +208,30 @@ fn episodes_append_to_a_dataset_of_the_same_skin_and_nothing_else() {
     let log = repo().join("fixtures/forearm/touches.candump.log");
     let root = tmp.path().join("ds");
     let mut session = || Session::from_config(&config);
-    export_files(&[log.clone()], &mut session, &root, DatasetOptions::default()).unwrap();
+    export_files(
+        std::slice::from_ref(&log),
+        &mut session,
+        &root,
+        DatasetOptions::default(),
+    )
+    .unwrap();
     let first = std::fs::read(root.join("data/chunk-000/file-000.parquet")).unwrap();
 
     // Again without --append: refused, the dataset untouched.
-    let e = export_files(&[log.clone()], &mut session, &root, DatasetOptions::default()).unwrap_err();
+    let e = export_files(
+        std::slice::from_ref(&log),
+        &mut session,
+        &root,
+        DatasetOptions::default(),
+    )
+    .unwrap_err();
     assert!(matches!(e, DatasetError::Exists { episodes: 1, .. }), "{e}");
 
     let append = DatasetOptions {
         append: true,
         ..DatasetOptions::default()
     };
-    let s = export_files(&[log.clone()], &mut session, &root, append.clone())
+    let s = export_files(std::slice::from_ref(&log), &mut session, &root, append.clone())
         .unwrap()
         .summary
         .unwrap();
