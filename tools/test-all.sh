@@ -4,7 +4,7 @@
 # command the first step built, then the live view's in a real browser (skin-view/tests/browser:
 # headless Chromium from the distribution's packages, driven by Selenium). Needs a Rust toolchain
 # and Python 3.9 or later (with venv; 3.11 or later for skin.sim's MuJoCo tests); pip fetches
-# maturin, pytest, onnxruntime, MuJoCo, selenium and pillow from the package registry. Without /usr/bin/chromium and /usr/bin/chromedriver
+# maturin, pytest, onnxruntime, MuJoCo, Ray, HF datasets, pyarrow, selenium and pillow from the package registry. Without /usr/bin/chromium and /usr/bin/chromedriver
 # (apt-get install chromium chromium-driver) the browser tests skip, saying so, unless
 # SKIN_REQUIRE_BROWSER is set (CI sets it).
 set -euo pipefail
