@@ -66,6 +66,8 @@ __all__ = [
     "calibrate",
     "calibrate_force",
     "synthesize",
+    "export",
+    "export_bytes",
     "read_grey",
     "Dataset",
     "TaskStack",
@@ -504,7 +506,7 @@ def export(
     config: _Path,
     out: _Path,
     *,
-    task: str = "skin session",
+    task: Optional[str] = None,  # "skin session"
     robot_type: Optional[str] = None,
     fps: Optional[int] = None,  # measured from the first input's stamps
     append: bool = False,
@@ -516,7 +518,7 @@ def export_bytes(
     config: _Path,
     out: _Path,
     *,
-    task: str = "skin session",
+    task: Optional[str] = None,  # "skin session"
     robot_type: Optional[str] = None,
     fps: Optional[int] = None,
 ) -> Dict[str, Any]:

@@ -108,8 +108,33 @@ class Convert:
         self.out = os.path.abspath(os.fspath(out))
         self.options: Dict[str, Any] = {"task": task, "robot_type": robot_type, "fps": fps}
 
-    def __call__(self, batch: Any) -> Dict[str, np.ndarray]:
+    def _check_out(self) -> None:
+        """OUT belongs to one configuration: its datasets are skipped by the inputs' hashes
+        alone, so a rerun with another run.toml (or task, or fps) must not find them there. The
+        first call records the configuration's SHA-256 and the options in ``OUT/.skin-convert.json``;
+        a call with others is refused."""
+        import json
+
+        with open(self.config, "rb") as f:
+            mine = {"config_sha256": _sha256(f.read()), **{k: v for k, v in self.options.items()}}
         os.makedirs(self.out, exist_ok=True)
+        path = os.path.join(self.out, ".skin-convert.json")
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            with open(path, encoding="utf-8") as f:
+                theirs = json.load(f)
+            if theirs != mine:
+                raise SkinError(
+                    f"{self.out} holds datasets of another configuration or options ({theirs}, "
+                    f"not {mine}): convert into another folder"
+                ) from None
+            return
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(mine, f)
+
+    def __call__(self, batch: Any) -> Dict[str, np.ndarray]:
+        self._check_out()
         rows: Dict[str, List[Any]] = {k: [] for k in REPORT_COLUMNS}
         for path, data in _rows(batch):
             try:
@@ -181,16 +206,20 @@ class Frames(_Tables):
     """A ``map_batches`` callable: the per-frame table of each input (one row per frame:
     ``timestamp``, ``frame_index``, ``time_us``, ``cycle``, ``complete``, and
     ``observation.tactile.<link>``, the link's raw counts as float32 lists in the bus map's
-    order), with ``source`` and ``sha256``. Raises ``InputError`` naming an input that cannot
-    be read (use ``Convert`` to convert many and report the bad ones)."""
+    order, a recording's in the layout's), with ``source`` and ``sha256``; each input is an
+    episode of its own, so ``episode_index`` is 0 and ``frame_index`` counts from 0 in every
+    one (``source`` tells them apart). Raises ``InputError`` naming an input that cannot be
+    read (use ``Convert`` to convert many and report the bad ones)."""
 
     table = "data"
 
 
 class Touches(_Tables):
-    """A ``map_batches`` callable: the per-touch table of each input (one row per event of a
-    touch: ``kind`` appeared, classified, released ..., ``link``, ``touch``, ``timestamp``,
-    ``frame_index``, and the event's whole ``json``), with ``source`` and ``sha256``."""
+    """A ``map_batches`` callable: the events table of each input, with ``source`` and
+    ``sha256``: one row per event, ``kind`` (a touch's appeared, classified, released, and the
+    session's own: incomplete, gate, tare ...), ``link`` and ``touch`` where the event has
+    them, ``timestamp``, ``frame_index``, and the event's whole ``json``. A touch's rows share
+    its ``touch``; its ``released`` row sums it up."""
 
     table = "events"
 
@@ -244,8 +273,9 @@ class _Shard:
             },
             metadata={b"skin.image_size": f"{s['images'].shape[1]}x{s['images'].shape[2]}".encode()},
         )
-        # Written aside and moved into place: a shard file is whole or absent.
-        tmp = path + f".partial-{os.getpid()}"
+        # Written aside (a hidden name, which pyarrow's and Ray's readers skip) and moved into
+        # place: a shard file is whole or absent.
+        tmp = os.path.join(self.out, f".{name}.partial-{os.getpid()}")
         pq.write_table(table, tmp)
         os.replace(tmp, path)
         return name
@@ -277,13 +307,33 @@ def synthesize(
     ``subjects``, ``size`` ...). Each sample depends on the seed, its subject and its index
     alone, so the files are the same bytes whatever ``workers`` (tasks at once; default all
     of the cluster's CPUs); a shard already written is kept, so a rerun makes only the missing
-    ones. Returns the shard files, in order."""
+    ones (``out/.skin-synthesize.json`` records the set's parameters: a rerun with others is
+    refused). Returns the shard files, in order."""
     import ray
 
     if count < 1 or shard_size < 1:
         raise SkinError(f"synthesize: count ({count}) and shard_size ({shard_size}) must be at least 1")
+    import json
+
     out = os.path.abspath(os.fspath(out))
     os.makedirs(out, exist_ok=True)
+    # The shards kept by a rerun must be of the same set: its parameters are recorded once.
+    with open(os.fspath(layout), "rb") as f:
+        params = {"layout_sha256": _sha256(f.read()), "link": link, "count": count, "shard_size": shard_size,
+                  "options": {k: (list(v) if isinstance(v, tuple) else v) for k, v in sorted(options.items())}}
+    record = os.path.join(out, ".skin-synthesize.json")
+    if os.path.exists(record):
+        with open(record, encoding="utf-8") as f:
+            theirs = json.load(f)
+        if theirs != params:
+            raise SkinError(f"{out} holds shards of another set ({theirs}, not {params}): synthesize into another folder")
+    else:
+        with open(record, "w", encoding="utf-8") as f:
+            json.dump(params, f)
+    # What a killed worker left: its hidden temporary files (of this folder's shards alone).
+    for name in os.listdir(out):
+        if name.startswith(".shard-") and ".partial-" in name:
+            os.remove(os.path.join(out, name))
     starts = list(range(0, count, shard_size))
     bounds = {"start": np.array(starts), "stop": np.array([min(s + shard_size, count) for s in starts])}
     shard = _Shard(os.path.abspath(os.fspath(layout)), link, count, out, dict(options))
@@ -300,8 +350,7 @@ def pending(paths: Sequence[_Path], out: _Path) -> List[str]:
     bytes, read here): what a rerun of ``Convert`` still has to do, to size it or list it."""
     left = []
     for p in paths:
-        with open(p, "rb") as f:
-            sha = _sha256(f.read())
+        sha = _file_sha256(os.fspath(p))
         if not finished(os.path.join(os.fspath(out), sha)):
             left.append(os.fspath(p))
     return left

@@ -13,8 +13,9 @@ fn raise(e: &DatasetError) -> PyErr {
     errors::raise(Kind::Input, e)
 }
 
+/// The options; `task` defaults to `skin export`'s ("skin session").
 fn options(
-    task: String,
+    task: Option<String>,
     robot_type: Option<String>,
     fps: Option<u32>,
     append: bool,
@@ -23,7 +24,7 @@ fn options(
         return Err(errors::arg("fps", "0: at least 1 frame a second"));
     }
     Ok(DatasetOptions {
-        task,
+        task: task.unwrap_or_else(|| DatasetOptions::default().task),
         robot_type,
         fps,
         append,
@@ -58,18 +59,19 @@ fn summary_dict<'py>(py: Python<'py>, s: &DatasetSummary) -> PyResult<Bound<'py,
 
 /// Candump logs or raw recordings as a dataset in the LeRobot v3 layout, as `skin export`
 /// writes it: an episode per input, each through a session of `config` (run.toml). Returns
-/// the summary (a dict; `failed` lists `(path, message)` of the inputs left out). Raises
+/// the summary (a dict; `failed` lists `(path, message)` of the inputs left out, each also
+/// a `SkinWarning`). Raises
 /// `InputError` when the folder is refused (a dataset already there without `append`) or when
 /// no input could be exported (naming each).
 #[pyfunction]
-#[pyo3(signature = (inputs, config, out, *, task = "skin session".to_owned(), robot_type = None, fps = None, append = false))]
+#[pyo3(signature = (inputs, config, out, *, task = None, robot_type = None, fps = None, append = false))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `skin export` has options
 pub(crate) fn export<'py>(
     py: Python<'py>,
     inputs: Vec<PathBuf>,
     config: PathBuf,
     out: PathBuf,
-    task: String,
+    task: Option<String>,
     robot_type: Option<String>,
     fps: Option<u32>,
     append: bool,
@@ -94,6 +96,9 @@ pub(crate) fn export<'py>(
             format!("no input could be exported:\n{}", lines.join("\n")),
         ));
     };
+    for (_, message) in &failed {
+        errors::warn(py, &format!("left out: {message}"))?;
+    }
     let d = summary_dict(py, summary)?;
     d.set_item("failed", failed)?;
     Ok(d)
@@ -104,7 +109,7 @@ pub(crate) fn export<'py>(
 /// episode). Returns the summary as `export` does; raises `InputError` naming `name` when it
 /// cannot be exported, leaving nothing at `out`.
 #[pyfunction]
-#[pyo3(signature = (name, data, config, out, *, task = "skin session".to_owned(), robot_type = None, fps = None))]
+#[pyo3(signature = (name, data, config, out, *, task = None, robot_type = None, fps = None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments, as `export`
 pub(crate) fn export_bytes<'py>(
     py: Python<'py>,
@@ -112,7 +117,7 @@ pub(crate) fn export_bytes<'py>(
     data: Vec<u8>,
     config: PathBuf,
     out: PathBuf,
-    task: String,
+    task: Option<String>,
     robot_type: Option<String>,
     fps: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {

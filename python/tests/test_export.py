@@ -225,3 +225,8 @@ def test_events_are_the_sessions_events(dataset, builtin_session_events):
     assert [json.loads(e["json"]) for e in events] == [e.to_dict() for e in builtin_session_events]
     frames = [e["frame_index"] for e in events]
     assert frames == sorted(frames)
+    # An incomplete frame's event is on that frame.
+    complete = pq.read_table(out / "data" / "chunk-000" / "file-000.parquet", columns=["complete"]).column("complete")
+    for e in events:
+        if e["kind"] == "incomplete":
+            assert complete[e["frame_index"]].as_py() is False, e

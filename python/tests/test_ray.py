@@ -81,6 +81,9 @@ def test_the_recipe_converts_as_the_serial_export_and_names_the_corrupt_log(flee
         row = by_path[log.name]
         same_files(Path(row["dataset"]), tmp_path / "serial" / log.name)
     assert leftovers(tmp_path / "out") == []
+    # The folder is this configuration's: another task (or run.toml) is refused, not skipped.
+    with pytest.raises(skin.SkinError, match="another configuration"):
+        skin.ray.Convert(config, tmp_path / "out", task="other")({"path": [str(logs[0])]})
     # The per-input report as the recipe writes it, with Ray's own writer.
     ray.data.from_items(rows).write_parquet(str(tmp_path / "report"))
     assert ray.data.read_parquet(str(tmp_path / "report")).count() == LOGS + 1
@@ -153,6 +156,9 @@ def test_synthesize_gives_the_same_bytes_on_one_worker_and_two(tmp_path, ray_loc
     assert one == two and len(one) == 8
     for name in one:
         assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes(), name
+    # A rerun into the folder keeps its shards only for the same set.
+    with pytest.raises(skin.SkinError, match="another set"):
+        skin.ray.synthesize(layout, 20_000, tmp_path / "one", shard_size=2_500, workers=1, seed=8)
     # The shards are the whole set: the same as one call, sample for sample.
     import pyarrow.parquet as pq
 

@@ -28,8 +28,9 @@ use std::path::PathBuf;
 /// Read back with pyarrow, HF datasets (`load_dataset("parquet", data_files=
 /// "DATASET/data/*/*.parquet")`), Ray (`ray.data.read_parquet("DATASET/data")`) or LeRobot.
 /// The dataset appears whole or not at all; --append adds episodes to a dataset of the same
-/// skin and frame rate. An input that fails is named and left out, the others are written, and
-/// the command exits with status 1.
+/// skin and frame rate. The inputs of one dataset are all logs or all recordings (their readings
+/// come in different orders). An input that fails is named and left out, the others are
+/// written, and the command exits with status 1.
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -91,8 +92,9 @@ pub fn run(args: Args) -> Result<()> {
             s.fps
         );
     }
-    for (path, error) in &export.failed {
-        eprintln!("error: {}: left out: {error}", path.display());
+    // Each error names its input.
+    for (_, error) in &export.failed {
+        eprintln!("error: left out: {error}");
     }
     if !export.failed.is_empty() {
         bail!(

@@ -134,7 +134,8 @@ impl Dataset {
         if cut_short && options.append {
             return Err(DatasetError::NotSkins {
                 path: root.to_owned(),
-                why: "its last export was cut short (INCOMPLETE): export it again, without --append"
+                why: "its last export was cut short (INCOMPLETE): files it lists may be missing; \
+                      export every input of it again, into a new folder"
                     .to_owned(),
             });
         }
@@ -147,6 +148,15 @@ impl Dataset {
                 episodes: b.episodes,
             });
         }
+        if let (Some(b), Some(want)) = (&before, options.fps)
+            && b.fps != want
+        {
+            return Err(DatasetError::FpsAsked {
+                root: root.to_owned(),
+                dataset: b.fps,
+                asked: want,
+            });
+        }
         let mut out = OutputDir::create(root, COMMAND, false, inputs)?;
         if before.is_some() {
             out.keep_previous();
@@ -155,15 +165,6 @@ impl Dataset {
             Some(b) => (Some(b.skin.clone()), Some(b.fps)),
             None => (None, options.fps),
         };
-        if let (Some(b), Some(want)) = (&before, options.fps)
-            && b.fps != want
-        {
-            return Err(DatasetError::Rate {
-                input: root.to_owned(),
-                fps: f64::from(want),
-                dataset: b.fps,
-            });
-        }
         Ok(Dataset {
             root: root.to_owned(),
             next_episode: before.as_ref().map_or(0, |b| b.episodes),
@@ -366,7 +367,7 @@ fn episode_columns(links: &[LinkMeta]) -> Vec<Column> {
         ("meta/episodes/file_index", Kind::I64),
         ("skin/source", Kind::Str),
         ("skin/sha256", Kind::Str),
-        ("skin/input", Kind::Str),
+        ("skin/input_kind", Kind::Str),
         ("skin/incomplete_frames", Kind::I64),
         ("skin/events", Kind::I64),
         ("skin/contacts", Kind::I64),

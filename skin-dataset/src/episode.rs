@@ -231,7 +231,13 @@ impl<'a> Episode<'a> {
         let json = std::str::from_utf8(&self.line).map_err(|e| DatasetError::Json(e.to_string()))?;
         let parsed: serde_json::Value =
             serde_json::from_str(json).map_err(|e| DatasetError::Json(e.to_string()))?;
-        let frame = self.frames.saturating_sub(1) as i64;
+        // An event belongs to the frame it came with: the session's events of a frame follow its
+        // raw readings, but a missing module and a counter restart are said of the traffic
+        // before the frame is taken, so they belong to the frame that follows.
+        let frame = match event {
+            Event::Incomplete { .. } | Event::CounterReset { .. } => self.frames,
+            _ => self.frames.saturating_sub(1),
+        } as i64;
         let row = [
             Value::I64(self.episode as i64),
             Value::I64(frame),

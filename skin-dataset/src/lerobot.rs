@@ -12,9 +12,18 @@
 //! DATASET/contacts/chunk-CCC/file-FFF.parquet         one row per contact per frame (skin's own)
 //! ```
 //!
-//! Episodes, frames, events and contacts are numbered across the whole dataset; a file holds
-//! whole episodes (a new data file starts once the current one passes `data_files_size_in_mb`,
-//! as LeRobot does), and an export that appends to a dataset writes files of its own.
+//! Episodes, frames, events and contacts are numbered across the whole dataset. Each episode
+//! has a data, an events and a contacts file of its own, the three numbered alike: an input
+//! that fails midway goes with its files, and LeRobot keeps an episode in one file too
+//! (`data_files_size_in_mb` is LeRobot's default, the size past which it starts a new file
+//! between episodes; skin starts one at every episode, so its files may be smaller, or, for an
+//! episode of hours, larger). An export that appends to a dataset writes files of its own.
+//!
+//! In the events table, `timestamp` is the event's own time (a release: the touch's last
+//! contact), s from the episode's first frame, float64; `frame_index` is the frame it came with
+//! (a release: the frame the touch was found gone at; a missing module: the incomplete frame).
+//! The frames' `timestamp` is their stamp from the first frame as LeRobot stores it, float32;
+//! `time_us` is exact.
 
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};

@@ -20,8 +20,8 @@
 //! `pyarrow.parquet.read_table` read the frames; LeRobot's own reader finds them through
 //! `meta/`. Each link's readings are in the input's order (the bus map's, as `skin replay -o`
 //! writes a log's columns; the layout's for a recording), named by taxel id in `info.json`, the
-//! positions and normals beside them; the baseline each episode learned is in its row of the
-//! episodes table, so nothing of the readings is lost to it.
+//! positions and normals beside them; the baseline each episode ended with (offsets and noise,
+//! per taxel) is in its row of the episodes table, so nothing of the readings is lost to it.
 //!
 //! A dataset is written as every output of skin is (`skin_core::output`): its files are built
 //! aside and moved into place by [`Dataset::finish`]; an interrupted export leaves the folder as
@@ -29,8 +29,8 @@
 //! and refuses any other. An input that fails is reported by name and its episode's files are
 //! removed; the others are kept ([`export_files`]).
 //!
-//! Parquet is written by the `parquet` crate's column writers without its Arrow layer
-//! ([`table`](crate) module): a dataset's tables are a few fixed columns, and the readings go
+//! Parquet is written by the `parquet` crate's column writers without its Arrow layer (this
+//! crate's `table` module): a dataset's tables are a few fixed columns, and the readings go
 //! from the frame to the page without an Arrow array per row (and without Arrow's dozen crates
 //! in the build).
 //!
@@ -138,6 +138,16 @@ pub enum DatasetError {
         /// The dataset's, Hz.
         dataset: u32,
     },
+    /// `--fps` is not the frame rate of the dataset appended to.
+    #[error("{}: the dataset's frames are at {dataset} Hz, not the {asked} Hz asked for (--fps)", root.display())]
+    FpsAsked {
+        /// The dataset.
+        root: PathBuf,
+        /// Its rate, Hz.
+        dataset: u32,
+        /// The rate asked for, Hz.
+        asked: u32,
+    },
     /// The frame rate cannot be told from the first input (fewer than two frames, or frames
     /// without time between them).
     #[error("{}: its frame rate cannot be told from its stamps; give it (--fps)", input.display())]
@@ -208,7 +218,9 @@ pub struct Export {
 /// Exports `inputs` (candump logs or raw recordings) into the dataset at `root`, an episode
 /// each, every input through a fresh session from `session`. An input that fails is left out
 /// and reported ([`Export::failed`]); the others are written. Errors of the dataset itself (the
-/// folder refused, a full disk) fail the whole export, leaving the folder as it was.
+/// folder refused, a file that cannot be written: a full disk) fail the whole export, leaving
+/// the folder as it was. The inputs of one dataset are all logs or all recordings: their
+/// readings come in different orders (the bus map's, the layout's).
 pub fn export_files(
     inputs: &[PathBuf],
     session: &mut dyn FnMut() -> Result<Session, SessionError>,
@@ -227,7 +239,10 @@ pub fn export_files(
         });
         match result {
             Ok(_) => {}
-            Err(e @ (DatasetError::Output(_) | DatasetError::Table { .. })) => return Err(e),
+            // Writing the dataset failed (a full disk): no input would fare better.
+            Err(e @ (DatasetError::Output(_) | DatasetError::Table { .. } | DatasetError::Core(_))) => {
+                return Err(e);
+            }
             Err(e) => failed.push((path.clone(), e)),
         }
     }

@@ -384,3 +384,49 @@ fn walk(root: &Path) -> Vec<String> {
     out.retain(|f| f != ".skin-lock");
     out
 }
+
+#[test]
+fn a_missing_module_is_reported_on_its_own_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = config_without_models(
+        tmp.path(),
+        "fixtures/forearm/layout.json",
+        Some("fixtures/forearm/busmap.toml"),
+        20,
+    );
+    let text = std::fs::read_to_string(repo().join("fixtures/forearm/touches.candump.log")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    // One CAN frame of a module dropped, well after the baseline's frames.
+    let cut = lines.len() * 2 / 3;
+    let log = tmp.path().join("lossy.log");
+    let kept: Vec<&str> = lines
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != cut)
+        .map(|(_, l)| *l)
+        .collect();
+    std::fs::write(&log, kept.join("\n") + "\n").unwrap();
+    let root = tmp.path().join("ds");
+    let export = export_files(
+        std::slice::from_ref(&log),
+        &mut || Session::from_config(&config),
+        &root,
+        DatasetOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(export.summary.unwrap().added[0].incomplete, 1);
+    let data = rows(&root.join("data/chunk-000/file-000.parquet"));
+    let incomplete: Vec<i64> = rows(&root.join("events/chunk-000/file-000.parquet"))
+        .iter()
+        .filter(|e| get(e, "kind") == &Field::Str("incomplete".into()))
+        .map(|e| match get(e, "frame_index") {
+            Field::Long(i) => *i,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(incomplete.len(), 1);
+    assert_eq!(
+        get(&data[incomplete[0] as usize], "complete"),
+        &Field::Bool(false)
+    );
+}
