@@ -33,6 +33,16 @@ fn config_without_models(dir: &Path, layout: &str, busmap: Option<&str>, frames:
     SessionConfig::read(&path).unwrap()
 }
 
+/// The fixture forearm's configuration, without models (baseline of 20 frames).
+fn forearm(dir: &Path) -> SessionConfig {
+    config_without_models(
+        dir,
+        "fixtures/forearm/layout.json",
+        Some("fixtures/forearm/busmap.toml"),
+        20,
+    )
+}
+
 fn rows(path: &Path) -> Vec<Row> {
     let reader = SerializedFileReader::new(std::fs::File::open(path).unwrap()).unwrap();
     reader.get_row_iter(None).unwrap().map(Result::unwrap).collect()
@@ -199,12 +209,7 @@ fn a_recording_comes_back_bit_for_bit_and_its_baseline_beside_it() {
 #[test]
 fn episodes_append_to_a_dataset_of_the_same_skin_and_nothing_else() {
     let tmp = tempfile::tempdir().unwrap();
-    let config = config_without_models(
-        tmp.path(),
-        "fixtures/forearm/layout.json",
-        Some("fixtures/forearm/busmap.toml"),
-        20,
-    );
+    let config = forearm(tmp.path());
     let log = repo().join("fixtures/forearm/touches.candump.log");
     let root = tmp.path().join("ds");
     let mut session = || Session::from_config(&config);
@@ -278,12 +283,7 @@ fn episodes_append_to_a_dataset_of_the_same_skin_and_nothing_else() {
 #[test]
 fn a_corrupt_input_among_good_ones_is_named_and_leaves_nothing() {
     let tmp = tempfile::tempdir().unwrap();
-    let config = config_without_models(
-        tmp.path(),
-        "fixtures/forearm/layout.json",
-        Some("fixtures/forearm/busmap.toml"),
-        20,
-    );
+    let config = forearm(tmp.path());
     let good = repo().join("fixtures/forearm/touches.candump.log");
     let text = std::fs::read_to_string(&good).unwrap();
     // Half a log, then a line that is no CAN frame.
@@ -344,12 +344,7 @@ fn a_dataset_dropped_before_it_is_finished_leaves_no_folder() {
     drop(ds);
     assert!(!root.exists());
     // No input could be exported: no dataset either.
-    let config = config_without_models(
-        tmp.path(),
-        "fixtures/forearm/layout.json",
-        Some("fixtures/forearm/busmap.toml"),
-        20,
-    );
+    let config = forearm(tmp.path());
     let missing = tmp.path().join("missing.log");
     let export = export_files(
         &[missing],
@@ -388,12 +383,7 @@ fn walk(root: &Path) -> Vec<String> {
 #[test]
 fn a_missing_module_is_reported_on_its_own_frame() {
     let tmp = tempfile::tempdir().unwrap();
-    let config = config_without_models(
-        tmp.path(),
-        "fixtures/forearm/layout.json",
-        Some("fixtures/forearm/busmap.toml"),
-        20,
-    );
+    let config = forearm(tmp.path());
     let text = std::fs::read_to_string(repo().join("fixtures/forearm/touches.candump.log")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     // One CAN frame of a module dropped, well after the baseline's frames.
