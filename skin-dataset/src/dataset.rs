@@ -355,7 +355,7 @@ pub(crate) fn table_error(path: &Path, e: TableError) -> DatasetError {
 
 /// The episodes table's columns: LeRobot's, then the skin's (source, hash, baselines).
 fn episode_columns(links: &[LinkMeta]) -> Vec<Column> {
-    let mut c: Vec<Column> = [
+    let mut c: Vec<Column> = Column::list(&[
         ("episode_index", Kind::I64),
         ("tasks", Kind::ListStr),
         ("length", Kind::I64),
@@ -371,10 +371,7 @@ fn episode_columns(links: &[LinkMeta]) -> Vec<Column> {
         ("skin/incomplete_frames", Kind::I64),
         ("skin/events", Kind::I64),
         ("skin/contacts", Kind::I64),
-    ]
-    .into_iter()
-    .map(|(n, k)| Column::new(n, k))
-    .collect();
+    ]);
     for l in links {
         c.push(Column::new(format!("skin/baseline/{}", l.name), Kind::ListF32));
         c.push(Column::new(format!("skin/noise/{}", l.name), Kind::ListF32));

@@ -52,6 +52,7 @@ pub struct Episode<'a> {
     /// Per link, the readings of the frame being written, in column order.
     row: Vec<Vec<f32>>,
     episode: u64,
+    task_index: i64,
     first_index: u64,
     frames: u64,
     incomplete: u64,
@@ -72,7 +73,7 @@ impl std::fmt::Debug for Episode<'_> {
 }
 
 fn data_columns(names: &[String]) -> Vec<Column> {
-    let mut c: Vec<Column> = [
+    let mut c: Vec<Column> = Column::list(&[
         ("timestamp", Kind::F32),
         ("frame_index", Kind::I64),
         ("episode_index", Kind::I64),
@@ -81,10 +82,7 @@ fn data_columns(names: &[String]) -> Vec<Column> {
         ("time_us", Kind::I64),
         ("cycle", Kind::I64),
         ("complete", Kind::Bool),
-    ]
-    .into_iter()
-    .map(|(n, k)| Column::new(n, k))
-    .collect();
+    ]);
     c.extend(
         names
             .iter()
@@ -94,7 +92,7 @@ fn data_columns(names: &[String]) -> Vec<Column> {
 }
 
 fn event_columns() -> Vec<Column> {
-    [
+    Column::list(&[
         ("episode_index", Kind::I64),
         ("frame_index", Kind::I64),
         ("index", Kind::I64),
@@ -103,14 +101,11 @@ fn event_columns() -> Vec<Column> {
         ("link", Kind::OptStr),
         ("touch", Kind::OptI64),
         ("json", Kind::Str),
-    ]
-    .into_iter()
-    .map(|(n, k)| Column::new(n, k))
-    .collect()
+    ])
 }
 
 fn contact_columns() -> Vec<Column> {
-    [
+    Column::list(&[
         ("episode_index", Kind::I64),
         ("frame_index", Kind::I64),
         ("index", Kind::I64),
@@ -123,10 +118,7 @@ fn contact_columns() -> Vec<Column> {
         ("mean_pressure", Kind::F32),
         ("peak_pressure", Kind::F32),
         ("force_n", Kind::OptF64),
-    ]
-    .into_iter()
-    .map(|(n, k)| Column::new(n, k))
-    .collect()
+    ])
 }
 
 impl<'a> Episode<'a> {
@@ -156,6 +148,7 @@ impl<'a> Episode<'a> {
             order,
             names,
             episode: ds.next_episode,
+            task_index: Self::task_of(ds),
             first_index: ds.next_index,
             frames: 0,
             incomplete: 0,
@@ -192,7 +185,7 @@ impl<'a> Episode<'a> {
             Value::I64(i),
             Value::I64(self.episode as i64),
             Value::I64(self.first_index as i64 + i),
-            Value::I64(self.task_index()),
+            Value::I64(self.task_index),
             Value::I64(i64::try_from(frame.time_us).unwrap_or(i64::MAX)),
             Value::I64(i64::try_from(frame.cycle).unwrap_or(i64::MAX)),
             Value::Bool(frame.complete),
@@ -215,11 +208,11 @@ impl<'a> Episode<'a> {
         Ok(())
     }
 
-    fn task_index(&self) -> i64 {
-        self.ds
-            .skin
+    /// The task's index in the dataset's tasks (looked up once, at the episode's start).
+    fn task_of(ds: &Dataset) -> i64 {
+        ds.skin
             .as_ref()
-            .and_then(|s| s.tasks.iter().position(|t| *t == self.ds.options.task))
+            .and_then(|s| s.tasks.iter().position(|t| *t == ds.options.task))
             .unwrap_or(0) as i64
     }
 

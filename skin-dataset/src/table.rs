@@ -55,6 +55,11 @@ impl Column {
             kind,
         }
     }
+
+    /// A table's fixed columns, by name and kind.
+    pub fn list(columns: &[(&str, Kind)]) -> Vec<Column> {
+        columns.iter().map(|&(n, k)| Column::new(n, k)).collect()
+    }
 }
 
 /// One column's buffered values of the row group being built.
